@@ -1,0 +1,119 @@
+//! Coordinate transformations between EPSG-coded CRSs through GDAL/PROJ; the only place plumbline touches CRS handles.
+//!
+//! Axis order: every spatial reference here uses GDAL's *traditional GIS order*, so geographic
+//! coordinates are always `(x, y) = (longitude, latitude)` in degrees, and projected ones
+//! `(easting, northing)` in the CRS's unit, whatever axis order the EPSG definition states.
+//!
+//! Threads: GDAL handles are neither `Send` nor `Sync`, so neither is [`CrsTransform`], and this
+//! crate forbids `unsafe` to pretend otherwise. Build one per thread (construction takes about a
+//! millisecond), e.g. inside `spawn_blocking` or with rayon's `map_init`.
+
+mod convergence;
+
+use gdal::errors::GdalError;
+use gdal::spatial_ref::{AxisMappingStrategy, CoordTransform, SpatialRef};
+
+pub use convergence::meridian_convergence;
+
+/// Why a CRS operation failed; the message names the EPSG codes involved.
+#[derive(Debug, thiserror::Error)]
+pub enum CrsError {
+    #[error("unknown CRS EPSG:{code}: {source}")]
+    UnknownEpsg {
+        code: u32,
+        #[source]
+        source: GdalError,
+    },
+    #[error("no transformation from EPSG:{from} to EPSG:{to}: {source}")]
+    NoTransformation {
+        from: u32,
+        to: u32,
+        #[source]
+        source: GdalError,
+    },
+    #[error("transforming from EPSG:{from} to EPSG:{to} failed: {source}")]
+    Transform {
+        from: u32,
+        to: u32,
+        #[source]
+        source: GdalError,
+    },
+    #[error("coordinate slices differ in length: {xs} x, {ys} y, {zs} z (z may also be empty)")]
+    LengthMismatch { xs: usize, ys: usize, zs: usize },
+    #[error("EPSG:{code} is not a projected CRS")]
+    NotProjected { code: u32 },
+}
+
+/// A transformation from one EPSG CRS to another, in traditional GIS axis order (lon, lat).
+/// Not `Send`: see the module docs.
+#[derive(Debug)]
+pub struct CrsTransform {
+    inner: CoordTransform,
+    from: u32,
+    to: u32,
+}
+
+impl CrsTransform {
+    /// Builds the transformation `from_epsg` → `to_epsg`.
+    pub fn new(from_epsg: u32, to_epsg: u32) -> Result<Self, CrsError> {
+        let source = spatial_ref(from_epsg)?;
+        let target = spatial_ref(to_epsg)?;
+        Self::between(&source, &target, from_epsg, to_epsg)
+    }
+
+    fn between(source: &SpatialRef, target: &SpatialRef, from: u32, to: u32) -> Result<Self, CrsError> {
+        let inner =
+            CoordTransform::new(source, target).map_err(|source| CrsError::NoTransformation { from, to, source })?;
+        Ok(Self { inner, from, to })
+    }
+
+    /// Source EPSG code.
+    pub fn from_epsg(&self) -> u32 {
+        self.from
+    }
+
+    /// Target EPSG code.
+    pub fn to_epsg(&self) -> u32 {
+        self.to
+    }
+
+    /// Transforms points in place. `zs` is either as long as `xs` and `ys` or empty (2D).
+    /// Fails, naming both codes, if any point cannot be transformed.
+    pub fn transform(&self, xs: &mut [f64], ys: &mut [f64], zs: &mut [f64]) -> Result<(), CrsError> {
+        if xs.len() != ys.len() || !(zs.is_empty() || zs.len() == xs.len()) {
+            return Err(CrsError::LengthMismatch { xs: xs.len(), ys: ys.len(), zs: zs.len() });
+        }
+        if xs.is_empty() {
+            return Ok(());
+        }
+        self.inner.transform_coords(xs, ys, zs).map_err(|source| CrsError::Transform {
+            from: self.from,
+            to: self.to,
+            source,
+        })
+    }
+
+    /// Transforms one point `(x, y, z)`.
+    pub fn transform_point(&self, x: f64, y: f64, z: f64) -> Result<(f64, f64, f64), CrsError> {
+        let (mut xs, mut ys, mut zs) = ([x], [y], [z]);
+        self.transform(&mut xs, &mut ys, &mut zs)?;
+        Ok((xs[0], ys[0], zs[0]))
+    }
+}
+
+/// The spatial reference of `code`, in traditional GIS axis order.
+fn spatial_ref(code: u32) -> Result<SpatialRef, CrsError> {
+    let mut srs = SpatialRef::from_epsg(code).map_err(|source| CrsError::UnknownEpsg { code, source })?;
+    srs.set_axis_mapping_strategy(AxisMappingStrategy::TraditionalGisOrder);
+    Ok(srs)
+}
+
+/// Whether `epsg` is a projected CRS (easting/northing), as opposed to geographic, geocentric, ….
+pub fn is_projected(epsg: u32) -> Result<bool, CrsError> {
+    Ok(spatial_ref(epsg)?.is_projected())
+}
+
+/// The CRS's name, e.g. `ETRS89 / UTM zone 32N` for 25832.
+pub fn crs_name(epsg: u32) -> Result<String, CrsError> {
+    Ok(spatial_ref(epsg)?.name().unwrap_or_else(|| format!("EPSG:{epsg}")))
+}

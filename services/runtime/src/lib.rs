@@ -1,0 +1,26 @@
+//! Service runtime shared by every plumbline process: config, object store, CRS transforms, tracing.
+//!
+//! Architecture invariant: this crate is an edge crate. It is the only place that holds GDAL
+//! spatial-reference handles and builds object stores from URLs, so that `workflow/*` stays free of
+//! I/O, GDAL and the environment. Nothing here reads the process environment: callers pass the
+//! environment map (config) or the `RUST_LOG` value (tracing) in.
+//!
+//! - [`config`] — [`RuntimeConfig::load`] from TOML bytes plus an environment map.
+//! - [`store`] — [`open_store`] from a `file://`, `memory://`, `s3://` URL or a plain path;
+//!   [`read_url`] / [`write_url`] for one object named by URL.
+//! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
+//! - [`logging`] — [`init_tracing`].
+
+pub mod config;
+pub mod crs;
+pub mod logging;
+pub mod secret;
+pub mod store;
+
+pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
+pub use crs::{CrsError, CrsTransform, crs_name, is_projected, meridian_convergence};
+pub use logging::{TracingError, init_tracing};
+pub use secret::Secret;
+pub use store::{
+    S3Options, StoreError, StoreErrorKind, StoreRoot, get_bytes, open_store, put_bytes, read_url, write_url,
+};

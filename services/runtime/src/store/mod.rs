@@ -1,0 +1,109 @@
+//! Object stores opened from URLs (`file://`, `memory://`, `s3://`, plain paths), and byte helpers that name the key on error.
+//!
+//! A *store URL* names a directory-like root ([`open_store`]); an *object URL* names one object
+//! ([`read_url`], [`write_url`]). Plain paths without a scheme are local files or directories.
+
+mod error;
+mod location;
+mod s3;
+
+use std::sync::Arc;
+
+use bytes::Bytes;
+use object_store::memory::InMemory;
+use object_store::path::Path;
+use object_store::{ObjectStore, ObjectStoreExt, local::LocalFileSystem};
+
+pub use error::{StoreError, StoreErrorKind};
+pub use location::StoreLocation;
+pub use s3::{DEFAULT_REGION, S3Options};
+
+/// An opened store and the key prefix its URL named; keys for this root go under `prefix`.
+#[derive(Debug, Clone)]
+pub struct StoreRoot {
+    pub store: Arc<dyn ObjectStore>,
+    /// Key prefix from the URL's path (`s3://bucket/a/b` → `a/b`); empty for `file://` roots,
+    /// whose directory is the store's own root.
+    pub prefix: Path,
+    /// The URL the root was opened from, for messages.
+    pub url: String,
+}
+
+impl StoreRoot {
+    /// The full key of `relative` (slash-separated, e.g. `tiles/0007/result.json`) under the prefix.
+    pub fn key(&self, relative: &str) -> Result<Path, StoreError> {
+        let rel = Path::parse(relative).map_err(|e| {
+            StoreError::new(StoreErrorKind::Permanent, format!("invalid key `{relative}` under `{}`: {e}", self.url))
+        })?;
+        Ok(rel.parts().fold(self.prefix.clone(), |key, part| key.join(part)))
+    }
+}
+
+/// Opens the store a URL names: `file:///abs/dir` or a plain path (a local directory, created if
+/// missing), `memory://[prefix]` (a fresh, empty in-memory store) or `s3://bucket[/prefix]`
+/// (configured by `s3`, which the other schemes ignore).
+pub fn open_store(url: &str, s3: &S3Options) -> Result<StoreRoot, StoreError> {
+    let (store, prefix): (Arc<dyn ObjectStore>, Path) = match StoreLocation::parse(url)? {
+        StoreLocation::Local(dir) => (Arc::new(open_local_dir(url, &dir)?), Path::default()),
+        StoreLocation::Memory { prefix } => (Arc::new(InMemory::new()), prefix),
+        StoreLocation::S3 { bucket, prefix } => (Arc::new(s3::build(url, &bucket, s3)?), prefix),
+    };
+    Ok(StoreRoot { store, prefix, url: url.to_owned() })
+}
+
+fn open_local_dir(url: &str, dir: &std::path::Path) -> Result<LocalFileSystem, StoreError> {
+    std::fs::create_dir_all(dir).map_err(|e| {
+        StoreError::new(StoreErrorKind::Permanent, format!("store URL `{url}`: cannot create directory: {e}"))
+    })?;
+    LocalFileSystem::new_with_prefix(dir).map_err(|e| StoreError::from_store("open local store", url, e))
+}
+
+/// Opens the store holding the one object `url` names, and that object's key. Creates nothing.
+fn open_object(url: &str, s3: &S3Options) -> Result<(Arc<dyn ObjectStore>, Path), StoreError> {
+    let (store, key): (Arc<dyn ObjectStore>, Path) = match StoreLocation::parse(url)? {
+        StoreLocation::Local(file) => (Arc::new(LocalFileSystem::new()), local_key(url, &file)?),
+        StoreLocation::Memory { prefix } => (Arc::new(InMemory::new()), prefix),
+        StoreLocation::S3 { bucket, prefix } => (Arc::new(s3::build(url, &bucket, s3)?), prefix),
+    };
+    if key.parts_count() == 0 {
+        return Err(location::invalid(url, "names no object (the key is empty)"));
+    }
+    Ok((store, key))
+}
+
+fn local_key(url: &str, file: &std::path::Path) -> Result<Path, StoreError> {
+    let absolute = std::path::absolute(file)
+        .map_err(|e| location::invalid(url, &format!("cannot make the path absolute: {e}")))?;
+    Path::from_absolute_path(&absolute).map_err(|e| location::invalid(url, &format!("invalid path: {e}")))
+}
+
+/// Reads the whole object an object URL names (`s3://bucket/key`, `file:///abs/file`, `./rel/file`).
+pub async fn read_url(url: &str, s3: &S3Options) -> Result<Bytes, StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    store
+        .get(&key)
+        .await
+        .map_err(|e| StoreError::from_store("get", url, e))?
+        .bytes()
+        .await
+        .map_err(|e| StoreError::from_store("read body of", url, e))
+}
+
+/// Writes `bytes` as the object an object URL names, replacing it; local parent directories are created.
+pub async fn write_url(url: &str, s3: &S3Options, bytes: Bytes) -> Result<(), StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    store.put(&key, bytes.into()).await.map_err(|e| StoreError::from_store("put", url, e))?;
+    Ok(())
+}
+
+/// Reads the whole object at `key`; the error names the key.
+pub async fn get_bytes(store: &dyn ObjectStore, key: &Path) -> Result<Bytes, StoreError> {
+    let result = store.get(key).await.map_err(|e| StoreError::from_store("get", key.as_ref(), e))?;
+    result.bytes().await.map_err(|e| StoreError::from_store("read body of", key.as_ref(), e))
+}
+
+/// Writes `bytes` at `key`, replacing any object there; the error names the key.
+pub async fn put_bytes(store: &dyn ObjectStore, key: &Path, bytes: Bytes) -> Result<(), StoreError> {
+    store.put(key, bytes.into()).await.map_err(|e| StoreError::from_store("put", key.as_ref(), e))?;
+    Ok(())
+}
