@@ -22,5 +22,5 @@ pub use crs::{CrsError, CrsTransform, crs_name, is_projected, meridian_convergen
 pub use logging::{TracingError, init_tracing};
 pub use secret::Secret;
 pub use store::{
-    S3Options, StoreError, StoreErrorKind, StoreRoot, get_bytes, open_store, put_bytes, read_url, write_url,
+    S3Options, StoreError, StoreErrorKind, StoreRoot, get_bytes, head_url, open_store, put_bytes, read_url, write_url,
 };

@@ -2,7 +2,9 @@
 
 use bytes::Bytes;
 use futures::TryStreamExt;
-use plumbline_runtime::{S3Options, StoreErrorKind, StoreRoot, get_bytes, open_store, put_bytes, read_url, write_url};
+use plumbline_runtime::{
+    S3Options, StoreErrorKind, StoreRoot, get_bytes, head_url, open_store, put_bytes, read_url, write_url,
+};
 
 async fn round_trip(root: &StoreRoot) {
     let key = root.key("tiles/0007/result.json").expect("key");
@@ -58,6 +60,11 @@ async fn objects_by_url() {
     let err = read_url(&missing, &S3Options::default()).await.expect_err("missing file");
     assert_eq!(err.kind(), StoreErrorKind::NotFound);
     assert!(err.to_string().contains("missing.csv"), "{err}");
+    head_url(&url, &S3Options::default()).await.expect("head of an existing file");
+    let dotted = format!("{}/out/../out/./trajectory.csv", tmp.path().display());
+    assert_eq!(read_url(&dotted, &S3Options::default()).await.expect("read through `..`").len(), 6);
+    let err = head_url(&missing, &S3Options::default()).await.expect_err("head of a missing file");
+    assert_eq!(err.kind(), StoreErrorKind::NotFound);
 }
 
 #[tokio::test]

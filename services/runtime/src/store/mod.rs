@@ -74,7 +74,31 @@ fn open_object(url: &str, s3: &S3Options) -> Result<(Arc<dyn ObjectStore>, Path)
 fn local_key(url: &str, file: &std::path::Path) -> Result<Path, StoreError> {
     let absolute = std::path::absolute(file)
         .map_err(|e| location::invalid(url, &format!("cannot make the path absolute: {e}")))?;
-    Path::from_absolute_path(&absolute).map_err(|e| location::invalid(url, &format!("invalid path: {e}")))
+    Path::from_absolute_path(lexically_normal(&absolute))
+        .map_err(|e| location::invalid(url, &format!("invalid path: {e}")))
+}
+
+/// `a/b/../c` → `a/c` and `a/./b` → `a/b` without touching the filesystem (the file may not exist yet).
+fn lexically_normal(path: &std::path::Path) -> std::path::PathBuf {
+    use std::path::Component;
+    let mut out = std::path::PathBuf::new();
+    for c in path.components() {
+        match c {
+            Component::CurDir => {}
+            Component::ParentDir => {
+                out.pop();
+            }
+            other => out.push(other.as_os_str()),
+        }
+    }
+    out
+}
+
+/// Checks that the object an object URL names exists, reading only its metadata.
+pub async fn head_url(url: &str, s3: &S3Options) -> Result<(), StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    store.head(&key).await.map_err(|e| StoreError::from_store("head", url, e))?;
+    Ok(())
 }
 
 /// Reads the whole object an object URL names (`s3://bucket/key`, `file:///abs/file`, `./rel/file`).

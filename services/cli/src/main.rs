@@ -1,0 +1,69 @@
+//! The `plumbline` command-line tool: validate manifests, convert and compare trajectories.
+//!
+//! Exit codes: 0 success, 1 failure while working (I/O, store, internal), 2 invalid input (a bad manifest,
+//! a malformed or implausible trajectory, an unknown CRS, a bad argument).
+
+mod exit;
+mod io;
+mod trajectory;
+mod validate;
+
+use std::collections::HashMap;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Parser, Subcommand};
+
+use crate::exit::InvalidInput;
+
+/// Corrects mobile-mapping trajectories in cities with aerial images and pole cadastres.
+#[derive(Debug, Parser)]
+#[command(name = "plumbline", version, about, long_about = None)]
+struct Cli {
+    /// Runtime config file (TOML: store credentials, logging). PLUMBLINE_* environment variables override it.
+    #[arg(long, global = true, value_name = "FILE")]
+    config: Option<PathBuf>,
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+enum Command {
+    /// Check a campaign manifest and list every problem found (exit code 2 when invalid).
+    Validate(validate::Args),
+    /// Trajectory tools: format and CRS conversion, comparison against a reference.
+    #[command(subcommand)]
+    Trajectory(trajectory::Command),
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    let env: HashMap<String, String> = std::env::vars().collect();
+    let ctx = match io::Context::load(cli.config.as_deref(), &env) {
+        Ok(ctx) => ctx,
+        Err(e) => return report(&e),
+    };
+    let runtime = match tokio::runtime::Builder::new_multi_thread().enable_all().build() {
+        Ok(rt) => rt,
+        Err(e) => return report(&anyhow::anyhow!("cannot start the async runtime: {e}")),
+    };
+    let result = runtime.block_on(async {
+        match cli.command {
+            Command::Validate(args) => validate::run(&ctx, args).await,
+            Command::Trajectory(cmd) => trajectory::run(&ctx, cmd).await,
+        }
+    });
+    match result {
+        Ok(code) => code,
+        Err(e) => report(&e),
+    }
+}
+
+/// Print an error chain and pick the exit code from its kind.
+fn report(e: &anyhow::Error) -> ExitCode {
+    eprintln!("error: {e}");
+    for cause in e.chain().skip(1) {
+        eprintln!("  caused by: {cause}");
+    }
+    if e.chain().any(|c| c.is::<InvalidInput>()) { ExitCode::from(exit::INVALID) } else { ExitCode::FAILURE }
+}

@@ -1,0 +1,42 @@
+//! The campaign manifest of plumbline: its versioned types, reading them from TOML or JSON,
+//! validating them with every problem named by field path, and their JSON Schema.
+//!
+//! Synchronous and I/O-free: callers pass text in and get values and errors back. Locations in a
+//! manifest are resolved against the manifest's own URL with [`resolve`] by the service layer.
+//!
+//! ```
+//! let text = r#"
+//! version = "1"
+//! crs = 25832
+//! output = "results/"
+//! [campaign]
+//! id = "hh-2024"
+//! name = "Hamburg 2024"
+//! [[trajectory]]
+//! format = "sbet"
+//! url = "sbet.out"
+//! "#;
+//! let manifest = plumbline_campaign::Manifest::from_toml_str(text)?;
+//! let valid = manifest.validate()?;
+//! assert_eq!(valid.tiling.tile_size_m, 250.0);
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+
+mod epsg;
+mod id;
+mod inputs;
+mod location;
+pub mod manifest;
+mod parse;
+mod problem;
+mod schema;
+mod validate;
+
+pub use epsg::{EPSG_CRS_RANGE, Epsg, EpsgKind};
+pub use id::{CampaignId, CampaignIdError, MAX_CAMPAIGN_ID_LEN};
+pub use location::{Location, ResolveError, SCHEMES, resolve};
+pub use manifest::{Manifest, ManifestV1};
+pub use parse::{Format, ParseError, Position, SUPPORTED_VERSIONS};
+pub use problem::{FieldPath, Problem, Problems};
+pub use schema::{MANIFEST_SCHEMA_FILE, canonical_json, manifest_schema, manifest_schema_json};
+pub use validate::ValidManifest;
