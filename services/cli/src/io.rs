@@ -16,7 +16,7 @@ pub struct Context {
 }
 
 impl Context {
-    /// Load the runtime config (an optional TOML file plus the environment map).
+    /// Load the runtime config (an optional TOML file plus the environment map) and start logging to stderr.
     pub fn load(config: Option<&Path>, env: &HashMap<String, String>) -> anyhow::Result<Self> {
         let bytes = match config {
             Some(path) => std::fs::read(path).with_context(|| format!("reading config file {}", path.display()))?,
@@ -26,6 +26,8 @@ impl Context {
             let origin = config.map_or_else(|| "environment".to_owned(), |p| p.display().to_string());
             invalid(format!("runtime config ({origin}): {e}"))
         })?;
+        plumbline_runtime::init_tracing(&config.log, env.get("RUST_LOG").map(String::as_str))
+            .map_err(|e| invalid(format!("logging: {e}")))?;
         Ok(Self { s3: config.store.s3 })
     }
 

@@ -30,7 +30,8 @@ pub fn init_tracing(config: &LogConfig, rust_log: Option<&str>) -> Result<(), Tr
     let directives = effective_filter(config, rust_log);
     let filter = EnvFilter::try_new(directives)
         .map_err(|source| TracingError::Filter { filter: directives.to_owned(), source })?;
-    let builder = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr);
+    let ansi = std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let builder = tracing_subscriber::fmt().with_env_filter(filter).with_writer(std::io::stderr).with_ansi(ansi);
     let installed = match config.format {
         LogFormat::Pretty => builder.pretty().try_init(),
         LogFormat::Json => builder.json().try_init(),
