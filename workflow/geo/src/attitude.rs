@@ -205,6 +205,16 @@ mod tests {
     }
 
     #[test]
+    fn aerial_strips_flown_south_still_look_down() {
+        // κ = 180°: a half turn, which an iterative matrix-to-quaternion fit gets wrong.
+        let r = OmegaPhiKappa::from_degrees(0.0, 0.0, 180.0).to_rotation();
+        let view = r.apply(&Vec3::<Camera>::new(0.0, 0.0, 1.0));
+        assert!((view.v - Vector3::new(0.0, 0.0, -1.0)).norm() < 1e-12, "{view:?}");
+        let image_right = r.apply(&Vec3::<Camera>::new(1.0, 0.0, 0.0));
+        assert!((image_right.v - Vector3::new(-1.0, 0.0, 0.0)).norm() < 1e-12, "{image_right:?}");
+    }
+
+    #[test]
     fn nadir_aerial_camera_looks_down_with_image_top_north() {
         let r = OmegaPhiKappa::from_degrees(0.0, 0.0, 0.0).to_rotation();
         let view = r.apply(&Vec3::<Camera>::new(0.0, 0.0, 1.0));

@@ -191,9 +191,12 @@ impl<To: Frame, From: Frame> Rotation<To, From> {
         Self { q, frames: PhantomData }
     }
     /// From a rotation matrix whose columns are the `From` axes expressed in `To`.
-    /// The matrix is re-orthonormalised; it must be close to a proper rotation.
+    /// The matrix is re-orthonormalised (nearest rotation by SVD); it must be close to a proper rotation.
     pub fn from_matrix(m: &Matrix3<f64>) -> Self {
-        Self::from_quaternion(UnitQuaternion::from_matrix(m))
+        // Closed form (not nalgebra's iterative fit, which does not converge for half turns).
+        Self::from_quaternion(UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(
+            nearest_rotation(m),
+        )))
     }
     /// The quaternion.
     pub fn quaternion(&self) -> &UnitQuaternion<f64> {
@@ -240,6 +243,17 @@ impl<To: Frame, From: Frame> fmt::Debug for Rotation<To, From> {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "Rotation<{}←{}>({:?})", To::NAME, From::NAME, self.q.coords.as_slice())
     }
+}
+
+/// The proper rotation closest to `m` in the Frobenius norm (U·Vᵀ of its SVD, with the determinant fixed).
+fn nearest_rotation(m: &Matrix3<f64>) -> Matrix3<f64> {
+    if (m.transpose() * m - Matrix3::identity()).norm() < 1e-13 && m.determinant() > 0.0 {
+        return *m; // already a rotation: the common case, no SVD needed
+    }
+    let svd = m.svd(true, true);
+    let (Some(u), Some(v_t)) = (svd.u, svd.v_t) else { return *m };
+    let r = u * v_t;
+    if r.determinant() >= 0.0 { r } else { u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, -1.0)) * v_t }
 }
 
 /// A rigid transformation taking points of frame `From` into frame `To`: `p_to = R · p_from + t`.
@@ -307,6 +321,20 @@ mod tests {
         let p = Point3::<Body>::new(1.5, -0.3, 2.0);
         let back = pose.inverse().transform_point(&pose.transform_point(&p));
         assert!((back - p).norm() < 1e-12);
+    }
+
+    #[test]
+    fn half_turn_matrices_convert_exactly() {
+        // nalgebra's iterative `UnitQuaternion::from_matrix` starts at the identity and fails for 180° turns.
+        for axis in [Vector3::x_axis(), Vector3::y_axis(), Vector3::z_axis()] {
+            let m = Rotation3::from_axis_angle(&axis, std::f64::consts::PI).into_inner();
+            let r = Rotation::<Map, Body>::from_matrix(&m);
+            assert!((r.matrix() - m).norm() < 1e-12, "{axis:?}");
+        }
+        // A slightly non-orthonormal input is projected onto the nearest rotation.
+        let m = Rotation3::from_euler_angles(0.3, -0.2, 2.0).into_inner() * 1.000_001;
+        let r = Rotation::<Map, Body>::from_matrix(&m);
+        assert!((r.matrix() - m / 1.000_001).norm() < 1e-9);
     }
 
     #[test]
