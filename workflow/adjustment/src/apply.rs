@@ -1,0 +1,68 @@
+//! Applying the node corrections to a full-rate trajectory: linear interpolation of [δp; δθ] between
+//! nodes (constant beyond the ends) and of their covariance (with the cross-covariance of the two nodes
+//! and the random walk's spread in between).
+
+use nalgebra::{Matrix3, Matrix6, Vector6};
+use plumbline_geo::{Attitude, PoseStd, Rotation, Trajectory, TrajectoryError, TrajectoryRecord, ValidationLimits};
+
+use crate::adjust::Adjustment;
+use crate::so3::exp;
+
+impl Adjustment {
+    /// The interpolated correction [δp; δθ] at `t` and its covariance; `None` without nodes.
+    pub fn correction_at(&self, t: f64) -> Option<(Vector6<f64>, Matrix6<f64>)> {
+        let first = self.nodes.first()?;
+        let upper = self.nodes.partition_point(|n| n.time <= t);
+        let vec = |k: usize| {
+            let n = &self.nodes[k];
+            Vector6::new(n.position[0], n.position[1], n.position[2], n.rotation[0], n.rotation[1], n.rotation[2])
+        };
+        if upper == 0 {
+            return Some((vec(0), first.covariance));
+        }
+        let k = upper - 1;
+        if k + 1 >= self.nodes.len() {
+            return Some((vec(k), self.nodes[k].covariance));
+        }
+        let (a, b) = (&self.nodes[k], &self.nodes[k + 1]);
+        let w = (t - a.time) / (b.time - a.time);
+        let cross = self.cross_covariances[k];
+        // Var((1−w) a + w b) = (1−w)² Q_aa + w² Q_bb + w(1−w)(Q_ab + Q_ba), plus the random walk's own
+        // spread between two fixed ends (Brownian bridge): σ_rel² · w(1−w).
+        let bridge = Matrix6::from_diagonal(&self.link_variances[k]) * (w * (1.0 - w));
+        let cov = a.covariance * (1.0 - w).powi(2)
+            + b.covariance * w * w
+            + (cross + cross.transpose()) * (w * (1.0 - w))
+            + bridge;
+        Some((vec(k) * (1.0 - w) + vec(k + 1) * w, cov))
+    }
+
+    /// The corrected trajectory: p' = p + δp, R' = Exp(δθ) R at every record, with the posterior standard
+    /// deviations (attitude σ: roll/pitch from the body-frame tilt covariance, heading from the vertical).
+    pub fn apply(&self, trajectory: &Trajectory) -> Result<Trajectory, TrajectoryError> {
+        let records = trajectory.records().iter().map(|r| self.correct(r)).collect();
+        Trajectory::new(records, &ValidationLimits { max_speed: f64::INFINITY })
+    }
+
+    fn correct(&self, r: &TrajectoryRecord) -> TrajectoryRecord {
+        let Some((d, cov)) = self.correction_at(r.time) else {
+            return *r;
+        };
+        let rot = r.attitude.to_rotation().matrix();
+        let corrected = exp(&d.fixed_rows::<3>(3).into_owned()) * rot;
+        let position = r.position + plumbline_geo::Vec3::from_vector(d.fixed_rows::<3>(0).into_owned());
+        let attitude = Attitude::from_rotation(&Rotation::from_matrix(&corrected));
+        let q_theta: Matrix3<f64> = cov.fixed_view::<3, 3>(3, 3).into_owned();
+        let q_body = rot.transpose() * q_theta * rot;
+        let sd = |v: f64| v.max(0.0).sqrt();
+        let std = PoseStd {
+            east: sd(cov[(0, 0)]),
+            north: sd(cov[(1, 1)]),
+            height: sd(cov[(2, 2)]),
+            roll: sd(q_body[(0, 0)]),
+            pitch: sd(q_body[(1, 1)]),
+            heading: sd(q_theta[(2, 2)]),
+        };
+        TrajectoryRecord { time: r.time, position, attitude, std: Some(std) }
+    }
+}

@@ -1,0 +1,88 @@
+//! Settings of the adjustment: node spacing, the DG random-walk model, the weak prior, robust estimation and
+//! data snooping.
+
+use serde::{Deserialize, Serialize};
+
+/// How the DG trajectory's relative accuracy enters as constraints between consecutive nodes.
+///
+/// The DG error e(t) (position and attitude, per mapping-frame component) is modelled as a random walk
+/// whose rate follows the DG standard deviation σ_DG: between nodes i and i+1
+/// `Var(e_{i+1} − e_i) = Δt · (floor² + σ̄_DG² / correlation_time)`, σ̄_DG the mean of the two nodes' σ.
+/// Where the DG solution says it is good the relative constraint is stiff; in GNSS outages (σ_DG grows)
+/// it lets the correction bend. Attitude uses σ_roll/σ_pitch (RMS) about east and north and σ_heading about up.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RandomWalk {
+    /// Position random-walk floor, m/√s.
+    pub position_floor: f64,
+    /// Attitude random-walk floor, rad/√s.
+    pub attitude_floor: f64,
+    /// Time over which the DG error decorrelates by about its own σ, seconds.
+    pub correlation_time: f64,
+}
+
+impl Default for RandomWalk {
+    fn default() -> Self {
+        Self { position_floor: 0.002, attitude_floor: 2e-5, correlation_time: 10.0 }
+    }
+}
+
+/// Data snooping (Baarda's w-test) settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Snooping {
+    /// Critical value of the normalised residual |w| (3.29 ↔ α = 0.1 % two-sided).
+    pub critical_value: f64,
+    /// Per round, only the largest |w| within this many seconds of another rejection is rejected.
+    pub window: f64,
+    /// Upper bound on snooping rounds (each round re-adjusts).
+    pub max_rounds: usize,
+}
+
+impl Default for Snooping {
+    fn default() -> Self {
+        Self { critical_value: 3.29, window: 10.0, max_rounds: 20 }
+    }
+}
+
+/// All settings of [`crate::adjust`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AdjustmentConfig {
+    /// Extra nodes every this many seconds besides the observation epochs (`None`: observation epochs only).
+    pub node_spacing: Option<f64>,
+    /// Observation epochs closer than this share a node, seconds.
+    pub min_node_gap: f64,
+    /// Relative constraints between consecutive nodes.
+    pub random_walk: RandomWalk,
+    /// Weak absolute prior at every node: σ = prior_scale · σ_DG.
+    pub prior_scale: f64,
+    /// DG standard deviations used where the trajectory has none: east, north, height (m), roll, pitch,
+    /// heading (rad).
+    pub default_std: [f64; 6],
+    /// Huber threshold on the whitened residual norm of an observation (`None`: plain least squares).
+    pub huber: Option<f64>,
+    /// Data snooping after the robust solution (`None`: no snooping).
+    pub snooping: Option<Snooping>,
+    /// Largest number of Gauss–Newton/LM iterations per solve.
+    pub max_iterations: usize,
+    /// Converged when no update component exceeds this (metres / radians), or the objective drops by less
+    /// than 1e-10 of itself.
+    pub tolerance: f64,
+}
+
+impl Default for AdjustmentConfig {
+    fn default() -> Self {
+        Self {
+            node_spacing: None,
+            min_node_gap: 1e-3,
+            random_walk: RandomWalk::default(),
+            prior_scale: 10.0,
+            default_std: [0.05, 0.05, 0.08, 3e-4, 3e-4, 8e-4],
+            huber: Some(2.0),
+            snooping: Some(Snooping::default()),
+            max_iterations: 20,
+            tolerance: 1e-5,
+        }
+    }
+}

@@ -1,0 +1,41 @@
+//! Global trajectory adjustment: sparse least squares with control, robust estimation and data snooping.
+//!
+//! - **Unknowns**: pose corrections [δp; δθ] (position, small-angle rotation vector in the mapping frame,
+//!   R' = Exp(δθ) R) at node epochs — the observation epochs, weak-link boundaries, the trajectory ends and
+//!   optional regular spacing — linearly interpolated in between; plus the coordinates of tie points.
+//! - **DG model**: random-walk constraints between consecutive nodes whose strength follows the DG σ
+//!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]), and a weak absolute prior per node.
+//! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
+//!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]) and aerial coordinates.
+//! - **Solver**: Levenberg–Marquardt with Huber IRLS; the normal matrix is assembled straight into
+//!   compressed-column form; faer's simplicial sparse Cholesky with AMD on the block graph, symbolic
+//!   factorisation once and reused. Then Baarda data snooping (w-test with redundancy numbers from Q_vv's
+//!   diagonal) and posterior covariances, both from the selected inverse of the normal matrix (Takahashi
+//!   recurrences on the factor's pattern).
+//! - **Output** ([`Adjustment`]): node corrections with covariances, tie points, rejected and skipped
+//!   observations, variance factors, timings; [`Adjustment::apply`] corrects a full-rate trajectory.
+
+mod adjust;
+mod apply;
+mod config;
+mod model;
+mod nodes;
+mod normal;
+mod observations;
+mod parallel;
+mod pattern;
+mod problem;
+mod so3;
+mod solver;
+mod stats;
+
+pub use adjust::{AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, adjust};
+pub use config::{AdjustmentConfig, RandomWalk, Snooping};
+pub use nodes::WeakLink;
+pub use observations::{
+    AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1, PoleUpdate,
+    TiePoint, TiePointId, TieRay,
+};
+pub use problem::AdjustmentInput;
+pub use solver::{SolverError, SolverTimings};
+pub use stats::VarianceFactors;

@@ -1,0 +1,125 @@
+//! Normal equations: linearise every term at the current estimate and accumulate Jᵀ W J (upper triangle,
+//! compressed-column) and Jᵀ W e, with Huber IRLS weights on the observations; and the objective.
+
+use nalgebra::{Matrix3x6, Vector3, Vector6};
+
+use crate::model::{self, Linearized};
+use crate::parallel;
+use crate::problem::{Kind, Obs, Problem};
+
+/// The Huber loss of a whitened residual norm `s` with threshold `k` (plain ½s² without one).
+pub(crate) fn huber_loss(s: f64, k: Option<f64>) -> f64 {
+    match k {
+        Some(k) if s > k => k * s - 0.5 * k * k,
+        _ => 0.5 * s * s,
+    }
+}
+
+/// The IRLS weight ψ(s)/s of the Huber loss.
+pub(crate) fn huber_weight(s: f64, k: Option<f64>) -> f64 {
+    match k {
+        Some(k) if s > k => k / s,
+        _ => 1.0,
+    }
+}
+
+/// The pose correction of node `k`.
+pub(crate) fn node(x: &[f64], k: usize) -> Vector6<f64> {
+    Vector6::from_column_slice(&x[6 * k..6 * k + 6])
+}
+
+/// Linearise one observation at `x`.
+pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
+    let delta: Vector6<f64> = o.parts.iter().map(|(k, w)| node(x, *k) * *w).sum();
+    let point = |i: usize| Vector3::from_column_slice(&x[p.point_offset(i)..p.point_offset(i) + 3]);
+    match &o.kind {
+        Kind::Pole { observed, cadastre, sigma } => model::pole(&o.dg, &delta, observed, cadastre, *sigma),
+        Kind::Gnss { lever, measured, sigma } => model::gnss(&o.dg, &delta, lever, measured, sigma),
+        Kind::Ray { point: i, direction, sigma } => model::ray(&o.dg, &delta, &p.mount, &point(*i), direction, *sigma),
+        Kind::Aerial { point: i, measured, whitening } => model::aerial(&point(*i), measured, whitening),
+    }
+}
+
+/// The Jacobian blocks of an observation: (block, J) with node blocks scaled by their interpolation weight.
+pub(crate) fn blocks(p: &Problem, o: &Obs, lin: &Linearized) -> Vec<(usize, Matrix3x6<f64>)> {
+    let mut out: Vec<_> = o.parts.iter().map(|(k, w)| (*k, lin.j_pose * *w)).collect();
+    if let Kind::Ray { point, .. } | Kind::Aerial { point, .. } = o.kind {
+        let mut j = Matrix3x6::zeros();
+        j.fixed_view_mut::<3, 3>(0, 0).copy_from(&lin.j_point);
+        out.push((p.nodes.len() + point, j));
+    }
+    out
+}
+
+/// The assembled normal equations at one estimate.
+pub(crate) struct Normal {
+    pub values: Vec<f64>,
+    pub gradient: Vec<f64>,
+    pub cost: f64,
+}
+
+/// Assemble N = Σ Jᵀ W J and g = Σ Jᵀ W e over the chain terms and the active observations.
+pub(crate) fn assemble(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) -> Normal {
+    let mut n = Normal { values: vec![0.0; p.pattern.nnz()], gradient: vec![0.0; p.pattern.dim()], cost: 0.0 };
+    assemble_chain(p, x, &mut n);
+    let lins = parallel::map(p.par, p.obs.len(), |i| active[i].then(|| linearize(p, &p.obs[i], x)));
+    for (o, lin) in p.obs.iter().zip(lins) {
+        let Some(lin) = lin else { continue };
+        let s = lin.e.norm();
+        n.cost += huber_loss(s, huber);
+        let w = huber_weight(s, huber);
+        let parts = blocks(p, o, &lin);
+        for (i, (a, ja)) in parts.iter().enumerate() {
+            let off = p.pattern.offsets[*a];
+            let width = p.pattern.offsets[a + 1] - off;
+            let g = ja.transpose() * lin.e * w;
+            for (c, gc) in g.iter().take(width).enumerate() {
+                n.gradient[off + c] += gc;
+            }
+            for (b, jb) in &parts[i..] {
+                p.pattern.add_product(&mut n.values, *a, &(ja * w), *b, jb);
+            }
+        }
+    }
+    n
+}
+
+/// Relative random-walk constraints x_{k+1} − x_k ~ N(0, diag σ²) and the weak prior x_k ~ N(0, diag σ_p²).
+fn assemble_chain(p: &Problem, x: &[f64], n: &mut Normal) {
+    for (k, sigma) in p.relative_sigma.iter().enumerate() {
+        let wgt = sigma.map(|s| 1.0 / (s * s));
+        let d = node(x, k + 1) - node(x, k);
+        n.cost += 0.5 * d.component_mul(&d).dot(&wgt);
+        let g = d.component_mul(&wgt);
+        for c in 0..6 {
+            n.gradient[6 * k + c] -= g[c];
+            n.gradient[6 * (k + 1) + c] += g[c];
+        }
+        p.pattern.add_diagonal(&mut n.values, k, k, &wgt);
+        p.pattern.add_diagonal(&mut n.values, k + 1, k + 1, &wgt);
+        p.pattern.add_diagonal(&mut n.values, k, k + 1, &(-wgt));
+    }
+    for (k, sigma) in p.prior_sigma.iter().enumerate() {
+        let wgt = sigma.map(|s| 1.0 / (s * s));
+        let d = node(x, k);
+        n.cost += 0.5 * d.component_mul(&d).dot(&wgt);
+        let g = d.component_mul(&wgt);
+        for c in 0..6 {
+            n.gradient[6 * k + c] += g[c];
+        }
+        p.pattern.add_diagonal(&mut n.values, k, k, &wgt);
+    }
+}
+
+/// The objective at `x` (chain terms + Huber loss of the active observations).
+pub(crate) fn cost(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) -> f64 {
+    let relative = parallel::sum(p.par, p.relative_sigma.len(), |k| {
+        0.5 * (node(x, k + 1) - node(x, k)).component_div(&p.relative_sigma[k]).norm_squared()
+    });
+    let prior =
+        parallel::sum(p.par, p.prior_sigma.len(), |k| 0.5 * node(x, k).component_div(&p.prior_sigma[k]).norm_squared());
+    let obs = parallel::sum(p.par, p.obs.len(), |i| {
+        if active[i] { huber_loss(linearize(p, &p.obs[i], x).e.norm(), huber) } else { 0.0 }
+    });
+    relative + prior + obs
+}

@@ -1,0 +1,303 @@
+//! Observation messages shared by the registration and pole workers and the adjuster: tie points (panorama
+//! rays to aerial-triangulated points), pole coordinate updates and GNSS positions, versioned on the wire.
+//!
+//! All coordinates are in the campaign's mapping frame (`Map`: easting, northing, height, metres); ray
+//! directions are unit vectors in the panorama's camera frame (x right, y down, z centre column); times are
+//! on the trajectory's time scale (seconds). Standard deviations are one-sigma.
+
+use serde::{Deserialize, Serialize};
+
+/// A versioned set of observations, as one tile (or one file) delivers them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(tag = "version")]
+pub enum ObservationSet {
+    /// Version 1.
+    #[serde(rename = "1")]
+    V1(ObservationSetV1),
+}
+
+impl ObservationSet {
+    /// The observations of the newest version (upgrading older ones when there are any).
+    pub fn into_latest(self) -> ObservationSetV1 {
+        match self {
+            ObservationSet::V1(v) => v,
+        }
+    }
+}
+
+/// Version 1 of the observation set.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ObservationSetV1 {
+    /// Tie points: a ground point seen in two or more panoramas, optionally triangulated in aerial images.
+    #[serde(default)]
+    pub ties: Vec<TiePoint>,
+    /// Pole coordinate updates (2D control from cadastres).
+    #[serde(default)]
+    pub poles: Vec<PoleUpdate>,
+    /// GNSS antenna positions.
+    #[serde(default)]
+    pub gnss: Vec<GnssPosition>,
+}
+
+impl ObservationSetV1 {
+    /// Append another set's observations.
+    pub fn extend(&mut self, other: ObservationSetV1) {
+        self.ties.extend(other.ties);
+        self.poles.extend(other.poles);
+        self.gnss.extend(other.gnss);
+    }
+}
+
+/// Identifier of a tie point, unique within a campaign.
+#[derive(Clone, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(transparent)]
+pub struct TiePointId(pub String);
+
+/// A point observed as rays from two or more panoramas, with optional aerial-triangulated coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TiePoint {
+    /// Campaign-unique id.
+    pub id: TiePointId,
+    /// The rays, one per panorama (at least two).
+    pub rays: Vec<TieRay>,
+    /// Coordinates from the aerial triangulation (paper 000 §3.9), if the point was matched in aerial images.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aerial: Option<AerialPoint>,
+}
+
+/// One panorama's ray to a tie point.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TieRay {
+    /// Exposure time of the panorama.
+    pub time: f64,
+    /// Unit direction to the point in the camera frame.
+    pub direction: [f64; 3],
+    /// Angular standard deviation of the direction, radians.
+    pub sigma: f64,
+}
+
+/// Mapping-frame coordinates of a point from aerial triangulation with their covariance.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AerialPoint {
+    /// Easting, northing, height, metres.
+    pub position: [f64; 3],
+    /// 3×3 covariance, m², row-major, symmetric positive definite.
+    pub covariance: [[f64; 3]; 3],
+}
+
+/// A pole coordinate update (CUPT, paper 002 §3.4.2): a cadastre pole observed from the vehicle.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct PoleUpdate {
+    /// Id of the pole in its cadastre.
+    pub cadastre_id: String,
+    /// Epoch of the depth image the pole was measured in.
+    pub time: f64,
+    /// The pole's cadastre position: easting, northing.
+    pub cadastre: [f64; 2],
+    /// The pole's position as observed with the DG pose at `time`: easting, northing.
+    pub observed: [f64; 2],
+    /// Standard deviation of the observation by the mapping sensor (err_cam), metres.
+    pub sigma_camera: f64,
+    /// Standard deviation of the cadastre position (err_pole), metres.
+    pub sigma_pole: f64,
+}
+
+impl PoleUpdate {
+    /// err_{x,y} = √(err_cam² + err_pole²), per horizontal coordinate.
+    pub fn sigma(&self) -> f64 {
+        // paper 002 eq. (1)
+        self.sigma_camera.hypot(self.sigma_pole)
+    }
+
+    /// The coordinate update: cadastre minus observed position (easting, northing).
+    pub fn difference(&self) -> [f64; 2] {
+        [self.cadastre[0] - self.observed[0], self.cadastre[1] - self.observed[1]]
+    }
+}
+
+/// A GNSS antenna position.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct GnssPosition {
+    /// Epoch.
+    pub time: f64,
+    /// Easting, northing, height, metres.
+    pub position: [f64; 3],
+    /// Standard deviations of easting, northing, height, metres.
+    pub sigma: [f64; 3],
+    /// Antenna phase centre in the body frame (x forward, y right, z down), metres.
+    #[serde(default)]
+    pub lever_arm: [f64; 3],
+}
+
+/// Which observation of a set an item refers to.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum ObservationRef {
+    /// `poles[index]`.
+    Pole { index: usize, cadastre_id: String },
+    /// `gnss[index]`.
+    Gnss { index: usize },
+    /// Ray `ray` of `ties[index]`.
+    TieRay { index: usize, point: TiePointId, ray: usize },
+    /// The aerial coordinates of `ties[index]`.
+    TieAerial { index: usize, point: TiePointId },
+    /// The whole tie point `ties[index]`.
+    Tie { index: usize, point: TiePointId },
+}
+
+/// A defect of one observation, naming it and the field.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{item:?}: field `{field}` {problem}")]
+pub struct ObservationError {
+    /// The observation.
+    pub item: ObservationRef,
+    /// The offending field.
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+fn finite(values: &[f64]) -> bool {
+    values.iter().all(|v| v.is_finite())
+}
+
+fn check(out: &mut Vec<ObservationError>, ok: bool, item: &ObservationRef, field: &'static str, problem: &str) {
+    if !ok {
+        out.push(ObservationError { item: item.clone(), field, problem: problem.to_owned() });
+    }
+}
+
+impl PoleUpdate {
+    /// Every defect of this update.
+    pub fn problems(&self, index: usize) -> Vec<ObservationError> {
+        let item = ObservationRef::Pole { index, cadastre_id: self.cadastre_id.clone() };
+        let mut out = Vec::new();
+        check(&mut out, self.time.is_finite(), &item, "time", "is not finite");
+        check(&mut out, finite(&self.cadastre), &item, "cadastre", "is not finite");
+        check(&mut out, finite(&self.observed), &item, "observed", "is not finite");
+        check(&mut out, self.sigma_camera >= 0.0, &item, "sigma_camera", "must be ≥ 0");
+        check(&mut out, self.sigma_pole >= 0.0, &item, "sigma_pole", "must be ≥ 0");
+        check(&mut out, self.sigma() > 0.0 && self.sigma().is_finite(), &item, "sigma_camera", "gives σ = 0");
+        out
+    }
+}
+
+impl GnssPosition {
+    /// Every defect of this position.
+    pub fn problems(&self, index: usize) -> Vec<ObservationError> {
+        let item = ObservationRef::Gnss { index };
+        let mut out = Vec::new();
+        check(&mut out, self.time.is_finite(), &item, "time", "is not finite");
+        check(&mut out, finite(&self.position), &item, "position", "is not finite");
+        check(&mut out, finite(&self.lever_arm), &item, "lever_arm", "is not finite");
+        let positive = self.sigma.iter().all(|s| *s > 0.0 && s.is_finite());
+        check(&mut out, positive, &item, "sigma", "must be > 0 and finite");
+        out
+    }
+}
+
+impl TiePoint {
+    /// Every defect of this tie point.
+    pub fn problems(&self, index: usize) -> Vec<ObservationError> {
+        let item = ObservationRef::Tie { index, point: self.id.clone() };
+        let mut out = Vec::new();
+        let enough = self.rays.len() >= 2 || (!self.rays.is_empty() && self.aerial.is_some());
+        check(&mut out, enough, &item, "rays", "needs ≥ 2 rays, or 1 ray and aerial coordinates");
+        for r in &self.rays {
+            check(&mut out, r.time.is_finite(), &item, "rays.time", "is not finite");
+            let n = nalgebra::Vector3::from(r.direction).norm();
+            check(&mut out, (n - 1.0).abs() < 1e-6, &item, "rays.direction", "is not a unit vector");
+            check(&mut out, r.sigma > 0.0 && r.sigma.is_finite(), &item, "rays.sigma", "must be > 0 and finite");
+        }
+        if let Some(a) = &self.aerial {
+            check(&mut out, finite(&a.position), &item, "aerial.position", "is not finite");
+            let ok = aerial_whitening(&a.covariance).is_some();
+            check(&mut out, ok, &item, "aerial.covariance", "is not symmetric positive definite");
+        }
+        out
+    }
+}
+
+/// S with Sᵀ S = C⁻¹ (inverse Cholesky factor) for a symmetric positive-definite covariance.
+pub(crate) fn aerial_whitening(c: &[[f64; 3]; 3]) -> Option<nalgebra::Matrix3<f64>> {
+    let m = nalgebra::Matrix3::from_fn(|i, j| c[i][j]);
+    if !finite(m.as_slice()) || (m - m.transpose()).abs().max() > 1e-9 * m.abs().max().max(1e-300) {
+        return None;
+    }
+    let l = nalgebra::Cholesky::new(m)?.l();
+    l.try_inverse()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn pole() -> PoleUpdate {
+        PoleUpdate {
+            cadastre_id: "p7".into(),
+            time: 10.0,
+            cadastre: [100.0, 200.0],
+            observed: [100.3, 199.6],
+            sigma_camera: 0.3,
+            sigma_pole: 0.4,
+        }
+    }
+
+    #[test]
+    fn pole_sigma_adds_quadratically() {
+        assert!((pole().sigma() - 0.5).abs() < 1e-15);
+        let d = pole().difference();
+        assert!((d[0] + 0.3).abs() < 1e-12 && (d[1] - 0.4).abs() < 1e-12);
+    }
+
+    #[test]
+    fn sets_round_trip_through_json_with_their_version() {
+        let set = ObservationSet::V1(ObservationSetV1 {
+            ties: vec![TiePoint {
+                id: TiePointId("t1".into()),
+                rays: vec![TieRay { time: 1.0, direction: [0.0, 0.6, 0.8], sigma: 1e-3 }; 2],
+                aerial: Some(AerialPoint { position: [1.0, 2.0, 3.0], covariance: [[0.01, 0.0, 0.0]; 3] }),
+            }],
+            poles: vec![pole()],
+            gnss: vec![GnssPosition { time: 2.0, position: [1.0; 3], sigma: [0.02; 3], lever_arm: [0.0; 3] }],
+        });
+        let json = serde_json::to_string(&set).unwrap();
+        assert!(json.starts_with(r#"{"version":"1""#), "{json}");
+        assert_eq!(serde_json::from_str::<ObservationSet>(&json).unwrap(), set);
+        assert!(serde_json::from_str::<ObservationSet>(r#"{"version":"9"}"#).is_err());
+    }
+
+    #[test]
+    fn the_schema_requires_the_version_tag() {
+        let schema = serde_json::to_value(schemars::schema_for!(ObservationSet)).unwrap();
+        let text = schema.to_string();
+        assert!(text.contains("\"version\"") && text.contains("\"1\""), "{text}");
+        assert!(text.contains("sigma_camera") && text.contains("covariance"));
+    }
+
+    #[test]
+    fn problems_name_the_item_and_field() {
+        let mut p = pole();
+        p.sigma_camera = -1.0;
+        let problems = p.problems(4);
+        assert_eq!(problems[0].field, "sigma_camera");
+        assert!(problems[0].to_string().contains("index: 4"), "{}", problems[0]);
+        let tie = TiePoint {
+            id: TiePointId("t".into()),
+            rays: vec![TieRay { time: 1.0, direction: [0.0, 0.0, 2.0], sigma: 1e-3 }],
+            aerial: Some(AerialPoint {
+                position: [0.0; 3],
+                covariance: [[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]],
+            }),
+        };
+        let fields: Vec<_> = tie.problems(0).iter().map(|e| e.field).collect();
+        assert_eq!(fields, ["rays.direction", "aerial.covariance"]);
+        assert!(pole().problems(0).is_empty());
+    }
+}

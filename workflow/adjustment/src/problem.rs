@@ -1,0 +1,260 @@
+//! Turning a trajectory and an observation set into the internal problem: node epochs, DG poses at the
+//! observation epochs, initial tie-point coordinates, chain weights and the sparsity pattern. Broken or
+//! unusable observations are set aside with an error naming them; the rest go on.
+
+use faer::Par;
+use nalgebra::{Matrix3, Vector2, Vector3, Vector6};
+use plumbline_geo::Trajectory;
+use plumbline_geo::dg::CameraMount;
+use plumbline_geo::trajectory::PositionInterpolation;
+
+use crate::config::AdjustmentConfig;
+use crate::model::DgPose;
+use crate::nodes::{Nodes, WeakLink, dg_std, link_factor, relative_sigma};
+use crate::observations::{ObservationError, ObservationRef, ObservationSetV1, TiePoint, TiePointId, aerial_whitening};
+use crate::pattern::Pattern;
+
+/// What the adjustment works on.
+#[derive(Clone, Copy, Debug)]
+pub struct AdjustmentInput<'a> {
+    /// The DG trajectory.
+    pub trajectory: &'a Trajectory,
+    /// The observations.
+    pub observations: &'a ObservationSetV1,
+    /// The panorama camera's mounting (lever arm and boresight) for tie rays.
+    pub mount: &'a CameraMount,
+    /// Intervals whose relative constraints are weakened (e.g. flagged DG jumps).
+    pub weak_links: &'a [WeakLink],
+}
+
+/// The observation-specific part of an internal observation.
+#[derive(Clone, Debug)]
+pub(crate) enum Kind {
+    Pole { observed: Vector3<f64>, cadastre: Vector2<f64>, sigma: f64 },
+    Gnss { lever: Vector3<f64>, measured: Vector3<f64>, sigma: Vector3<f64> },
+    Ray { point: usize, direction: Vector3<f64>, sigma: f64 },
+    Aerial { point: usize, measured: Vector3<f64>, whitening: Matrix3<f64> },
+}
+
+/// One observation ready to linearise.
+#[derive(Clone, Debug)]
+pub(crate) struct Obs {
+    pub item: ObservationRef,
+    pub time: f64,
+    pub dg: DgPose,
+    /// Nodes and interpolation weights (empty for aerial coordinates).
+    pub parts: Vec<(usize, f64)>,
+    pub kind: Kind,
+}
+
+/// The assembled problem.
+#[derive(Clone, Debug)]
+pub(crate) struct Problem {
+    pub nodes: Nodes,
+    pub obs: Vec<Obs>,
+    pub points: Vec<TiePointId>,
+    pub point_init: Vec<Vector3<f64>>,
+    pub relative_sigma: Vec<Vector6<f64>>,
+    pub prior_sigma: Vec<Vector6<f64>>,
+    pub pattern: Pattern,
+    pub mount: CameraMount,
+    pub skipped: Vec<ObservationError>,
+    /// Parallelism for the per-observation work.
+    pub par: Par,
+}
+
+fn dg_pose(trajectory: &Trajectory, t: f64) -> Option<DgPose> {
+    let rec = trajectory.interpolate(t, PositionInterpolation::Linear).ok()?;
+    Some(DgPose { p: rec.position.p, r: rec.attitude.to_rotation().matrix() })
+}
+
+fn outside(item: ObservationRef, field: &'static str) -> ObservationError {
+    ObservationError { item, field, problem: "lies outside the trajectory's time span".into() }
+}
+
+impl Problem {
+    /// Validate, locate and wire up every observation.
+    pub fn build(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) -> Self {
+        let mut b = Builder { input, raw: Vec::new(), skipped: Vec::new(), points: Vec::new(), point_init: Vec::new() };
+        b.poles();
+        b.gnss();
+        b.ties();
+        let span = input.trajectory.span();
+        // Weak-link boundaries are nodes too, so a flagged jump is resolved where it happens.
+        let links = input.weak_links.iter().flat_map(|l| [l.start, l.end]);
+        let nodes = Nodes::new(b.raw.iter().map(|o| o.time).chain(links).collect(), span, config);
+        let mut obs = b.raw;
+        for o in &mut obs {
+            if !matches!(o.kind, Kind::Aerial { .. }) {
+                o.parts = nodes.bracket(o.time);
+            }
+        }
+        let (relative_sigma, prior_sigma) = chain(&nodes, input, config, par);
+        let pattern = Pattern::new(nodes.len(), b.points.len(), pairs(&obs, nodes.len()));
+        Self {
+            nodes,
+            obs,
+            points: b.points,
+            point_init: b.point_init,
+            relative_sigma,
+            prior_sigma,
+            pattern,
+            mount: *input.mount,
+            skipped: b.skipped,
+            par,
+        }
+    }
+
+    /// Parameter index of the first coordinate of point `p`.
+    pub fn point_offset(&self, p: usize) -> usize {
+        self.pattern.offsets[self.nodes.len() + p]
+    }
+}
+
+fn chain(
+    nodes: &Nodes,
+    input: &AdjustmentInput<'_>,
+    config: &AdjustmentConfig,
+    par: Par,
+) -> (Vec<Vector6<f64>>, Vec<Vector6<f64>>) {
+    let stds = crate::parallel::map(par, nodes.len(), |k| dg_std(input.trajectory, nodes.times[k], config));
+    let relative = nodes
+        .times
+        .windows(2)
+        .zip(stds.windows(2))
+        .map(|(t, s)| {
+            let factor = link_factor(input.weak_links, t[0], t[1]);
+            relative_sigma(t[1] - t[0], &s[0], &s[1], config, factor)
+        })
+        .collect();
+    let prior = stds.iter().map(|s| s * config.prior_scale).collect();
+    (relative, prior)
+}
+
+/// Block pairs coupled by observations (node–node, node–point).
+fn pairs(obs: &[Obs], n_nodes: usize) -> Vec<(usize, usize)> {
+    let mut out = Vec::new();
+    for o in obs {
+        let mut blocks: Vec<usize> = o.parts.iter().map(|(k, _)| *k).collect();
+        if let Kind::Ray { point, .. } | Kind::Aerial { point, .. } = o.kind {
+            blocks.push(n_nodes + point);
+        }
+        for (i, a) in blocks.iter().enumerate() {
+            out.extend(blocks[i + 1..].iter().map(|b| (*a, *b)));
+        }
+    }
+    out
+}
+
+struct Builder<'a, 'b> {
+    input: &'b AdjustmentInput<'a>,
+    raw: Vec<Obs>,
+    skipped: Vec<ObservationError>,
+    points: Vec<TiePointId>,
+    point_init: Vec<Vector3<f64>>,
+}
+
+impl Builder<'_, '_> {
+    fn push(&mut self, item: ObservationRef, time: f64, kind: Kind) {
+        match dg_pose(self.input.trajectory, time) {
+            Some(dg) => self.raw.push(Obs { item, time, dg, parts: Vec::new(), kind }),
+            None => self.skipped.push(outside(item, "time")),
+        }
+    }
+
+    fn poles(&mut self) {
+        for (index, pole) in self.input.observations.poles.iter().enumerate() {
+            let problems = pole.problems(index);
+            if !problems.is_empty() {
+                self.skipped.extend(problems);
+                continue;
+            }
+            let item = ObservationRef::Pole { index, cadastre_id: pole.cadastre_id.clone() };
+            let Some(dg) = dg_pose(self.input.trajectory, pole.time) else {
+                self.skipped.push(outside(item, "time"));
+                continue;
+            };
+            // The observed pole at the vehicle's height: the update is horizontal.
+            let observed = Vector3::new(pole.observed[0], pole.observed[1], dg.p.z);
+            let kind = Kind::Pole { observed, cadastre: Vector2::from(pole.cadastre), sigma: pole.sigma() };
+            self.push(item, pole.time, kind);
+        }
+    }
+
+    fn gnss(&mut self) {
+        for (index, g) in self.input.observations.gnss.iter().enumerate() {
+            let problems = g.problems(index);
+            if !problems.is_empty() {
+                self.skipped.extend(problems);
+                continue;
+            }
+            let kind = Kind::Gnss {
+                lever: Vector3::from(g.lever_arm),
+                measured: Vector3::from(g.position),
+                sigma: Vector3::from(g.sigma),
+            };
+            self.push(ObservationRef::Gnss { index }, g.time, kind);
+        }
+    }
+
+    fn ties(&mut self) {
+        for (index, tie) in self.input.observations.ties.iter().enumerate() {
+            let mut problems = tie.problems(index);
+            let init = if problems.is_empty() { self.initial_point(index, tie, &mut problems) } else { None };
+            match init {
+                Some(x) if problems.is_empty() => self.add_tie(index, tie, x),
+                _ => self.skipped.extend(problems),
+            }
+        }
+    }
+
+    fn add_tie(&mut self, index: usize, tie: &TiePoint, x: Vector3<f64>) {
+        let point = self.points.len();
+        self.points.push(tie.id.clone());
+        self.point_init.push(x);
+        for (ray, r) in tie.rays.iter().enumerate() {
+            let item = ObservationRef::TieRay { index, point: tie.id.clone(), ray };
+            self.push(item, r.time, Kind::Ray { point, direction: Vector3::from(r.direction), sigma: r.sigma });
+        }
+        if let Some(a) = &tie.aerial {
+            let item = ObservationRef::TieAerial { index, point: tie.id.clone() };
+            let whitening = aerial_whitening(&a.covariance).unwrap_or_else(Matrix3::identity);
+            let dg = DgPose { p: Vector3::zeros(), r: Matrix3::identity() };
+            let time = tie.rays.first().map_or(0.0, |r| r.time);
+            let kind = Kind::Aerial { point, measured: Vector3::from(a.position), whitening };
+            self.raw.push(Obs { item, time, dg, parts: Vec::new(), kind });
+        }
+    }
+
+    /// The aerial coordinates, or the least-squares intersection of the DG rays.
+    fn initial_point(
+        &self,
+        index: usize,
+        tie: &TiePoint,
+        problems: &mut Vec<ObservationError>,
+    ) -> Option<Vector3<f64>> {
+        if let Some(a) = &tie.aerial {
+            return Some(Vector3::from(a.position));
+        }
+        let item = ObservationRef::Tie { index, point: tie.id.clone() };
+        let (mut a, mut b) = (Matrix3::zeros(), Vector3::zeros());
+        for r in &tie.rays {
+            let Some(dg) = dg_pose(self.input.trajectory, r.time) else {
+                problems.push(outside(item.clone(), "rays.time"));
+                return None;
+            };
+            let mount = self.input.mount;
+            let centre = dg.p + dg.r * mount.lever_arm.v;
+            let d = (dg.r * mount.boresight.matrix() * Vector3::from(r.direction)).normalize();
+            let proj = Matrix3::identity() - d * d.transpose();
+            a += proj;
+            b += proj * centre;
+        }
+        // A near-singular system means (near-)parallel rays.
+        let x = (a.determinant().abs() > 1e-9).then(|| a.try_inverse().map(|inv| inv * b)).flatten();
+        if x.is_none() {
+            problems.push(ObservationError { item, field: "rays", problem: "are parallel; cannot intersect".into() });
+        }
+        x
+    }
+}

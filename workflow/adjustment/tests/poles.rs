@@ -1,0 +1,162 @@
+//! Seeded synthetic streets corrected with pole CUPTs: a drifting DG trajectory with a jump is pulled onto
+//! the truth; posterior σ is calibrated; a 1 m wrong control point is rejected by data snooping.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::*;
+use faer::Par;
+use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, ObservationRef, ObservationSetV1, WeakLink, adjust};
+use rand::SeedableRng;
+
+fn run(
+    s: &Scene,
+    obs: &ObservationSetV1,
+    links: &[WeakLink],
+    config: &AdjustmentConfig,
+) -> plumbline_adjustment::Adjustment {
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: obs, mount: &m, weak_links: links };
+    adjust(&input, config, Par::Seq).unwrap()
+}
+
+#[test]
+fn exact_cupts_pull_a_drifting_jumping_trajectory_onto_the_truth() {
+    let s = scene(120.0, 10.0, None, drift_and_jump(60.05), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
+    // Poles every 30 m (3 s at 10 m/s), exact observations.
+    let obs = ObservationSetV1 { poles: poles(&s, 30, 0.0, 0.005, &mut rng), ..Default::default() };
+    let links = [WeakLink { start: 60.0, end: 60.1, factor: 100.0 }];
+    let config = AdjustmentConfig { node_spacing: Some(0.5), ..AdjustmentConfig::default() };
+    let result = run(&s, &obs, &links, &config);
+    let corrected = result.apply(&s.dg).unwrap();
+    let before = horizontal_errors(&s.dg, &s.truth);
+    let after = horizontal_errors(&corrected, &s.truth);
+    // Inside the pole-covered span (first and last pole at 1.5 s and 118.5 s).
+    let inner = |v: &[f64]| v[15..=1185].to_vec();
+    eprintln!(
+        "DG rms {:.3} max {:.3}; corrected rms {:.4} max {:.4}",
+        rms(&before),
+        max(&before),
+        rms(&inner(&after)),
+        max(&inner(&after))
+    );
+    assert!(rms(&before) > 0.25, "the DG error must be substantial");
+    assert!(rms(&inner(&after)) < 0.01, "rms {}", rms(&inner(&after)));
+    assert!(max(&inner(&after)) < 0.03, "max {}", max(&inner(&after)));
+    assert!(result.rejected.is_empty(), "{:?}", result.rejected);
+    // Without the flag the stiff relative constraints smear the jump over the neighbouring poles.
+    let stiff = run(&s, &obs, &[], &config).apply(&s.dg).unwrap();
+    let smeared = inner(&horizontal_errors(&stiff, &s.truth));
+    assert!(max(&smeared) > 0.05, "max {}", max(&smeared));
+}
+
+/// Truth correction as a realisation of the model's own random walk (DG σ 0.05 m, τ = 10 s).
+fn random_walk_truth(seed: u64) -> impl Fn(f64) -> nalgebra::Vector6<f64> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let cfg = AdjustmentConfig::default().random_walk;
+    let pos = (cfg.position_floor.powi(2) + 0.05f64.powi(2) / cfg.correlation_time).sqrt();
+    let mut state = nalgebra::Vector6::new(0.2, -0.1, 0.05, 0.0, 0.0, 0.0);
+    let mut path = vec![state];
+    for _ in 0..1300 {
+        // 0.1 s steps; attitude held constant so only position carries the walk.
+        for c in 0..3 {
+            state[c] += gauss(&mut rng) * pos * 0.1f64.sqrt();
+        }
+        path.push(state);
+    }
+    move |t: f64| path[((t * 10.0).round() as usize).min(path.len() - 1)]
+}
+
+#[test]
+fn noisy_cupts_give_calibrated_posterior_sigma() {
+    let s = scene(120.0, 10.0, None, random_walk_truth(5), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2);
+    let obs = ObservationSetV1 { poles: poles(&s, 20, 0.03, 0.0, &mut rng), ..Default::default() };
+    let config = AdjustmentConfig { snooping: None, huber: None, ..AdjustmentConfig::default() };
+    let result = run(&s, &obs, &[], &config);
+    // Normalised errors of the node positions against the truth correction.
+    let mut z = Vec::new();
+    for n in &result.nodes[1..result.nodes.len() - 1] {
+        let truth = s.correction[(n.time * 10.0).round() as usize];
+        let std = n.std();
+        for c in 0..2 {
+            z.push((n.position[c] - truth[c]) / std[c]);
+        }
+    }
+    let zrms = rms(&z);
+    let f = result.variance_factors.poles;
+    eprintln!("pole variance factor {f:.3}");
+    // The stated σ is right, so the variance component is 1 within its sampling error (~0.2 here); σ off by
+    // a factor 2 either way would give 0.25 or 4.
+    assert!((0.6..1.6).contains(&f), "variance factor {f}");
+    assert!(result.variance_factors.gnss.is_nan());
+    eprintln!("normalised rms {zrms:.3} over {} values, sigma0 {:.3}", z.len(), result.sigma0);
+    // A weight off by a factor 2 (σ vs σ², a missing eq. (1) term) moves this well outside the band.
+    assert!((0.7..1.4).contains(&zrms), "normalised rms {zrms}");
+    assert!(max(&z.iter().map(|v| v.abs()).collect::<Vec<_>>()) < 4.5);
+    let corrected = result.apply(&s.dg).unwrap();
+    let after = horizontal_errors(&corrected, &s.truth);
+    assert!(rms(&after[10..1190]) < 0.04, "rms {}", rms(&after));
+}
+
+#[test]
+fn a_control_point_one_metre_off_is_rejected_by_data_snooping() {
+    let s = scene(120.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+    let mut obs = ObservationSetV1 { poles: poles(&s, 30, 0.03, 0.05, &mut rng), ..Default::default() };
+    obs.poles[17].cadastre[0] += 0.8;
+    obs.poles[17].cadastre[1] -= 0.6;
+    let result = run(&s, &obs, &[], &AdjustmentConfig::default());
+    let rejected: Vec<_> = result.rejected.iter().map(|r| r.item.clone()).collect();
+    assert_eq!(rejected, [ObservationRef::Pole { index: 17, cadastre_id: "pole-17".into() }], "{:?}", result.rejected);
+    assert!(result.rejected[0].w > 10.0);
+    let after = horizontal_errors(&result.apply(&s.dg).unwrap(), &s.truth);
+    let clean = max(&after[15..1186]);
+    assert!(clean < 0.08, "max {clean}");
+    // Without snooping or robust weights the blunder bends the trajectory far more.
+    let plain = AdjustmentConfig { snooping: None, huber: None, ..AdjustmentConfig::default() };
+    let bent = horizontal_errors(&run(&s, &obs, &[], &plain).apply(&s.dg).unwrap(), &s.truth);
+    assert!(max(&bent) > 0.1 && max(&bent) > 2.0 * clean, "max {} vs {clean}", max(&bent));
+    // Huber IRLS alone (no snooping) already shrinks the blunder's pull severalfold.
+    let huber = AdjustmentConfig { snooping: None, ..AdjustmentConfig::default() };
+    let robust = horizontal_errors(&run(&s, &obs, &[], &huber).apply(&s.dg).unwrap(), &s.truth);
+    assert!(max(&robust) < 0.5 * max(&bent), "huber {} vs plain {}", max(&robust), max(&bent));
+}
+
+#[test]
+fn broken_observations_are_skipped_and_named_while_the_rest_is_used() {
+    let s = scene(60.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    let mut obs = ObservationSetV1 { poles: poles(&s, 30, 0.0, 0.01, &mut rng), ..Default::default() };
+    obs.poles[2].sigma_camera = f64::NAN;
+    obs.poles[4].time = 500.0;
+    let result = run(&s, &obs, &[], &AdjustmentConfig::default());
+    let fields: Vec<_> = result.skipped.iter().map(|e| (e.item.clone(), e.field)).collect();
+    assert!(fields.contains(&(ObservationRef::Pole { index: 2, cadastre_id: "pole-2".into() }, "sigma_camera")));
+    assert!(fields.contains(&(ObservationRef::Pole { index: 4, cadastre_id: "pole-4".into() }, "time")));
+    let after = horizontal_errors(&result.apply(&s.dg).unwrap(), &s.truth);
+    assert!(rms(&after[15..586]) < 0.02, "rms {}", rms(&after[15..586]));
+}
+
+#[test]
+fn the_corrected_trajectory_carries_interpolated_posterior_sigma() {
+    let s = scene(60.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(6);
+    let obs = ObservationSetV1 { poles: poles(&s, 50, 0.02, 0.02, &mut rng), ..Default::default() };
+    let result = run(&s, &obs, &[], &AdjustmentConfig::default());
+    let corrected = result.apply(&s.dg).unwrap();
+    let records = corrected.records();
+    // At a node epoch the record's σ is the node's σ.
+    let node = &result.nodes[2];
+    let at = records.iter().find(|r| (r.time - node.time).abs() < 1e-9).unwrap();
+    assert!((at.std.unwrap().east - node.std()[0]).abs() < 1e-12);
+    // Midway between poles (5 s apart) the position is less certain than at the poles.
+    let (t0, t1) = (result.nodes[2].time, result.nodes[3].time);
+    let mid = records.iter().find(|r| (r.time - 0.5 * (t0 + t1)).abs() < 0.051).unwrap();
+    assert!(mid.std.unwrap().east > at.std.unwrap().east);
+    // And the corrected record is the DG record moved by the interpolated correction.
+    let (delta, _) = result.correction_at(mid.time).unwrap();
+    let dg = s.dg.records().iter().find(|r| r.time == mid.time).unwrap();
+    assert!((mid.position.p - dg.position.p - delta.fixed_rows::<3>(0)).norm() < 1e-9);
+}

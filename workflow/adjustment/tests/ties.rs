@@ -1,0 +1,97 @@
+//! Tie points and GNSS: a street driven out and back where only the outbound pass has control, the return
+//! pass corrected through tie points seen from both passes; aerial-triangulated ties and GNSS as control.
+#![allow(clippy::unwrap_used)]
+
+mod common;
+
+use common::*;
+use faer::Par;
+use nalgebra::{Vector3, Vector6};
+use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, AerialPoint, ObservationSetV1, adjust};
+use rand::SeedableRng;
+
+/// Outbound 0–60 s with a smooth drift; the return pass (60–120 s) picks up a different, larger offset.
+fn two_pass_correction(t: f64) -> Vector6<f64> {
+    let base = Vector6::new(0.2 * (t / 20.0).sin(), -0.15, 0.03, 0.0, 0.0, 2e-4);
+    if t > 60.0 { base + Vector6::new(0.4, 0.3, 0.0, 0.0, 0.0, 0.0) * ((t - 60.0) / 5.0).min(1.0) } else { base }
+}
+
+/// Ground points 7 m beside the outbound lane every 20 m, seen from both passes.
+fn ties(s: &Scene, rng: &mut impl rand::Rng) -> Vec<(plumbline_adjustment::TiePoint, Vector3<f64>)> {
+    (1..29)
+        .map(|j| {
+            let i_out = j * 20;
+            let tr = &s.truth[i_out];
+            let x = tr.position.p + tr.attitude.to_rotation().matrix() * Vector3::new(6.0, -7.0, 2.5);
+            // The return pass passes the same place at 120 − t.
+            let i_back = 1200 - i_out - 6;
+            (tie(s, &format!("t{j}"), x, &[i_out, i_out + 3, i_back, i_back + 3], 5e-4, rng), x)
+        })
+        .collect()
+}
+
+#[test]
+fn the_return_pass_is_corrected_through_tie_points_to_the_controlled_pass() {
+    let s = scene(120.0, 10.0, Some(60.0), two_pass_correction, 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+    let outbound: Vec<_> = poles(&s, 30, 0.01, 0.01, &mut rng).into_iter().filter(|p| p.time < 58.0).collect();
+    let (tie_points, truth_points): (Vec<_>, Vec<_>) = ties(&s, &mut rng).into_iter().unzip();
+    let with_ties = ObservationSetV1 { poles: outbound.clone(), ties: tie_points, ..Default::default() };
+    let without = ObservationSetV1 { poles: outbound, ..Default::default() };
+    let m = mount();
+    let config = AdjustmentConfig::default();
+    let run = |obs: &ObservationSetV1| {
+        let input = AdjustmentInput { trajectory: &s.dg, observations: obs, mount: &m, weak_links: &[] };
+        let result = adjust(&input, &config, Par::Seq).unwrap();
+        (horizontal_errors(&result.apply(&s.dg).unwrap(), &s.truth), result)
+    };
+    let (tied, result) = run(&with_ties);
+    let (untied, _) = run(&without);
+    let back = 660..1140;
+    eprintln!("return pass rms: tied {:.4}, untied {:.4}", rms(&tied[back.clone()]), rms(&untied[back.clone()]));
+    assert!(result.rejected.is_empty(), "{:?}", result.rejected);
+    assert!(rms(&untied[back.clone()]) > 0.3, "without ties the return pass keeps its offset");
+    assert!(rms(&tied[back.clone()]) < 0.04, "rms {}", rms(&tied[back.clone()]));
+    assert!(max(&tied[back]) < 0.1);
+    // The tie points themselves land on the truth.
+    assert_eq!(result.points.len(), 28);
+    for (p, x) in result.points.iter().zip(&truth_points) {
+        assert!((Vector3::from(p.position) - x).norm() < 0.1, "{p:?} vs {x}");
+    }
+}
+
+#[test]
+fn aerial_tie_points_and_gnss_control_all_three_coordinates() {
+    let s = scene(60.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(8);
+    let (sh, sv) = (0.03, 0.06);
+    let tie_points: Vec<_> = (1..15)
+        .map(|j| {
+            let i = j * 40;
+            let tr = &s.truth[i];
+            let x = tr.position.p + tr.attitude.to_rotation().matrix() * Vector3::new(8.0, 4.0, 2.5);
+            let mut t = tie(&s, &format!("a{j}"), x, &[i - 5, i, i + 5], 5e-4, &mut rng);
+            // Aerial triangulation with 3 cm horizontal and 6 cm vertical noise, as its covariance says.
+            let noisy = x + Vector3::new(gauss(&mut rng) * sh, gauss(&mut rng) * sh, gauss(&mut rng) * sv);
+            let covariance = [[sh * sh, 0.0, 0.0], [0.0, sh * sh, 0.0], [0.0, 0.0, sv * sv]];
+            t.aerial = Some(AerialPoint { position: noisy.into(), covariance });
+            t
+        })
+        .collect();
+    let obs =
+        ObservationSetV1 { ties: tie_points, gnss: gnss(&s, &[100, 300, 500], 0.02, &mut rng), ..Default::default() };
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
+    let result = adjust(&input, &AdjustmentConfig::default(), Par::Seq).unwrap();
+    let corrected = result.apply(&s.dg).unwrap();
+    let error_3d = |t: &plumbline_geo::Trajectory| -> Vec<f64> {
+        t.records().iter().zip(&s.truth).map(|(a, b)| (a.position.p - b.position.p).norm()).collect()
+    };
+    let (before, after) = (error_3d(&s.dg), error_3d(&corrected));
+    eprintln!("3D rms before {:.3}, after {:.4}", rms(&before), rms(&after[35..566]));
+    assert!(rms(&before) > 0.15);
+    assert!(rms(&after[35..566]) < 0.06, "rms {}", rms(&after[35..566]));
+    let horizontal = horizontal_errors(&corrected, &s.truth);
+    assert!(rms(&horizontal[35..566]) < 0.04, "rms {}", rms(&horizontal[35..566]));
+    assert!(result.skipped.is_empty() && result.rejected.is_empty(), "{:?} {:?}", result.skipped, result.rejected);
+}
