@@ -1,0 +1,15 @@
+//! Rendering by ray casting (rayon across rows): equirectangular panoramas with the vehicle's body masked,
+//! side-looking depth images, aerial frame images, and the ground-truth point under any pixel.
+
+mod block;
+mod blur;
+mod encode;
+mod frame;
+mod shade;
+
+pub use block::{AtErrors, BlockSpec, perturb_block, plan_block};
+pub use encode::{RenderError, encode_jpeg, encode_png_gray, encode_png_gray16, encode_png_rgb};
+pub use frame::{
+    AerialOptics, DepthNoise, Panorama, VehicleBody, ground_truth, render_aerial, render_depth, render_panorama,
+};
+pub use shade::{Illumination, Scene};
