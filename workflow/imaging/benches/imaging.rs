@@ -1,0 +1,194 @@
+//! Per-primitive timings and AKAZE keypoints / repeatability / inliers on a 1 MP synthetic pair.
+//! Run: `cargo bench -p plumbline-imaging` (medians of repeated runs; compare with opencv_akaze.py).
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+#[path = "common/scene.rs"]
+mod scene;
+
+use std::time::Instant;
+
+use nalgebra::Matrix3;
+use plumbline_geo::camera::Equirectangular;
+use plumbline_geo::dg::{Boresight, CameraMount};
+use plumbline_geo::{Attitude, MapFromBody, Point3};
+use plumbline_imaging::GrayImage;
+use plumbline_imaging::akaze::{AkazeConfig, Features, akaze, match_descriptors};
+use plumbline_imaging::corners::{Foerstner, Harris};
+use plumbline_imaging::filter::{Wallis, gaussian_blur};
+use plumbline_imaging::integral::IntegralImage;
+use plumbline_imaging::kaze::{KazeConfig, KazeFeatures, kaze, match_surf};
+use plumbline_imaging::lsm::{LsmConfig, least_squares_match, translation};
+use plumbline_imaging::models::{Correspondence, Model};
+use plumbline_imaging::ncc::NccSearcher;
+use plumbline_imaging::ortho::{Exposure, GroundGrid, ortho_project};
+use plumbline_imaging::ransac::{RansacConfig, ransac};
+use plumbline_imaging::warp::{apply_h, resize, rotate};
+
+/// Median wall time of `runs` calls, milliseconds.
+fn time<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
+    let mut t: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = Instant::now();
+            std::hint::black_box(f());
+            start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+fn single<T: Send>(f: impl FnOnce() -> T + Send) -> T {
+    rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(f)
+}
+
+fn primitives(a: &GrayImage, b: &GrayImage) {
+    let rows: Vec<(&str, f64)> = vec![
+        ("gaussian blur σ=2, 1 MP", time(5, || gaussian_blur(a, 2.0).unwrap())),
+        ("Wallis 31×31, 1 MP", time(5, || Wallis::default().apply(a).unwrap())),
+        ("resize ×0.25 (3 → 12 cm), 1 MP", time(5, || resize(a, 0.25).unwrap())),
+        ("rotate 0.3 rad, 1 MP", time(5, || rotate(a, 0.3).unwrap())),
+        ("integral images (sum, sum²), 1 MP", time(5, || IntegralImage::new(a))),
+        ("zero-mean NCC: 200 × (15² template, ±10 px)", time(5, || ncc_batch(a, b))),
+        ("LSM: 200 × 17² template", time(5, || lsm_batch(a))),
+        ("Förstner detect + locate, 1 MP", time(3, || Foerstner::default().detect(a).unwrap().len())),
+        ("Harris detect, 1 MP", time(3, || Harris::default().detect(a).unwrap().len())),
+        ("RANSAC homography, 2000 pairs, 50 % out", time(5, ransac_batch)),
+        ("ortho 4096×2048 pano → 400² at 3 cm", ortho_bench()),
+    ];
+    println!("| primitive (rayon, all cores) | median ms |\n|---|---|");
+    for (name, ms) in rows {
+        println!("| {name} | {ms:.1} |");
+    }
+}
+
+fn ncc_batch(a: &GrayImage, b: &GrayImage) -> f64 {
+    let s = NccSearcher::new(b);
+    (0..200)
+        .map(|i| {
+            let (c, r) = (40 + (i * 37) % 940, 40 + (i * 91) % 940);
+            s.search(&a.patch(c, r, 7).unwrap(), c, r, 10).map_or(0.0, |m| m.score)
+        })
+        .sum()
+}
+
+fn lsm_batch(a: &GrayImage) -> usize {
+    let blurred = gaussian_blur(a, 1.0).unwrap();
+    (0..200)
+        .filter(|i| {
+            let (c, r) = (40 + (i * 37) % 940, 40 + (i * 91) % 940);
+            let t = blurred.patch(c, r, 8).unwrap();
+            least_squares_match(&t, &blurred, translation(c as f64 + 0.8, r as f64 + 0.3), &LsmConfig::default())
+                .is_ok()
+        })
+        .count()
+}
+
+fn ransac_batch() -> usize {
+    let h = Matrix3::new(0.9, 0.1, 50.0, -0.05, 1.1, -20.0, 2e-4, -1e-4, 1.0);
+    let mut rng = scene::SplitMix(7);
+    let pairs: Vec<Correspondence> = (0..2000)
+        .map(|i| {
+            let a = [rng.uniform(0.0, 1000.0), rng.uniform(0.0, 1000.0)];
+            let (u, v) = apply_h(&h, a[0], a[1]).unwrap();
+            let b = if i % 2 == 0 {
+                [u + rng.uniform(-0.2, 0.2), v + rng.uniform(-0.2, 0.2)]
+            } else {
+                [rng.uniform(0.0, 1000.0), rng.uniform(0.0, 1000.0)]
+            };
+            Correspondence { a, b }
+        })
+        .collect();
+    ransac(Model::Homography, &pairs, &RansacConfig::default()).unwrap().inlier_count()
+}
+
+fn ortho_bench() -> f64 {
+    let cam = Equirectangular::new(4096, 2048).unwrap();
+    let pano = GrayImage::from_fn(4096, 2048, |c, r| ((c / 16 + r / 16) % 2) as f32 * 200.0);
+    let pose = MapFromBody::new(Attitude::from_degrees(0.5, -1.0, 30.0).to_rotation(), Point3::new(100.0, 200.0, 0.5));
+    let mount = CameraMount::new([0.0, 0.0, -2.0], &Boresight::default());
+    let grid = GroundGrid::new([100.0, 200.0], 0.03, 400, 400, 0.0).unwrap();
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose };
+    time(5, || ortho_project(&pano, None, &exposure, &grid, |_, _| 0.0).unwrap())
+}
+
+/// (repeatability, inliers, matches) of A → B under the known similarity.
+fn quality(fa: &Features, fb: &Features, truth: &Matrix3<f64>, size: f64) -> (f64, usize, usize) {
+    let inside: Vec<(f64, f64)> = fa
+        .keypoints
+        .iter()
+        .filter_map(|k| apply_h(truth, k.u, k.v))
+        .filter(|(u, v)| *u > 16.0 && *v > 16.0 && *u < size - 16.0 && *v < size - 16.0)
+        .collect();
+    let hits = inside.iter().filter(|(u, v)| fb.keypoints.iter().any(|k| (k.u - u).hypot(k.v - v) < 2.5)).count();
+    let m = match_descriptors(&fa.descriptors, &fb.descriptors, 0.8, true);
+    let pairs: Vec<Correspondence> = m
+        .iter()
+        .map(|m| Correspondence {
+            a: [fa.keypoints[m.a].u, fa.keypoints[m.a].v],
+            b: [fb.keypoints[m.b].u, fb.keypoints[m.b].v],
+        })
+        .collect();
+    let inliers = ransac(Model::Similarity, &pairs, &RansacConfig { threshold: 2.5, ..RansacConfig::default() })
+        .map_or(0, |f| f.inlier_count());
+    (hits as f64 / inside.len().max(1) as f64, inliers, pairs.len())
+}
+
+fn features(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
+    println!(
+        "\n| AKAZE, 1024² pair (0.2 rad, ×0.8, gain 0.7) | ms (1 thread) | ms (all cores) | keypoints A / B | repeatability | matches | inliers |\n|---|---|---|---|---|---|---|"
+    );
+    for (name, upright) in [("AKAZE", false), ("AKAZE upright", true)] {
+        let cfg = AkazeConfig { upright, ..AkazeConfig::default() };
+        let one = single(|| time(3, || akaze(a, &cfg).unwrap()));
+        let all = time(3, || akaze(a, &cfg).unwrap());
+        let (fa, fb) = (akaze(a, &cfg).unwrap(), akaze(b, &cfg).unwrap());
+        let (rep, inl, m) = quality(&fa, &fb, truth, 1024.0);
+        println!(
+            "| {name} | {one:.0} | {all:.0} | {} / {} | {rep:.3} | {m} | {inl} |",
+            fa.keypoints.len(),
+            fb.keypoints.len()
+        );
+    }
+}
+
+/// KAZE's row of the table, with M-SURF matching.
+fn kaze_row(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
+    let cfg = KazeConfig::default();
+    let one = single(|| time(3, || kaze(a, &cfg).unwrap()));
+    let all = time(3, || kaze(a, &cfg).unwrap());
+    let (fa, fb): (KazeFeatures, KazeFeatures) = (kaze(a, &cfg).unwrap(), kaze(b, &cfg).unwrap());
+    let inside: Vec<(f64, f64)> = fa
+        .keypoints
+        .iter()
+        .filter_map(|k| apply_h(truth, k.u, k.v))
+        .filter(|(u, v)| *u > 16.0 && *v > 16.0 && *u < 1008.0 && *v < 1008.0)
+        .collect();
+    let hits = inside.iter().filter(|(u, v)| fb.keypoints.iter().any(|k| (k.u - u).hypot(k.v - v) < 2.5)).count();
+    let pairs: Vec<Correspondence> = match_surf(&fa.descriptors, &fb.descriptors, 0.8, true)
+        .iter()
+        .map(|&(i, j, _)| Correspondence {
+            a: [fa.keypoints[i].u, fa.keypoints[i].v],
+            b: [fb.keypoints[j].u, fb.keypoints[j].v],
+        })
+        .collect();
+    let cfg_r = RansacConfig { threshold: 2.5, ..RansacConfig::default() };
+    let inl = ransac(Model::Similarity, &pairs, &cfg_r).map_or(0, |f| f.inlier_count());
+    let rep = hits as f64 / inside.len().max(1) as f64;
+    println!(
+        "| KAZE | {one:.0} | {all:.0} | {} / {} | {rep:.3} | {} | {inl} |",
+        fa.keypoints.len(),
+        fb.keypoints.len(),
+        pairs.len()
+    );
+}
+
+fn main() {
+    let blobs = scene::blobs(42, 3000, 1024.0);
+    let truth = scene::truth(1024.0);
+    let a = scene::render(1024, &blobs, &Matrix3::identity(), 1.0, 1.0, 128.0);
+    let b = scene::render(1024, &blobs, &truth, 0.8, 0.7, 0.7 * 128.0 + 25.0);
+    println!("threads: {}", rayon::current_num_threads());
+    primitives(&a, &b);
+    features(&a, &b, &truth);
+    kaze_row(&a, &b, &truth);
+}

@@ -1,0 +1,135 @@
+//! AKAZE's detector: scale-normalised Hessian determinant per level, 3×3 maxima above a threshold,
+//! subpixel refinement by a quadratic fit, and suppression across neighbouring levels (BMVC 2013 §4.2).
+
+use nalgebra::{Matrix2, Vector2};
+use rayon::prelude::*;
+
+use super::scale_space::{Level, scharr};
+use crate::image::GrayImage;
+
+/// Derivatives of one level, kept for the descriptor.
+#[derive(Clone, Debug)]
+pub(crate) struct Derivatives {
+    /// Scale-normalised first derivatives (× s).
+    pub lx: GrayImage,
+    pub ly: GrayImage,
+    /// Normalised Hessian determinant (× s⁴).
+    pub det: GrayImage,
+    /// Derivative spacing s in level pixels.
+    pub step: usize,
+}
+
+/// Compute the derivatives of every level in parallel; spacing s = round(σ · factor / 2^octave).
+pub(crate) fn derivatives(levels: &[Level], factor: f64) -> Vec<Derivatives> {
+    levels
+        .par_iter()
+        .map(|lv| {
+            let s = ((lv.sigma * factor / lv.ratio()).round() as usize).max(1);
+            let (lx, ly) = (scharr(&lv.image, s, true), scharr(&lv.image, s, false));
+            let (lxx, lxy, lyy) = (scharr(&lx, s, true), scharr(&lx, s, false), scharr(&ly, s, false));
+            let s2 = (s * s) as f32;
+            let det = GrayImage::from_fn(lv.image.width(), lv.image.height(), |c, r| {
+                // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
+                (lxx.get(c, r) * lyy.get(c, r) - lxy.get(c, r).powi(2)) * s2 * s2
+            });
+            let sf = s as f32;
+            Derivatives { lx: lx.map(|x| x * sf), ly: ly.map(|x| x * sf), det, step: s }
+        })
+        .collect()
+}
+
+/// A detected point before description.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Candidate {
+    /// Position in input pixels.
+    pub u: f64,
+    pub v: f64,
+    /// Hessian response.
+    pub response: f32,
+    /// Level index.
+    pub level: usize,
+    /// Suppression radius in input pixels.
+    pub radius: f64,
+}
+
+/// 3×3 maxima above `threshold` on every level, refined to subpixel.
+pub(crate) fn candidates(levels: &[Level], ders: &[Derivatives], threshold: f32) -> Vec<Candidate> {
+    levels
+        .par_iter()
+        .zip(ders.par_iter())
+        .enumerate()
+        .flat_map_iter(|(i, (lv, d))| {
+            level_maxima(&d.det, threshold).into_iter().filter_map(move |(c, r)| {
+                let (dx, dy) = refine(&d.det, c, r)?;
+                let ratio = lv.ratio();
+                Some(Candidate {
+                    u: (c as f64 + 0.5 + dx) * ratio,
+                    v: (r as f64 + 0.5 + dy) * ratio,
+                    response: d.det.get(c, r),
+                    level: i,
+                    radius: d.step as f64 * ratio,
+                })
+            })
+        })
+        .collect()
+}
+
+/// Strict 3×3 maxima above the threshold, at least 2 pixels inside the level.
+fn level_maxima(det: &GrayImage, threshold: f32) -> Vec<(usize, usize)> {
+    let (w, h) = (det.width(), det.height());
+    let mut out = Vec::new();
+    for r in 2..h.saturating_sub(2) {
+        for c in 2..w.saturating_sub(2) {
+            let x = det.get(c, r);
+            if x <= threshold {
+                continue;
+            }
+            let is_max =
+                (r - 1..=r + 1).all(|rr| (c - 1..=c + 1).all(|cc| (cc == c && rr == r) || det.get(cc, rr) < x));
+            if is_max {
+                out.push((c, r));
+            }
+        }
+    }
+    out
+}
+
+/// Offset of the vertex of the quadratic through the 3×3 neighbourhood; `None` if it leaves the pixel's
+/// neighbourhood (|offset| > 1) or the fit is not a maximum.
+fn refine(det: &GrayImage, c: usize, r: usize) -> Option<(f64, f64)> {
+    let at = |dc: isize, dr: isize| f64::from(det.get((c as isize + dc) as usize, (r as isize + dr) as usize));
+    let g = Vector2::new(0.5 * (at(1, 0) - at(-1, 0)), 0.5 * (at(0, 1) - at(0, -1)));
+    let dxx = at(1, 0) + at(-1, 0) - 2.0 * at(0, 0);
+    let dyy = at(0, 1) + at(0, -1) - 2.0 * at(0, 0);
+    let dxy = 0.25 * (at(1, 1) + at(-1, -1) - at(-1, 1) - at(1, -1));
+    let h = Matrix2::new(dxx, dxy, dxy, dyy);
+    let d = -(h.try_inverse()? * g);
+    (d.x.abs() <= 1.0 && d.y.abs() <= 1.0).then_some((d.x, d.y))
+}
+
+/// Keep the strongest of candidates closer than their radius on the same or a neighbouring level.
+pub(crate) fn suppress(mut cands: Vec<Candidate>) -> Vec<Candidate> {
+    cands.sort_by(|a, b| b.response.total_cmp(&a.response).then(a.level.cmp(&b.level)));
+    let cell = 32.0;
+    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+    let mut kept: Vec<Candidate> = Vec::new();
+    for c in cands {
+        let reach = (c.radius * 2.0 / cell).ceil() as i64 + 1;
+        let (gx, gy) = ((c.u / cell) as i64, (c.v / cell) as i64);
+        let clash = (gx - reach..=gx + reach).any(|x| {
+            (gy - reach..=gy + reach).any(|y| {
+                grid.get(&(x, y)).is_some_and(|ids| {
+                    ids.iter().any(|&k| {
+                        let o = &kept[k];
+                        o.level.abs_diff(c.level) <= 1 && (o.u - c.u).hypot(o.v - c.v) < o.radius.max(c.radius)
+                    })
+                })
+            })
+        });
+        if !clash {
+            grid.entry((gx, gy)).or_default().push(kept.len());
+            kept.push(c);
+        }
+    }
+    kept
+}

@@ -1,0 +1,20 @@
+//! Image primitives: ortho-projection, filters, KAZE/AKAZE, corners, NCC, least-squares matching, RANSAC.
+//!
+//! Synchronous and I/O-free; rayon parallelism inside. Pixel coordinates follow ARCHITECTURE.md.
+
+pub mod akaze;
+pub mod corners;
+pub mod error;
+pub mod filter;
+pub mod image;
+pub mod integral;
+pub mod kaze;
+pub mod lsm;
+pub mod models;
+pub mod ncc;
+pub mod ortho;
+pub mod ransac;
+pub mod warp;
+
+pub use error::ImagingError;
+pub use image::{GrayImage, Mask};

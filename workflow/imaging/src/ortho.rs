@@ -1,0 +1,179 @@
+//! Ortho-projection of panoramas onto the ground (paper 000 §3.2) and rectification of pinhole images to
+//! the road plane (paper 001 §4.2), both by back-projection: every ground cell, given in mapping
+//! coordinates, is projected into the image through the camera model and sampled bilinearly.
+
+use nalgebra::{Matrix3, Vector3};
+use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
+use plumbline_geo::dg::CameraMount;
+use plumbline_geo::{Map, MapFromBody, Point3};
+use rayon::prelude::*;
+
+use crate::error::{ImagingError, require};
+use crate::image::{GrayImage, Mask};
+
+/// A raster on the ground: its centre in mapping coordinates, its ground sampling distance, its size, and
+/// the direction its "up" (−v) points as a heading (radians clockwise from grid north; 0 = north-up).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct GroundGrid {
+    /// Easting and northing of the raster centre, metres.
+    pub centre: [f64; 2],
+    /// Ground sampling distance, metres per pixel (0.03 for MM↔MM, 0.12 for MM↔aerial: paper 000 §3.2).
+    pub gsd: f64,
+    /// Width in pixels.
+    pub width: usize,
+    /// Height in pixels.
+    pub height: usize,
+    /// Heading of the raster's up direction, radians clockwise from grid north.
+    pub up_heading: f64,
+}
+
+impl GroundGrid {
+    /// Check and build a grid.
+    pub fn new(centre: [f64; 2], gsd: f64, width: usize, height: usize, up_heading: f64) -> Result<Self, ImagingError> {
+        require(centre.iter().all(|c| c.is_finite()), "centre", centre[0], "must be finite")?;
+        require(gsd.is_finite() && gsd > 0.0, "gsd", gsd, "must be a positive ground distance in metres")?;
+        require(width > 0 && height > 0, "width/height", width.min(height) as f64, "must be positive")?;
+        require(up_heading.is_finite(), "up_heading", up_heading, "must be finite")?;
+        Ok(Self { centre, gsd, width, height, up_heading })
+    }
+
+    /// The mapping (easting, northing) of continuous raster pixel (u, v).
+    pub fn to_map(&self, u: f64, v: f64) -> [f64; 2] {
+        let (s, c) = self.up_heading.sin_cos();
+        let (right, up) = ((u - self.width as f64 / 2.0) * self.gsd, (self.height as f64 / 2.0 - v) * self.gsd);
+        // right = (cos θ, −sin θ), up = (sin θ, cos θ) in (E, N) for a heading θ clockwise from north
+        [self.centre[0] + right * c + up * s, self.centre[1] - right * s + up * c]
+    }
+
+    /// The continuous raster pixel (u, v) of a mapping (easting, northing).
+    pub fn to_pixel(&self, e: f64, n: f64) -> [f64; 2] {
+        let (s, c) = self.up_heading.sin_cos();
+        let (de, dn) = (e - self.centre[0], n - self.centre[1]);
+        let (right, up) = (de * c - dn * s, de * s + dn * c);
+        [self.width as f64 / 2.0 + right / self.gsd, self.height as f64 / 2.0 - up / self.gsd]
+    }
+
+    /// The affine 3×3 matrix from raster (u, v, 1) to mapping (E, N, 1).
+    pub fn map_from_pixel(&self) -> Matrix3<f64> {
+        let (o, x, y) = (self.to_map(0.0, 0.0), self.to_map(1.0, 0.0), self.to_map(0.0, 1.0));
+        Matrix3::new(x[0] - o[0], y[0] - o[0], o[0], x[1] - o[1], y[1] - o[1], o[1], 0.0, 0.0, 1.0)
+    }
+}
+
+/// A camera model the ortho-projection can sample: says whether its u coordinate wraps around.
+pub trait OrthoCamera: CameraModel + Sync {
+    /// True for 360° panoramas, whose left and right edges meet.
+    const WRAPS_U: bool;
+}
+
+impl OrthoCamera for Equirectangular {
+    const WRAPS_U: bool = true;
+}
+
+impl OrthoCamera for Pinhole {
+    const WRAPS_U: bool = false;
+}
+
+/// An ortho-image and the mask of cells that received a sample (not off-image, not on the vehicle).
+#[derive(Clone, Debug)]
+pub struct Ortho {
+    /// The ground raster (0 where invalid).
+    pub image: GrayImage,
+    /// `true` where the cell was sampled.
+    pub valid: Mask,
+}
+
+/// Everything that places an image in the mapping frame.
+#[derive(Clone, Copy, Debug)]
+pub struct Exposure<'a, C> {
+    /// The camera model (its size must match the image).
+    pub camera: &'a C,
+    /// Lever arm and boresight.
+    pub mount: &'a CameraMount,
+    /// The vehicle pose at the exposure.
+    pub pose: &'a MapFromBody,
+}
+
+/// Back-project every cell of `grid` at ground height `height(e, n)` into `image` and sample it
+/// bilinearly (paper 000 §3.2). Cells whose bilinear footprint touches `vehicle_mask` (set = vehicle)
+/// or leaves the image are invalid.
+pub fn ortho_project<C: OrthoCamera>(
+    image: &GrayImage,
+    vehicle_mask: Option<&Mask>,
+    exposure: &Exposure<'_, C>,
+    grid: &GroundGrid,
+    height: impl Fn(f64, f64) -> f64 + Sync,
+) -> Result<Ortho, ImagingError> {
+    let cam = exposure.camera;
+    let (w, h) = (cam.width() as usize, cam.height() as usize);
+    if image.width() != w || image.height() != h {
+        return Err(ImagingError::Shape {
+            what: "image (must match the camera size)",
+            width: image.width(),
+            height: image.height(),
+            len: w * h,
+        });
+    }
+    if let Some(m) = vehicle_mask.filter(|m| m.width() != w || m.height() != h) {
+        return Err(ImagingError::Shape {
+            what: "vehicle mask (must match the image)",
+            width: m.width(),
+            height: m.height(),
+            len: w * h,
+        });
+    }
+    let samples: Vec<Option<f32>> = (0..grid.width * grid.height)
+        .into_par_iter()
+        .map(|i| {
+            let [e, n] = grid.to_map((i % grid.width) as f64 + 0.5, (i / grid.width) as f64 + 0.5);
+            let p = Point3::<Map>::new(e, n, height(e, n));
+            let px = exposure.mount.project(cam, exposure.pose, &p)?;
+            sample::<C>(image, vehicle_mask, px.u, px.v)
+        })
+        .collect();
+    let valid = Mask::new(grid.width, grid.height, samples.iter().map(Option::is_some).collect())?;
+    let image = GrayImage::new(grid.width, grid.height, samples.into_iter().map(|s| s.unwrap_or(0.0)).collect())?;
+    Ok(Ortho { image, valid })
+}
+
+/// Bilinear sample at (u, v), wrapping u for panoramas; `None` off the image or touching the mask.
+fn sample<C: OrthoCamera>(img: &GrayImage, mask: Option<&Mask>, u: f64, v: f64) -> Option<f32> {
+    let (w, h) = (img.width() as isize, img.height() as isize);
+    let inside_u = C::WRAPS_U || (u >= 0.0 && u <= w as f64);
+    if !(inside_u && v >= 0.0 && v <= h as f64 && u.is_finite()) {
+        return None;
+    }
+    let (x, y) = (u - 0.5, v - 0.5);
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+    let col = |c: isize| if C::WRAPS_U { c.rem_euclid(w) } else { c.clamp(0, w - 1) } as usize;
+    let row = |r: isize| r.clamp(0, h - 1) as usize;
+    let (c0, c1, r0, r1) = (col(x0 as isize), col(x0 as isize + 1), row(y0 as isize), row(y0 as isize + 1));
+    if mask.is_some_and(|m| m.get(c0, r0) || m.get(c1, r0) || m.get(c0, r1) || m.get(c1, r1)) {
+        return None;
+    }
+    let top = img.get(c0, r0) * (1.0 - fx) + img.get(c1, r0) * fx;
+    let bottom = img.get(c0, r1) * (1.0 - fx) + img.get(c1, r1) * fx;
+    Some(top * (1.0 - fy) + bottom * fy)
+}
+
+/// The homography from raster pixels of `grid` on the plane z = `height` to the ideal (undistorted)
+/// pixels of a pinhole camera: H = K · R_Cᵀ · [g1, g2, g0 − C] (paper 001 §4.2). Exact for K1 = K2 = 0;
+/// with distortion, [`ortho_project`] applies the full camera model instead.
+pub fn plane_homography(exposure: &Exposure<'_, Pinhole>, grid: &GroundGrid, height: f64) -> Matrix3<f64> {
+    let cam = exposure.camera;
+    let k = Matrix3::new(cam.fx, 0.0, cam.cx, 0.0, cam.fy, cam.cy, 0.0, 0.0, 1.0);
+    let pose = exposure.mount.camera_pose(exposure.pose);
+    let a = grid.map_from_pixel();
+    let c = pose.translation;
+    let m = Matrix3::from_columns(&[
+        Vector3::new(a[(0, 0)], a[(1, 0)], 0.0),
+        Vector3::new(a[(0, 1)], a[(1, 1)], 0.0),
+        Vector3::new(a[(0, 2)] - c.x(), a[(1, 2)] - c.y(), height - c.z()),
+    ]);
+    let h = k * pose.rotation.matrix().transpose() * m;
+    if h[(2, 2)].abs() > 1e-15 { h / h[(2, 2)] } else { h }
+}
+
+#[cfg(test)]
+mod tests;
