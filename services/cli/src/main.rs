@@ -5,6 +5,8 @@
 
 mod exit;
 mod io;
+mod matching;
+mod simulate;
 mod trajectory;
 mod validate;
 
@@ -34,6 +36,10 @@ enum Command {
     /// Trajectory tools: format and CRS conversion, comparison against a reference.
     #[command(subcommand)]
     Trajectory(trajectory::Command),
+    /// Write a synthetic campaign with ground truth (trajectories, raw GNSS/IMU, DG errors, manifest).
+    Simulate(simulate::Args),
+    /// Register two images (AKAZE + RANSAC) and print the transform A → B pixels, inliers and residuals as JSON.
+    Match(matching::Args),
 }
 
 fn main() -> ExitCode {
@@ -51,6 +57,8 @@ fn main() -> ExitCode {
         match cli.command {
             Command::Validate(args) => validate::run(&ctx, args).await,
             Command::Trajectory(cmd) => trajectory::run(&ctx, cmd).await,
+            Command::Simulate(args) => simulate::run(&ctx, args).await,
+            Command::Match(args) => matching::run(&ctx, args).await,
         }
     });
     match result {

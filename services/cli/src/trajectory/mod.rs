@@ -10,7 +10,7 @@ use plumbline_geo::metrics;
 use crate::exit::{OrInvalid, invalid};
 use crate::io::{Context, file_name};
 
-mod crs;
+pub(crate) mod crs;
 
 /// Trajectory subcommands.
 #[derive(Debug, Subcommand)]
