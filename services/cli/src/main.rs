@@ -3,6 +3,7 @@
 //! Exit codes: 0 success, 1 failure while working (I/O, store, internal), 2 invalid input (a bad manifest,
 //! a malformed or implausible trajectory, an unknown CRS, a bad argument).
 
+mod cadastre;
 mod exit;
 mod io;
 mod matching;
@@ -40,6 +41,9 @@ enum Command {
     Simulate(simulate::Args),
     /// Register two images (AKAZE + RANSAC) and print the transform A → B pixels, inliers and residuals as JSON.
     Match(matching::Args),
+    /// Cadastre tools: inspect a GeoPackage's layers, CRS, classes and problems.
+    #[command(subcommand)]
+    Cadastre(cadastre::Command),
 }
 
 fn main() -> ExitCode {
@@ -59,6 +63,7 @@ fn main() -> ExitCode {
             Command::Trajectory(cmd) => trajectory::run(&ctx, cmd).await,
             Command::Simulate(args) => simulate::run(&ctx, args).await,
             Command::Match(args) => matching::run(&ctx, args).await,
+            Command::Cadastre(cmd) => cadastre::run(&ctx, cmd).await,
         }
     });
     match result {

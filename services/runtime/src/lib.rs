@@ -11,8 +11,10 @@
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
 //! - [`logging`] — [`init_tracing`].
 
+pub mod cadastre;
 pub mod config;
 pub mod crs;
+pub mod gdal_write;
 pub mod logging;
 pub mod secret;
 pub mod store;

@@ -22,6 +22,7 @@
 //! # Ok::<(), Box<dyn std::error::Error>>(())
 //! ```
 
+pub mod cadastre_features;
 mod epsg;
 mod id;
 mod inputs;
@@ -32,6 +33,9 @@ mod problem;
 mod schema;
 mod validate;
 
+pub use cadastre_features::{
+    CadastreDiagnostic, CadastreFeature, CadastreFeatureId, Consequence, DiagnosticKind, count_diagnostics,
+};
 pub use epsg::{EPSG_CRS_RANGE, Epsg, EpsgKind};
 pub use id::{CampaignId, CampaignIdError, MAX_CAMPAIGN_ID_LEN};
 pub use location::{Location, ResolveError, SCHEMES, resolve};

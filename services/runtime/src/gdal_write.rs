@@ -1,0 +1,256 @@
+//! Encode geodata to bytes through GDAL: GeoPackages of point layers and GeoTIFF rasters. Everything is
+//! built in GDAL's in-memory file system (`/vsimem/`, one unique name per call) and returned as bytes, so
+//! callers store it with [`crate::write_url`] anywhere. Coordinates are in traditional GIS axis order
+//! (longitude, latitude for geographic CRSs), as everywhere in this crate.
+
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use gdal::errors::GdalError;
+use gdal::raster::{Buffer, GdalType};
+use gdal::spatial_ref::{AxisMappingStrategy, SpatialRef};
+use gdal::vector::{Feature, FieldDefn, Geometry, LayerAccess, LayerOptions, OGRFieldType, OGRwkbGeometryType};
+use gdal::{Dataset, DriverManager};
+
+use crate::crs::route_gdal_messages;
+
+/// Why encoding failed: the GDAL step, or the item and field that were bad.
+#[derive(Debug, thiserror::Error)]
+pub enum GdalWriteError {
+    /// A GDAL call failed.
+    #[error("GDAL could not {step}: {source}")]
+    Gdal {
+        /// What was being done.
+        step: String,
+        /// GDAL's error.
+        #[source]
+        source: GdalError,
+    },
+    /// The input is inconsistent.
+    #[error("{item}: {field} {problem}")]
+    Invalid {
+        /// The layer, feature or raster.
+        item: String,
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+}
+
+/// Type of an attribute column.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FieldType {
+    /// 64-bit integer.
+    Integer,
+    /// Double.
+    Real,
+    /// Text.
+    Text,
+}
+
+/// One attribute value.
+#[derive(Clone, Debug, PartialEq)]
+pub enum FieldValue {
+    /// An integer.
+    Integer(i64),
+    /// A real.
+    Real(f64),
+    /// A text.
+    Text(String),
+}
+
+/// A point feature: (x, y) in the layer CRS and one value per field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointFeature {
+    /// Easting or longitude.
+    pub x: f64,
+    /// Northing or latitude.
+    pub y: f64,
+    /// Values in the order of [`PointLayer::fields`].
+    pub values: Vec<FieldValue>,
+}
+
+/// A point layer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointLayer {
+    /// Layer name.
+    pub name: String,
+    /// Attribute columns: name and type.
+    pub fields: Vec<(String, FieldType)>,
+    /// The features.
+    pub features: Vec<PointFeature>,
+}
+
+/// Pixels of a raster, band-sequential, rows top to bottom.
+#[derive(Clone, Debug, PartialEq)]
+pub enum RasterData {
+    /// 8-bit bands (e.g. RGB).
+    U8(Vec<Vec<u8>>),
+    /// 32-bit float bands (e.g. heights).
+    F32(Vec<Vec<f32>>),
+}
+
+/// A georeferenced raster.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Raster {
+    /// Width, pixels.
+    pub width: usize,
+    /// Height, pixels.
+    pub height: usize,
+    /// GDAL geotransform: [x0, pixel width, row rotation, y0, column rotation, −pixel height] of the top-left corner.
+    pub geotransform: [f64; 6],
+    /// EPSG code of the CRS.
+    pub epsg: u32,
+    /// The bands.
+    pub data: RasterData,
+    /// No-data value, if any.
+    pub nodata: Option<f64>,
+}
+
+/// Map a GDAL error to one naming the step that failed.
+fn failed(step: impl Into<String>) -> impl FnOnce(GdalError) -> GdalWriteError {
+    let step = step.into();
+    move |source| GdalWriteError::Gdal { step, source }
+}
+
+/// A fresh `/vsimem/` path.
+fn vsimem(extension: &str) -> String {
+    static NEXT: AtomicU64 = AtomicU64::new(0);
+    let n = NEXT.fetch_add(1, Ordering::Relaxed);
+    format!("/vsimem/plumbline-{}-{n}.{extension}", std::process::id())
+}
+
+fn srs(epsg: u32) -> Result<SpatialRef, GdalWriteError> {
+    let mut srs = SpatialRef::from_epsg(epsg).map_err(failed(format!("build the CRS EPSG:{epsg}")))?;
+    srs.set_axis_mapping_strategy(AxisMappingStrategy::TraditionalGisOrder);
+    Ok(srs)
+}
+
+/// Read a closed `/vsimem/` file's bytes and remove it.
+fn take(path: &str) -> Result<Vec<u8>, GdalWriteError> {
+    gdal::vsi::get_vsi_mem_file_bytes_owned(path).map_err(failed(format!("read back {path}")))
+}
+
+/// A GeoPackage with the given point layers, all in CRS `epsg`.
+pub fn geopackage(layers: &[PointLayer], epsg: u32) -> Result<Vec<u8>, GdalWriteError> {
+    route_gdal_messages();
+    check_layers(layers)?;
+    let srs = srs(epsg)?;
+    let path = vsimem("gpkg");
+    let driver = DriverManager::get_driver_by_name("GPKG").map_err(failed("find the GPKG driver"))?;
+    let mut ds = driver.create_vector_only(&path).map_err(failed("create a GeoPackage"))?;
+    let result = write_layers(&mut ds, layers, &srs);
+    let closed = ds.close().map_err(failed("close the GeoPackage"));
+    let bytes = take(&path);
+    result?;
+    closed?;
+    bytes
+}
+
+fn check_layers(layers: &[PointLayer]) -> Result<(), GdalWriteError> {
+    for layer in layers {
+        for (i, f) in layer.features.iter().enumerate() {
+            let item = || format!("layer {} feature {i}", layer.name);
+            if f.values.len() != layer.fields.len() {
+                let problem = format!("has {} values for {} fields", f.values.len(), layer.fields.len());
+                return Err(GdalWriteError::Invalid { item: item(), field: "values", problem });
+            }
+            if !(f.x.is_finite() && f.y.is_finite()) {
+                let problem = format!("({}, {}) is not finite", f.x, f.y);
+                return Err(GdalWriteError::Invalid { item: item(), field: "x/y", problem });
+            }
+        }
+    }
+    Ok(())
+}
+
+fn write_layers(ds: &mut Dataset, layers: &[PointLayer], srs: &SpatialRef) -> Result<(), GdalWriteError> {
+    for layer in layers {
+        let name = &layer.name;
+        let options = LayerOptions { name, srs: Some(srs), ty: OGRwkbGeometryType::wkbPoint, options: None };
+        let mut txn = ds.start_transaction().map_err(failed("start a transaction"))?;
+        let lyr = txn.create_layer(options).map_err(failed(format!("create layer {name}")))?;
+        for (field, ty) in &layer.fields {
+            let ogr = match ty {
+                FieldType::Integer => OGRFieldType::OFTInteger64,
+                FieldType::Real => OGRFieldType::OFTReal,
+                FieldType::Text => OGRFieldType::OFTString,
+            };
+            let defn = FieldDefn::new(field, ogr).map_err(failed(format!("define field {name}.{field}")))?;
+            defn.add_to_layer(&lyr).map_err(failed(format!("add field {name}.{field}")))?;
+        }
+        for (i, f) in layer.features.iter().enumerate() {
+            write_feature(&lyr, f).map_err(failed(format!("write feature {i} of layer {name}")))?;
+        }
+        txn.commit().map_err(failed(format!("commit layer {name}")))?;
+    }
+    Ok(())
+}
+
+fn write_feature<L: LayerAccess>(lyr: &L, f: &PointFeature) -> Result<(), GdalError> {
+    let mut feature = Feature::new(lyr.defn())?;
+    let mut point = Geometry::empty(OGRwkbGeometryType::wkbPoint)?;
+    point.add_point_2d((f.x, f.y));
+    feature.set_geometry(point)?;
+    for (k, value) in f.values.iter().enumerate() {
+        match value {
+            FieldValue::Integer(v) => feature.set_field_integer64(k, *v)?,
+            FieldValue::Real(v) => feature.set_field_double(k, *v)?,
+            FieldValue::Text(v) => feature.set_field_string(k, v)?,
+        }
+    }
+    feature.create(lyr)
+}
+
+/// A GeoTIFF (deflate-compressed, tiled) of the raster.
+pub fn geotiff(raster: &Raster) -> Result<Vec<u8>, GdalWriteError> {
+    route_gdal_messages();
+    match &raster.data {
+        RasterData::U8(bands) => geotiff_typed(raster, bands),
+        RasterData::F32(bands) => geotiff_typed(raster, bands),
+    }
+}
+
+fn geotiff_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Result<Vec<u8>, GdalWriteError> {
+    let item = || format!("{}×{} raster", raster.width, raster.height);
+    if bands.is_empty() {
+        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem: "has no band".into() });
+    }
+    if let Some((b, band)) = bands.iter().enumerate().find(|(_, b)| b.len() != raster.width * raster.height) {
+        let problem = format!("band {} holds {} pixels", b + 1, band.len());
+        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem });
+    }
+    let srs = srs(raster.epsg)?;
+    let path = vsimem("tif");
+    let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
+    let options = gdal::raster::RasterCreationOptions::from_iter(["COMPRESS=DEFLATE", "TILED=YES"]);
+    let mut ds = driver
+        .create_with_band_type_with_options::<T, _>(&path, raster.width, raster.height, bands.len(), &options)
+        .map_err(failed("create a GeoTIFF"))?;
+    let result = fill(&mut ds, raster, bands, &srs);
+    let closed = ds.close().map_err(failed("close the GeoTIFF"));
+    let bytes = take(&path);
+    result?;
+    closed?;
+    bytes
+}
+
+fn fill<T: GdalType + Copy>(
+    ds: &mut Dataset,
+    raster: &Raster,
+    bands: &[Vec<T>],
+    srs: &SpatialRef,
+) -> Result<(), GdalWriteError> {
+    ds.set_geo_transform(&raster.geotransform).map_err(failed("set the geotransform"))?;
+    ds.set_spatial_ref(srs).map_err(failed("set the CRS"))?;
+    for (b, data) in bands.iter().enumerate() {
+        let mut band = ds.rasterband(b + 1).map_err(failed(format!("open band {}", b + 1)))?;
+        if let Some(nodata) = raster.nodata {
+            band.set_no_data_value(Some(nodata)).map_err(failed("set the no-data value"))?;
+        }
+        let mut buffer = Buffer::new((raster.width, raster.height), data.clone());
+        band.write((0, 0), (raster.width, raster.height), &mut buffer)
+            .map_err(failed(format!("write band {}", b + 1)))?;
+    }
+    Ok(())
+}
