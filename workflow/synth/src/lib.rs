@@ -2,8 +2,13 @@
 //! shaped by urban canyons, and the sensor data (panoramas, depth images, aerial images, cadastres) a real
 //! campaign would deliver. Synchronous and I/O-free: everything is produced as values and bytes.
 
+pub mod aerial;
+pub mod cadastre;
+pub mod map;
 pub mod motion;
+pub mod ortho;
 pub mod render;
 pub mod route;
+pub mod sensors;
 pub mod texture;
 pub mod world;

@@ -8,34 +8,49 @@
 //! - `truth/trajectory.csv`: the true trajectory (campaign CRS, σ = 0), the manifest's `reference`;
 //! - `truth/dg_errors.csv`: DG − truth per epoch with the environment and fault;
 //! - `overview.png`: a map of the drive coloured by the horizontal DG error, standstills in black;
+//! - `panoramas/`: equirectangular JPEGs every `--panorama-spacing` metres rendered with the TRUE pose,
+//!   `index.csv` and `vehicle_mask.png` (non-zero = vehicle); `truth/images.csv`: true and DG poses then;
+//! - `depth/right/`: 16-bit PNG depth images (millimetres) of the side-looking camera, `index.csv`;
+//!   `truth/depth_images.csv`;
+//! - `cadastre/poles.gpkg` (layers `poles`, `trees`, EPSG 4258) and `truth/poles.csv` (module `cadastre`);
+//! - `aerial/`: frames, `exterior_orientation.csv`, orthophoto and terrain GeoTIFFs (module `aerial`);
+//! - `map.png`: the world's buildings, streets, poles, aerial footprints and the drive coloured by DG error;
 //! - `campaign.toml`: the manifest.
 //!
 //! The drive follows a route through the procedural world (`plumbline_synth::world`) of the same seed;
-//! `--profile` replaces the streets' canyons by one environment, `mixed` keeps the world's own. Panoramas,
-//! depth images, aerial images and cadastres are not written yet.
+//! `--profile` replaces the streets' canyons by one environment, `mixed` keeps the world's own.
+//! Files stream to the store as they are made (a bounded channel), so large campaigns need not fit in memory.
+
+mod aerial;
+mod cadastre;
+mod imagery;
+mod manifest;
 
 use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
-use plumbline_campaign::Manifest;
 use plumbline_geo::formats::{self, RawTrajectory};
+use plumbline_synth::map::campaign_map_png;
 use plumbline_synth::motion::dg::{self, DgConfig, DgSolution};
 use plumbline_synth::motion::imu::{self, ImuErrors};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig, files, gnss, overview_png};
 use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::world::{self, World, WorldConfig};
+use tokio::sync::mpsc;
 
-use crate::exit::{OrInvalid, invalid};
+use crate::exit::OrInvalid;
 use crate::io::Context;
 use crate::trajectory::crs;
 
 /// Width of the overview map, pixels.
 const OVERVIEW_WIDTH_PX: u32 = 1600;
+/// Files made but not yet written that the generator may run ahead by.
+const WRITE_QUEUE: usize = 8;
 
 /// Arguments of `simulate`.
-#[derive(Debug, ClapArgs)]
+#[derive(Debug, Clone, ClapArgs)]
 pub struct Args {
     /// Size of the campaign: `tiny` ~0.4 km drive in a ~0.7 km street grid (for tests), `district` ~2 km.
     #[arg(long, value_enum, default_value_t = Preset::Tiny)]
@@ -53,6 +68,21 @@ pub struct Args {
     /// Grade of the IMU: tactical (LN-100 class) or consumer (BMI160 class).
     #[arg(long, value_enum, default_value_t = Grade::Tactical)]
     pub imu: Grade,
+    /// Write only the navigation data (trajectories, GNSS, IMU, error series, overview): no images, no cadastre.
+    #[arg(long)]
+    pub navigation_only: bool,
+    /// Distance driven between panoramas, metres; default 10 for `tiny` (~40 panoramas), 5 for `district`.
+    #[arg(long)]
+    pub panorama_spacing: Option<f64>,
+    /// Panorama width in pixels (height = width / 2); default 1024 for `tiny`, 4096 for `district`.
+    #[arg(long)]
+    pub panorama_width: Option<u32>,
+    /// Ground sample distance of the aerial frames and the orthophoto, metres.
+    #[arg(long, default_value_t = 0.12)]
+    pub aerial_gsd: f64,
+    /// Depth images per second while the vehicle moves; default 1 for `tiny`, 5 for `district`.
+    #[arg(long)]
+    pub depth_rate: Option<f64>,
 }
 
 /// Campaign sizes.
@@ -86,27 +116,38 @@ pub enum Grade {
     Consumer,
 }
 
-/// The files of a campaign: path relative to the prefix, bytes.
-type Files = Vec<(&'static str, Vec<u8>)>;
+/// Where generated files go: path relative to the campaign prefix, bytes; written by the async side.
+#[derive(Debug)]
+pub(crate) struct Sink {
+    tx: mpsc::Sender<(String, Vec<u8>)>,
+}
+
+impl Sink {
+    /// Hand a file to the writer (blocks while the queue is full).
+    pub(crate) fn put(&self, path: impl Into<String>, bytes: Vec<u8>) -> anyhow::Result<()> {
+        self.tx.blocking_send((path.into(), bytes)).map_err(|_| anyhow::anyhow!("the campaign writer stopped"))
+    }
+}
 
 /// Run `simulate`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
-    let seed = args.seed;
-    let (preset, profile, grade) = (args.preset, args.profile, args.imu);
-    let (files, summary) = tokio::task::spawn_blocking(move || generate(preset, profile, grade, seed))
-        .await
-        .context("simulation task")??;
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
-    for (path, bytes) in files {
+    let (tx, mut rx) = mpsc::channel(WRITE_QUEUE);
+    let task = tokio::task::spawn_blocking(move || generate(&args, &Sink { tx }));
+    let mut written = 0usize;
+    while let Some((path, bytes)) = rx.recv().await {
         ctx.write(&format!("{prefix}{path}"), bytes).await?;
+        written += 1;
     }
-    eprintln!("{summary}");
+    let summary = task.await.context("simulation task")??;
+    eprintln!("{summary}; {written} files");
     println!("{prefix}campaign.toml");
     Ok(ExitCode::SUCCESS)
 }
 
-/// Simulate the campaign and encode its files (CPU only; no I/O).
-fn generate(preset: Preset, profile: Profile, grade: Grade, seed: u64) -> anyhow::Result<(Files, String)> {
+/// Simulate the campaign and hand its files to `sink` (CPU and GDAL only; the writing is the caller's).
+fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
+    let (preset, seed) = (args.preset, args.seed);
     let (world_preset, length) = match preset {
         Preset::Tiny => (world::Preset::Tiny, 400.0),
         Preset::District => (world::Preset::District, 2000.0),
@@ -114,8 +155,8 @@ fn generate(preset: Preset, profile: Profile, grade: Grade, seed: u64) -> anyhow
     let world_config = WorldConfig::new(world_preset, seed);
     let crs = world_config.epsg;
     let world = World::generate(&world_config).context("synthetic world")?;
-    let route = with_profile(world.route(seed, length), profile);
-    let (imu_errors, outage_growth) = match grade {
+    let route = with_profile(world.route(seed, length), args.profile);
+    let (imu_errors, outage_growth) = match args.imu {
         Grade::Tactical => (ImuErrors::TACTICAL, 0.15),
         Grade::Consumer => (ImuErrors::CONSUMER, 1.5),
     };
@@ -127,18 +168,28 @@ fn generate(preset: Preset, profile: Profile, grade: Grade, seed: u64) -> anyhow
     let geographic = crs::express(&dg.trajectory, crs, 4326).context("DG trajectory to WGS 84")?;
     let sbet = formats::raw_to_sbet(&geographic).context("DG trajectory as SBET")?;
     let id = format!("synth-{}-{seed}", name(preset));
-    let files = vec![
-        ("nav/dg.sbet", formats::write_sbet(&sbet)),
-        ("nav/dg.smrmsg", formats::write_smrmsg(&formats::raw_to_smrmsg(&geographic))),
-        ("nav/dg.csv", formats::write_csv(&RawTrajectory::from_map_projected(dg.trajectory.records()))),
-        ("nav/gnss.csv", files::gnss_csv(&fixes)),
-        ("nav/imu.csv", files::imu_csv(&imu_data)),
-        ("truth/trajectory.csv", formats::write_csv(&RawTrajectory::from_map_projected(drive.trajectory.records()))),
-        ("truth/dg_errors.csv", files::dg_errors_csv(&dg.errors)),
-        ("overview.png", overview_png(&drive, &dg, OVERVIEW_WIDTH_PX).context("overview map")?),
-        ("campaign.toml", manifest(&id, crs)?.into_bytes()),
-    ];
-    Ok((files, summary(&id, &drive, &dg, fixes.len())))
+    sink.put("nav/dg.sbet", formats::write_sbet(&sbet))?;
+    sink.put("nav/dg.smrmsg", formats::write_smrmsg(&formats::raw_to_smrmsg(&geographic)))?;
+    sink.put("nav/dg.csv", formats::write_csv(&RawTrajectory::from_map_projected(dg.trajectory.records())))?;
+    sink.put("nav/gnss.csv", files::gnss_csv(&fixes))?;
+    sink.put("nav/imu.csv", files::imu_csv(&imu_data))?;
+    let truth_csv = formats::write_csv(&RawTrajectory::from_map_projected(drive.trajectory.records()));
+    sink.put("truth/trajectory.csv", truth_csv)?;
+    sink.put("truth/dg_errors.csv", files::dg_errors_csv(&dg.errors))?;
+    sink.put("overview.png", overview_png(&drive, &dg, OVERVIEW_WIDTH_PX).context("overview map")?)?;
+    let mut sections = manifest::Sections::default();
+    if !args.navigation_only {
+        let sizes = imagery::Sizes::of(args)?;
+        sections.panoramas = Some(imagery::panoramas(&world, &drive, &dg, &sizes, sink)?);
+        sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
+        sections.cadastre = Some(cadastre::write(&world, crs, seed, sink)?);
+        let (section, footprints) = aerial::write(&world, args.aerial_gsd, seed, sink)?;
+        sections.aerial = Some(section);
+        let map = campaign_map_png(&world, &drive, &dg, &footprints, OVERVIEW_WIDTH_PX).context("campaign map")?;
+        sink.put("map.png", map)?;
+    }
+    sink.put("campaign.toml", manifest::manifest(&id, crs, &sections)?.into_bytes())?;
+    Ok(summary(&id, &drive, &dg, fixes.len()))
 }
 
 /// The route with every street's canyon replaced by the profile's (`mixed`: unchanged).
@@ -160,32 +211,6 @@ fn name(preset: Preset) -> &'static str {
         Preset::Tiny => "tiny",
         Preset::District => "district",
     }
-}
-
-/// The v1 manifest, checked before it is written.
-fn manifest(id: &str, crs: u32) -> anyhow::Result<String> {
-    let text = format!(
-        "# A synthetic campaign written by `plumbline simulate`; paths are relative to this file.\n\
-         version = \"1\"\n\
-         crs = {crs}\n\
-         output = \"results/\"\n\n\
-         [campaign]\n\
-         id = \"{id}\"\n\
-         name = \"Synthetic campaign {id}\"\n\n\
-         [[trajectory]]\n\
-         format = \"sbet\"\n\
-         url = \"nav/dg.sbet\"\n\
-         smrmsg = \"nav/dg.smrmsg\"\n\
-         gnss = \"nav/gnss.csv\"\n\
-         imu = \"nav/imu.csv\"\n\
-         reference = \"truth/trajectory.csv\"\n"
-    );
-    let parsed = Manifest::from_toml_str(&text).map_err(|e| invalid(format!("generated manifest: {e}")))?;
-    if let Err(problems) = parsed.validate() {
-        let list: Vec<String> = problems.iter().map(ToString::to_string).collect();
-        return Err(invalid(format!("generated manifest: {}", list.join("; "))));
-    }
-    Ok(text)
 }
 
 fn summary(id: &str, drive: &Drive, dg: &DgSolution, fixes: usize) -> String {

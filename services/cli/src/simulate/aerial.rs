@@ -1,0 +1,79 @@
+//! The aerial products of a simulated campaign: frame images of a block at 12 cm GSD (`--aerial-gsd`) rendered with the TRUE
+//! orientations of the aerial epoch, the AT-reported exterior orientations (`aerial/exterior_orientation.csv`;
+//! the true ones in `truth/aerial_orientation.csv`), a true orthophoto and a flat terrain model as GeoTIFFs
+//! in the campaign CRS.
+
+use anyhow::Context as _;
+use plumbline_runtime::gdal_write::{Raster, RasterData, geotiff};
+use plumbline_synth::aerial::{self, exterior_orientation_csv};
+use plumbline_synth::map::footprint;
+use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
+use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, encode_jpeg, render_aerial};
+use plumbline_synth::world::World;
+
+use super::Sink;
+use crate::exit::invalid;
+
+/// JPEG quality of the frames.
+const JPEG_QUALITY: u8 = 90;
+/// Frame size, pixels (small format: keeps `tiny` quick; the GSD is what matters).
+const FRAME_PX: (u32, u32) = (1000, 750);
+/// Pixel size of the terrain model, metres.
+const TERRAIN_GSD_M: f64 = 1.0;
+
+/// Ground corners of each frame (for the campaign map).
+pub(crate) type Footprints = Vec<[[f64; 2]; 4]>;
+
+/// Write frames, orientations, orthophoto and terrain; returns the manifest's `[aerial]` and the footprints.
+pub(crate) fn write(world: &World, gsd: f64, seed: u64, sink: &Sink) -> anyhow::Result<(String, Footprints)> {
+    if !(gsd.is_finite() && (0.02..=1.0).contains(&gsd)) {
+        return Err(invalid(format!("--aerial-gsd {gsd}: expected 0.02–1 m")));
+    }
+    let spec = BlockSpec { gsd, ..BlockSpec::standard() };
+    let interior = aerial::small_format(FRAME_PX.0, FRAME_PX.1);
+    let (cam, frames) = aerial::block(world, &interior, &spec, &AtErrors::typical(), seed).context("aerial camera")?;
+    let scene = Scene::aerial(world);
+    for (i, frame) in frames.iter().enumerate() {
+        let optics = AerialOptics::typical(seed.wrapping_mul(7_919).wrapping_add(i as u64));
+        let image = render_aerial(&scene, &cam, &frame.truth, &optics);
+        sink.put(format!("aerial/frames/{}.jpg", frame.id), encode_jpeg(&image, JPEG_QUALITY)?)?;
+    }
+    sink.put("aerial/exterior_orientation.csv", exterior_orientation_csv(&frames, true))?;
+    sink.put("truth/aerial_orientation.csv", exterior_orientation_csv(&frames, false))?;
+    let epsg = world.config.epsg;
+    let grid = OrthoGrid::covering(&scene, spec.gsd);
+    let ortho = render_orthophoto(&scene, &grid);
+    let bands = (0..3).map(|k| ortho.pixels().map(|p| p[k]).collect()).collect();
+    let (width, height) = (grid.width as usize, grid.height as usize);
+    let raster =
+        Raster { width, height, geotransform: grid.geotransform(), epsg, data: RasterData::U8(bands), nodata: None };
+    sink.put("aerial/orthophoto.tif", geotiff(&raster).context("orthophoto GeoTIFF")?)?;
+    let dem = OrthoGrid::covering(&scene, TERRAIN_GSD_M);
+    let heights = vec![world.config.ground_height as f32; dem.width as usize * dem.height as usize];
+    let terrain = Raster {
+        width: dem.width as usize,
+        height: dem.height as usize,
+        geotransform: dem.geotransform(),
+        epsg,
+        data: RasterData::F32(vec![heights]),
+        nodata: Some(-9999.0),
+    };
+    sink.put("aerial/terrain.tif", geotiff(&terrain).context("terrain GeoTIFF")?)?;
+    let footprints = frames.iter().map(|f| footprint(&f.truth, interior.width, interior.height, gsd)).collect();
+    let section = format!(
+        "[aerial.frames]\nindex = \"aerial/exterior_orientation.csv\"\nimages = \"aerial/frames/\"\ngsd_m = {:?}\n\n\
+         [aerial.frames.interior]\nfocal_length_mm = {:?}\nprincipal_point_mm = [{:?}, {:?}]\npixel_size_mm = {:?}\n\
+         k1 = {:?}\nk2 = {:?}\nwidth_px = {}\nheight_px = {}\n\n\
+         [aerial.orthophoto]\nimage = \"aerial/orthophoto.tif\"\nterrain = \"aerial/terrain.tif\"\n",
+        spec.gsd,
+        interior.focal_mm,
+        interior.xp_mm,
+        interior.yp_mm,
+        interior.pixel_mm,
+        interior.k1,
+        interior.k2,
+        interior.width,
+        interior.height
+    );
+    Ok((section, footprints))
+}

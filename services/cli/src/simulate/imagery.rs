@@ -1,0 +1,138 @@
+//! Street-level imagery of a simulated campaign: panoramas and depth images along the drive, rendered with
+//! the TRUE vehicle pose (the DG pose at the same time goes to the truth tables), with their index files.
+
+use anyhow::Context as _;
+use image::GrayImage;
+use plumbline_geo::camera::{Equirectangular, Pinhole};
+use plumbline_synth::motion::Drive;
+use plumbline_synth::motion::dg::DgSolution;
+use plumbline_synth::render::{
+    DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray, encode_png_gray16, render_depth, render_panorama,
+};
+use plumbline_synth::sensors::{self, Mount};
+use plumbline_synth::world::{Epoch, World};
+
+use super::manifest::mount;
+use super::{Args, Preset, Sink};
+use crate::exit::invalid;
+
+/// JPEG quality of the panoramas.
+const JPEG_QUALITY: u8 = 90;
+
+/// Image sizes and rates of the street-level sensors.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Sizes {
+    /// Panorama width (height = width / 2), pixels.
+    pub panorama_width: u32,
+    /// Distance driven between panoramas, metres.
+    pub panorama_spacing: f64,
+    /// Depth image width and height, pixels.
+    pub depth: (u32, u32),
+    /// Depth frames per second while moving.
+    pub depth_rate: f64,
+}
+
+impl Sizes {
+    /// The preset's sizes with the command line's overrides.
+    pub(crate) fn of(args: &Args) -> anyhow::Result<Self> {
+        let (width, spacing, depth, rate) = match args.preset {
+            Preset::Tiny => (1024, 10.0, (320, 180), 1.0),
+            Preset::District => (4096, 5.0, (1280, 720), 5.0),
+        };
+        let panorama_spacing = args.panorama_spacing.unwrap_or(spacing);
+        let panorama_width = args.panorama_width.unwrap_or(width);
+        if !(64..=16_384).contains(&panorama_width) || !panorama_width.is_multiple_of(2) {
+            return Err(invalid(format!("--panorama-width {panorama_width}: expected an even width 64–16384")));
+        }
+        if !(panorama_spacing.is_finite() && panorama_spacing >= 0.5) {
+            return Err(invalid(format!("--panorama-spacing {panorama_spacing}: expected ≥ 0.5 m")));
+        }
+        let depth_rate = args.depth_rate.unwrap_or(rate);
+        if !(depth_rate.is_finite() && depth_rate > 0.0 && depth_rate <= 60.0) {
+            return Err(invalid(format!("--depth-rate {depth_rate}: expected 0–60 Hz")));
+        }
+        Ok(Self { panorama_width, panorama_spacing, depth, depth_rate })
+    }
+}
+
+/// Render and hand over the panoramas, their index, the vehicle mask and `truth/images.csv`; returns the
+/// manifest's `[panoramas]`.
+pub(crate) fn panoramas(
+    world: &World,
+    drive: &Drive,
+    dg: &DgSolution,
+    sizes: &Sizes,
+    sink: &Sink,
+) -> anyhow::Result<String> {
+    let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
+    let cam = Equirectangular::new(w, h).context("panorama camera")?;
+    let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
+    let shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory)?;
+    let (scene, mount_, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
+    let mut mask_png = None;
+    for shot in &shots {
+        let pano = render_panorama(&scene, &cam, &mount_, &shot.truth.pose(), &vehicle);
+        let jpeg = encode_jpeg(&pano.image, JPEG_QUALITY).with_context(|| format!("panorama {}", shot.id))?;
+        sink.put(format!("panoramas/{}.jpg", shot.id), jpeg)?;
+        if mask_png.is_none() {
+            // The manifest's mask: non-zero = vehicle (the renderer's: 255 = scene).
+            let vehicle_mask = GrayImage::from_fn(w, h, |x, y| image::Luma([255 - pano.mask.get_pixel(x, y)[0]]));
+            mask_png = Some(encode_png_gray(&vehicle_mask).context("vehicle mask")?);
+        }
+    }
+    if let Some(png) = mask_png {
+        sink.put("panoramas/vehicle_mask.png", png)?;
+    }
+    sink.put("panoramas/index.csv", sensors::index_csv(&shots, "jpg"))?;
+    sink.put("truth/images.csv", sensors::truth_csv(&shots))?;
+    Ok(format!(
+        "[panoramas]\nindex = \"panoramas/index.csv\"\nimages = \"panoramas/\"\nwidth_px = {w}\nheight_px = {h}\n\
+         vehicle_mask = \"panoramas/vehicle_mask.png\"\n{}",
+        mount("panoramas", &Mount::PANORAMA)
+    ))
+}
+
+/// The depth camera: paper 002 §3.1.2's field of view (fx = width / 2, ≈ 90° horizontally).
+fn depth_camera(width: u32, height: u32) -> anyhow::Result<Pinhole> {
+    let f = f64::from(width) / 2.0;
+    Pinhole::new(width, height, f, f, f64::from(width) / 2.0, f64::from(height) / 2.0, 0.0, 0.0).context("depth camera")
+}
+
+/// Render and hand over the depth images, their index and `truth/depth_images.csv`; returns `[[depth]]`.
+pub(crate) fn depth(
+    world: &World,
+    drive: &Drive,
+    dg: &DgSolution,
+    sizes: &Sizes,
+    seed: u64,
+    sink: &Sink,
+) -> anyhow::Result<String> {
+    let (w, h) = sizes.depth;
+    let cam = depth_camera(w, h)?;
+    let times = sensors::moving_times(drive, sizes.depth_rate)?;
+    let shots = sensors::shots("depth", &times, &drive.trajectory, &dg.trajectory)?;
+    let camera_mount = Mount::DEPTH.camera_mount();
+    for (i, shot) in shots.iter().enumerate() {
+        let noise = DepthNoise::realsense(seed.wrapping_mul(1_000_003).wrapping_add(i as u64));
+        let pose = camera_mount.camera_pose(&shot.truth.pose());
+        let image = render_depth(world, Epoch::Mobile, &cam, &pose, &noise);
+        let png = encode_png_gray16(&image).with_context(|| format!("depth image {}", shot.id))?;
+        sink.put(format!("depth/right/{}.png", shot.id), png)?;
+    }
+    sink.put("depth/right/index.csv", sensors::index_csv(&shots, "png"))?;
+    sink.put("truth/depth_images.csv", sensors::truth_csv(&shots))?;
+    let noise = DepthNoise::realsense(0);
+    Ok(format!(
+        "[[depth]]\nindex = \"depth/right/index.csv\"\nimages = \"depth/right/\"\nrange_error_share = {:?}\n\n\
+         [depth.intrinsics]\nfx = {:?}\nfy = {:?}\ncx = {:?}\ncy = {:?}\nwidth_px = {w}\nheight_px = {h}\n\
+         depth_scale_m = 0.001\nmin_range_m = {:?}\nmax_range_m = {:?}\n{}",
+        noise.share,
+        cam.fx,
+        cam.fy,
+        cam.cx,
+        cam.cy,
+        noise.min,
+        noise.max,
+        mount("depth", &Mount::DEPTH)
+    ))
+}

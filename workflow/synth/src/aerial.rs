@@ -1,0 +1,97 @@
+//! The aerial block of a campaign as values: the metric camera, the frames' ids, their true and reported
+//! (AT-perturbed) orientations, and the exterior-orientation CSV (`image_id,file,x,y,z,omega_deg,phi_deg,
+//! kappa_deg`; campaign CRS, ARCHITECTURE.md § Angles).
+
+use std::fmt::Write as _;
+
+use plumbline_geo::camera::{CameraError, MetricInterior, Pinhole};
+use plumbline_geo::{MapFromCamera, OmegaPhiKappa};
+
+use crate::render::{AtErrors, BlockSpec, perturb_block, plan_block};
+use crate::world::World;
+
+/// A small-format metric camera: 50 mm, 4 µm pixels (12 500 px focal length), no distortion.
+pub fn small_format(width: u32, height: u32) -> MetricInterior {
+    MetricInterior { focal_mm: 50.0, xp_mm: 0.0, yp_mm: 0.0, k1: 0.0, k2: 0.0, pixel_mm: 0.004, width, height }
+}
+
+/// One frame of the block.
+#[derive(Clone, Debug)]
+pub struct Frame {
+    /// Image id (also the file stem).
+    pub id: String,
+    /// The true orientation (what the image is rendered with).
+    pub truth: MapFromCamera,
+    /// The orientation the AT reports (truth plus AT errors).
+    pub reported: MapFromCamera,
+}
+
+/// The block over `world` flown with `spec`, with seeded AT errors.
+pub fn block(
+    world: &World,
+    interior: &MetricInterior,
+    spec: &BlockSpec,
+    errors: &AtErrors,
+    seed: u64,
+) -> Result<(Pinhole, Vec<Frame>), CameraError> {
+    let cam = Pinhole::from_metric(interior)?;
+    let truth = plan_block(world, &cam, spec);
+    let reported = perturb_block(&truth, errors, seed);
+    let frames = truth
+        .into_iter()
+        .zip(reported)
+        .enumerate()
+        .map(|(i, (truth, reported))| Frame { id: format!("aerial{i:04}"), truth, reported })
+        .collect();
+    Ok((cam, frames))
+}
+
+/// The exterior-orientation CSV of `frames` (`reported` or true orientations), files `{id}.jpg`.
+pub fn exterior_orientation_csv(frames: &[Frame], reported: bool) -> Vec<u8> {
+    let mut s = String::from("image_id,file,x,y,z,omega_deg,phi_deg,kappa_deg\n");
+    for f in frames {
+        let pose = if reported { &f.reported } else { &f.truth };
+        let opk = OmegaPhiKappa::from_rotation(&pose.rotation);
+        let p = pose.translation;
+        let _ = writeln!(
+            s,
+            "{},{}.jpg,{:.4},{:.4},{:.4},{:.7},{:.7},{:.7}",
+            f.id,
+            f.id,
+            p.x(),
+            p.y(),
+            p.z(),
+            opk.omega.to_degrees(),
+            opk.phi.to_degrees(),
+            opk.kappa.to_degrees()
+        );
+    }
+    s.into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::{Preset, WorldConfig};
+
+    #[test]
+    fn csv_angles_rebuild_the_reported_rotation() {
+        let world = World::generate(&WorldConfig::new(Preset::Tiny, 4)).unwrap();
+        let (cam, frames) =
+            block(&world, &small_format(400, 300), &BlockSpec::standard(), &AtErrors::typical(), 9).unwrap();
+        // 12 cm GSD: flying height = gsd · focal length in pixels above the ground.
+        let h = frames[0].truth.translation.z() - world.config.ground_height;
+        assert!((h - 0.12 * cam.fx).abs() < 1e-9, "{h}");
+        let text = String::from_utf8(exterior_orientation_csv(&frames, true)).unwrap();
+        for (line, f) in text.lines().skip(1).zip(&frames) {
+            let v: Vec<f64> = line.split(',').skip(2).map(|x| x.parse().unwrap()).collect();
+            let r = OmegaPhiKappa::from_degrees(v[3], v[4], v[5]).to_rotation();
+            assert!(r.angle_to(&f.reported.rotation) < 1e-8, "{line}");
+            assert!((v[0] - f.reported.translation.x()).abs() < 1e-4);
+            // The reported orientation differs from the truth by the AT error (a few cm).
+            let d = (f.reported.translation - f.truth.translation).norm();
+            assert!(d > 1e-4 && d < 0.3, "{d}");
+        }
+        assert_eq!(text.lines().count(), frames.len() + 1);
+    }
+}
