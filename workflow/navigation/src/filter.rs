@@ -1,0 +1,243 @@
+//! The forward pass: strapdown prediction at the IMU rate, closed-loop GNSS position updates with the lever
+//! arm (paper 001 §2.1 prediction and update), and everything the RTS smoother needs.
+
+use nalgebra::{Matrix3, SMatrix, Vector3};
+use plumbline_geo::Rotation;
+
+use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::state::{ATT, BA, BG, POS, VEL};
+use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
+use crate::{NavError, check_fix, check_samples};
+
+/// Smallest initial bias σ, so that the covariance stays invertible for a perfect IMU model.
+const MIN_BIAS_STD: f64 = 1e-12;
+
+/// One GNSS innovation (predicted residual, paper 001 §3.1) with its covariance.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Innovation {
+    /// Time of the fix, s.
+    pub time: f64,
+    /// Index of the fix in the input.
+    pub fix: usize,
+    /// Fix − predicted antenna position: east, north, up, m.
+    pub residual: Vector3<f64>,
+    /// C_v = C_y + A·C_{k|k−1}·Aᵀ (paper 001 §3.1; the predicted covariance, as the innovation's
+    /// definition requires — the paper's C_{k|k} is a typo).
+    pub covariance: Matrix3<f64>,
+}
+
+/// A GNSS fix the filter did not use, and why.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SkippedFix {
+    /// Index of the fix in the input.
+    pub fix: usize,
+    /// What is wrong with it.
+    pub reason: NavError,
+}
+
+/// Covariances around an update epoch: the RTS smoother's checkpoints.
+#[derive(Clone, Debug)]
+pub(crate) struct Checkpoint {
+    pub epoch: usize,
+    /// C_{k|k−1}.
+    pub prior: Mat15,
+    /// C_{k|k}.
+    pub posterior: Mat15,
+    /// The error-state estimate injected at this epoch (zero where nothing was observed).
+    pub update: Vec15,
+}
+
+/// The result of the forward pass.
+#[derive(Clone, Debug)]
+pub struct ForwardPass {
+    pub(crate) config: NavConfig,
+    pub(crate) samples: Vec<ImuSample>,
+    /// Epoch 0 is the initial state, epoch i + 1 follows sample i (after any update).
+    pub(crate) nominal: Vec<Nominal>,
+    pub(crate) position_cov: Vec<Matrix3<f64>>,
+    pub(crate) checkpoints: Vec<Checkpoint>,
+    /// The innovations of every used fix, in time order.
+    pub innovations: Vec<Innovation>,
+    /// Fixes not used (invalid, or outside the IMU's time span).
+    pub skipped: Vec<SkippedFix>,
+}
+
+/// Run the filter over `imu` (contiguous increments starting at `initial.time`) and `gnss` (time-sorted).
+pub fn filter(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    initial: &InitialState,
+    config: &NavConfig,
+) -> Result<ForwardPass, NavError> {
+    config.check()?;
+    initial.check()?;
+    check_samples(imu, initial.time)?;
+    let mut run = Run::new(imu, initial, config);
+    run.fixes_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5);
+    for s in imu {
+        run.predict(s);
+        run.fixes_at(gnss, s.dt * 0.5);
+    }
+    Ok(run.finish(gnss.len()))
+}
+
+/// The running filter.
+struct Run<'a> {
+    config: &'a NavConfig,
+    imu: &'a [ImuSample],
+    state: Nominal,
+    p: Mat15,
+    next_fix: usize,
+    out: ForwardPass,
+}
+
+impl<'a> Run<'a> {
+    fn new(imu: &'a [ImuSample], init: &InitialState, config: &'a NavConfig) -> Self {
+        let attitude = *init.attitude.to_rotation().quaternion();
+        let state = Nominal {
+            time: init.time,
+            position: init.position.p,
+            velocity: init.velocity.v,
+            attitude,
+            accel_bias: Vector3::zeros(),
+            gyro_bias: Vector3::zeros(),
+        };
+        let p = initial_covariance(init, config);
+        let mut nominal = Vec::with_capacity(imu.len() + 1);
+        nominal.push(state);
+        let out = ForwardPass {
+            config: *config,
+            samples: imu.to_vec(),
+            nominal,
+            position_cov: vec![p.fixed_view::<3, 3>(POS, POS).into_owned()],
+            checkpoints: vec![Checkpoint { epoch: 0, prior: p, posterior: p, update: Vec15::zeros() }],
+            innovations: Vec::new(),
+            skipped: Vec::new(),
+        };
+        Self { config, imu, state, p, next_fix: 0, out }
+    }
+
+    /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
+    fn predict(&mut self, s: &ImuSample) {
+        let f = self.state.transition(s, self.config.imu.bias_correlation_time);
+        self.p = predict_cov(&f, &self.p, &process_noise(&self.config.imu, s.dt));
+        self.state = self.state.propagate(s, self.config.gravity);
+        self.out.nominal.push(self.state);
+        self.out.position_cov.push(self.p.fixed_view::<3, 3>(POS, POS).into_owned());
+    }
+
+    /// Apply every fix within `half` seconds of the current epoch.
+    fn fixes_at(&mut self, gnss: &[GnssFix], half: f64) {
+        let epoch = self.out.nominal.len() - 1;
+        let prior = self.p;
+        let mut update = Vec15::zeros();
+        while let Some(fix) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
+            let index = self.next_fix;
+            self.next_fix += 1;
+            if let Err(reason) = check_fix(index, fix) {
+                self.out.skipped.push(SkippedFix { fix: index, reason });
+            } else if fix.time < self.state.time - half {
+                let reason = NavError::FixOutsideImu { index, time: fix.time };
+                self.out.skipped.push(SkippedFix { fix: index, reason });
+            } else {
+                update += self.update(index, fix);
+            }
+        }
+        if update != Vec15::zeros() {
+            self.out.position_cov[epoch] = self.p.fixed_view::<3, 3>(POS, POS).into_owned();
+            *self.out.nominal.last_mut().expect("the initial epoch is always present") = self.state;
+            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update });
+        }
+    }
+
+    /// Update (paper 001 §2.1) with one antenna position; returns the injected error-state estimate.
+    fn update(&mut self, index: usize, fix: &GnssFix) -> Vec15 {
+        let c = self.state.attitude.to_rotation_matrix().into_inner();
+        let arm = c * self.config.lever_arm.v;
+        let predicted = self.state.position + self.state.velocity * (fix.time - self.state.time) + arm;
+        let residual = fix.position.p - predicted;
+        let mut h = SMatrix::<f64, 3, 15>::zeros();
+        h.fixed_view_mut::<3, 3>(0, POS).copy_from(&Matrix3::identity());
+        // Antenna = p + Exp(φ)·C·l ≈ p + C·l − (C·l)×φ.
+        h.fixed_view_mut::<3, 3>(0, ATT).copy_from(&(-skew(&arm)));
+        let r = Matrix3::from_diagonal(&Vector3::from(fix.std.map(|s| s * s)));
+        let ph = self.p * h.transpose();
+        let s = h * ph + r;
+        self.out.innovations.push(Innovation { time: fix.time, fix: index, residual, covariance: s });
+        let Some(s_inv) = s.try_inverse() else {
+            return Vec15::zeros();
+        };
+        let k = ph * s_inv;
+        let dx = k * residual;
+        let ikh = Mat15::identity() - k * h;
+        // Joseph form keeps C_{k|k} symmetric and positive definite.
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        self.state = self.state.inject(&dx);
+        dx
+    }
+
+    fn finish(mut self, total_fixes: usize) -> ForwardPass {
+        for index in self.next_fix..total_fixes {
+            let time = self.imu.last().map_or(self.state.time, |s| s.time);
+            self.out.skipped.push(SkippedFix { fix: index, reason: NavError::FixOutsideImu { index, time } });
+        }
+        let epoch = self.out.nominal.len() - 1;
+        if self.out.checkpoints.last().is_none_or(|c| c.epoch != epoch) {
+            self.out.checkpoints.push(Checkpoint { epoch, prior: self.p, posterior: self.p, update: Vec15::zeros() });
+        }
+        self.out
+    }
+}
+
+/// C_0 from the initial σ and the IMU's turn-on biases.
+fn initial_covariance(init: &InitialState, config: &NavConfig) -> Mat15 {
+    let mut d = Vec15::zeros();
+    for a in 0..3 {
+        d[POS + a] = init.position_std.powi(2);
+        d[VEL + a] = init.velocity_std.powi(2);
+        d[ATT + a] = init.attitude_std[a].powi(2);
+        d[BA + a] = config.imu.accel_bias.max(MIN_BIAS_STD).powi(2);
+        d[BG + a] = config.imu.gyro_bias.max(MIN_BIAS_STD).powi(2);
+    }
+    Mat15::from_diagonal(&d)
+}
+
+impl ForwardPass {
+    /// The filtered (forward) state at every epoch: time, body origin, attitude, position covariance.
+    pub fn filtered(&self) -> impl Iterator<Item = FilteredEpoch> + '_ {
+        self.nominal.iter().zip(&self.position_cov).map(|(n, cov)| FilteredEpoch {
+            time: n.time,
+            position: plumbline_geo::Point3::from_vector(n.position),
+            attitude: Rotation::from_quaternion(n.attitude),
+            position_cov: *cov,
+        })
+    }
+
+    /// Number of epochs (IMU samples + 1).
+    pub fn len(&self) -> usize {
+        self.nominal.len()
+    }
+
+    /// Always false: the initial epoch is always present.
+    pub fn is_empty(&self) -> bool {
+        self.nominal.is_empty()
+    }
+
+    /// The estimated accelerometer and gyro biases at the last epoch (body frame; m/s², rad/s).
+    pub fn final_biases(&self) -> (Vector3<f64>, Vector3<f64>) {
+        self.nominal.last().map_or((Vector3::zeros(), Vector3::zeros()), |n| (n.accel_bias, n.gyro_bias))
+    }
+}
+
+/// One epoch of the forward (filtered) solution.
+#[derive(Clone, Copy, Debug)]
+pub struct FilteredEpoch {
+    /// Time, s.
+    pub time: f64,
+    /// Body origin, m.
+    pub position: plumbline_geo::Point3<plumbline_geo::Map>,
+    /// R_B^M.
+    pub attitude: Rotation<plumbline_geo::Map, plumbline_geo::Body>,
+    /// C_{k|k} of the position, m².
+    pub position_cov: Matrix3<f64>,
+}

@@ -1,0 +1,105 @@
+//! GNSS/INS navigation for campaigns that supply raw GNSS positions and IMU increments (paper 001 §2–3):
+//! a loosely coupled 15-state error-state Kalman filter with strapdown mechanisation in the map frame, the
+//! RTS smoother, innovation-based integrity tests, and the consistency check of the DG trajectory against
+//! image-derived motion (paper 001 §4). Synchronous and I/O-free.
+//!
+//! The mechanisation is flat-Earth east-north-up with Earth rotation neglected and gravity along −z: the
+//! model `plumbline_synth::motion::imu` simulates. Real data at tactical grade needs the Earth-rate terms
+//! added to the `state` module's transition before it is used on it.
+//!
+//! ```text
+//! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
+//! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ
+//! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag>
+//! check_consistency(&dg, &image_motions, &ConsistencyConfig) → flags + WeakLinks for the adjustment
+//! ```
+
+mod chi2;
+mod config;
+mod consistency;
+mod filter;
+mod integrity;
+mod smoother;
+mod state;
+
+pub use chi2::{chi2_cdf, chi2_critical};
+pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
+pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
+pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter};
+pub use integrity::{Component, Flag, IntegrityConfig, TestKind, test_innovations};
+pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
+
+/// Why the filter or smoother could not run, naming the item and field.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum NavError {
+    /// A configuration value is out of range.
+    #[error("navigation config: `{field}` is {value}; expected {expected}")]
+    Config { field: &'static str, value: f64, expected: &'static str },
+    /// There is nothing to process.
+    #[error("no IMU samples")]
+    Empty,
+    /// An IMU sample is unusable.
+    #[error("IMU sample {index} (time {time}): field `{field}` is {value}; expected {expected}")]
+    Sample { index: usize, time: f64, field: &'static str, value: f64, expected: &'static str },
+    /// A GNSS fix is unusable.
+    #[error("GNSS fix {index} (time {time}): field `{field}` is {value}; expected {expected}")]
+    Fix { index: usize, time: f64, field: &'static str, value: f64, expected: &'static str },
+    /// An image-motion pair of the consistency check is unusable.
+    #[error("image pair {index}: field `{field}` is {value}; expected {expected}")]
+    Pair { index: usize, field: &'static str, value: f64, expected: &'static str },
+    /// A GNSS fix lies outside the IMU's time span (or is out of time order).
+    #[error("GNSS fix {index} (time {time}) lies outside the IMU data or out of time order")]
+    FixOutsideImu { index: usize, time: f64 },
+    /// A predicted covariance could not be factorised.
+    #[error("predicted covariance at time {time} is not positive definite")]
+    Singular { time: f64 },
+    /// The smoothed trajectory failed validation.
+    #[error("smoothed trajectory is invalid: {0}")]
+    Trajectory(#[from] plumbline_geo::TrajectoryError),
+}
+
+/// Tolerance on the contiguity of IMU intervals, as a share of the interval.
+const CONTIGUITY: f64 = 1e-3;
+
+/// Every sample must have a finite, positive dt, finite increments, and start where the previous one ended.
+fn check_samples(imu: &[ImuSample], start: f64) -> Result<(), NavError> {
+    if imu.is_empty() {
+        return Err(NavError::Empty);
+    }
+    let mut previous = start;
+    for (index, s) in imu.iter().enumerate() {
+        let bad = |field, value, expected| NavError::Sample { index, time: s.time, field, value, expected };
+        if !(s.dt.is_finite() && s.dt > 0.0) {
+            return Err(bad("dt", s.dt, "a finite interval > 0 s"));
+        }
+        if !s.delta_theta.is_finite() {
+            return Err(bad("delta_theta", s.delta_theta.norm(), "finite components"));
+        }
+        if !s.delta_v.is_finite() {
+            return Err(bad("delta_v", s.delta_v.norm(), "finite components"));
+        }
+        let gap = (s.time - s.dt - previous).abs();
+        if gap.is_nan() || gap > CONTIGUITY * s.dt {
+            return Err(bad("time", s.time, "time − dt equal to the previous sample's time (contiguous)"));
+        }
+        previous = s.time;
+    }
+    Ok(())
+}
+
+/// A fix must have finite coordinates and finite positive σ.
+fn check_fix(index: usize, f: &GnssFix) -> Result<(), NavError> {
+    let bad = |field, value, expected| NavError::Fix { index, time: f.time, field, value, expected };
+    if !f.time.is_finite() {
+        return Err(bad("time", f.time, "finite"));
+    }
+    if !f.position.is_finite() {
+        return Err(bad("position", f.position.p.norm(), "finite coordinates"));
+    }
+    for (field, value) in [("std[east]", f.std[0]), ("std[north]", f.std[1]), ("std[up]", f.std[2])] {
+        if !(value.is_finite() && value > 0.0) {
+            return Err(bad(field, value, "a finite σ > 0"));
+        }
+    }
+    Ok(())
+}

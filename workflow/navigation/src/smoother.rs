@@ -1,0 +1,150 @@
+//! The Rauch–Tung–Striebel smoother over the forward pass (paper 001 §2.1, smoothing equations).
+//!
+//! The forward pass keeps the covariances only at update epochs. Between two of them (j, j+1) no fix was
+//! used, so the gain chain B_k···B_j collapses: x̂_{k|T} = x̂_{k|k} + C_{k|k}·Φ_{j+1,k}ᵀ·C_{j+1|j}⁻¹·(x̂_{j+1|T} −
+//! x̂_{j+1|j}) and C_{k|T} = C_{k|k} + C_{k|k}·Φᵀ·C_{j+1|j}⁻¹·(C_{j+1|T} − C_{j+1|j})·C_{j+1|j}⁻¹·Φ·C_{k|k},
+//! the paper's recursion applied step by step. The interval's C_{k|k} are re-propagated from C_{j|j}, and
+//! Φᵀ(·) is accumulated backwards (λ_k = F_kᵀ λ_{k+1}, Λ_k = F_kᵀ Λ_{k+1} F_k). The filter runs closed loop,
+//! so x̂_{k|k} = 0 around the nominal state and x̂_{j+1|T} − x̂_{j+1|j} is the smoothed error plus the update
+//! the filter injected at j+1.
+
+use nalgebra::{Cholesky, Matrix3, SMatrix, U15, UnitQuaternion, Vector3};
+use plumbline_geo::{Attitude, Map, Point3, PoseStd, Rotation, Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
+
+use crate::NavError;
+use crate::filter::ForwardPass;
+use crate::state::{ATT, Mat15, POS, VEL, Vec15, euler_jacobian, predict_cov, process_noise};
+
+/// One smoothed epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SmoothedEpoch {
+    /// Time, s.
+    pub time: f64,
+    /// Body origin, m.
+    pub position: Point3<Map>,
+    /// Velocity, m/s.
+    pub velocity: Vec3<Map>,
+    /// Attitude (Applanix convention).
+    pub attitude: Attitude,
+    /// C_{k|T} of the position, m².
+    pub position_cov: Matrix3<f64>,
+    /// σ of roll, pitch, heading, rad.
+    pub attitude_std: [f64; 3],
+}
+
+/// Run the RTS smoother backwards over `forward`; one smoothed epoch per forward epoch.
+pub fn smooth(forward: &ForwardPass) -> Result<Vec<SmoothedEpoch>, NavError> {
+    let cps = &forward.checkpoints;
+    let mut out = vec![None; forward.nominal.len()];
+    let last = cps.last().ok_or(NavError::Empty)?;
+    let mut s_next = Vec15::zeros();
+    let mut p_next = last.posterior;
+    out[last.epoch] = Some(epoch(forward, last.epoch, &s_next, &p_next));
+    for c in (0..cps.len().saturating_sub(1)).rev() {
+        let (cp, nx) = (&cps[c], &cps[c + 1]);
+        let chol = ScaledCholesky::new(&nx.prior).ok_or(NavError::Singular { time: forward.nominal[nx.epoch].time })?;
+        let lambda = chol.solve_vec(&(s_next + nx.update));
+        let x = chol.solve_mat(&(p_next - nx.prior));
+        let big_lambda = chol.solve_mat(&x.transpose());
+        let (s, p) = interval(forward, cp.epoch, nx.epoch, &cp.posterior, lambda, big_lambda, &mut out);
+        s_next = s;
+        p_next = p;
+    }
+    Ok(out.into_iter().flatten().collect())
+}
+
+/// Smooth epochs `from..to` (exclusive of `to`); returns the smoothed error and covariance at `from`.
+fn interval(
+    fw: &ForwardPass,
+    from: usize,
+    to: usize,
+    p_from: &Mat15,
+    mut lambda: Vec15,
+    mut big_lambda: Mat15,
+    out: &mut [Option<SmoothedEpoch>],
+) -> (Vec15, Mat15) {
+    let tau = fw.config.imu.bias_correlation_time;
+    let mut steps = Vec::with_capacity(to - from);
+    let mut p = *p_from;
+    for k in from..to {
+        let sample = &fw.samples[k];
+        let f = fw.nominal[k].transition(sample, tau);
+        steps.push((f, p));
+        p = predict_cov(&f, &p, &process_noise(&fw.config.imu, sample.dt));
+    }
+    let mut result = (Vec15::zeros(), *p_from);
+    for (i, (f, p)) in steps.iter().enumerate().rev() {
+        lambda = f.transpose() * lambda;
+        big_lambda = f.transpose() * big_lambda * f;
+        // paper 001 §2.1: x̂_{k|T} = x̂_{k|k} + B_k(…), C_{k|T} = C_{k|k} + B_k(C_{k+1|T} − C_{k+1|k})B_kᵀ
+        let s = p * lambda;
+        let ps = p + p * big_lambda * p;
+        out[from + i] = Some(epoch(fw, from + i, &s, &ps));
+        result = (s, ps);
+    }
+    result
+}
+
+/// The smoothed epoch: nominal state ⊕ smoothed error, with σ from the smoothed covariance.
+fn epoch(fw: &ForwardPass, k: usize, s: &Vec15, p: &Mat15) -> SmoothedEpoch {
+    let n = &fw.nominal[k];
+    let block = |o: usize| Vector3::new(s[o], s[o + 1], s[o + 2]);
+    let attitude = UnitQuaternion::from_scaled_axis(block(ATT)) * n.attitude;
+    let j = euler_jacobian(&attitude);
+    let att_cov = j * p.fixed_view::<3, 3>(ATT, ATT) * j.transpose();
+    SmoothedEpoch {
+        time: n.time,
+        position: Point3::from_vector(n.position + block(POS)),
+        velocity: Vec3::from_vector(n.velocity + block(VEL)),
+        attitude: Attitude::from_rotation(&Rotation::from_quaternion(attitude)),
+        position_cov: p.fixed_view::<3, 3>(POS, POS).into_owned(),
+        attitude_std: [0, 1, 2].map(|i| att_cov[(i, i)].max(0.0).sqrt()),
+    }
+}
+
+/// The smoothed epochs as a trajectory with σ.
+pub fn to_trajectory(epochs: &[SmoothedEpoch]) -> Result<Trajectory, NavError> {
+    let records = epochs
+        .iter()
+        .map(|e| TrajectoryRecord {
+            time: e.time,
+            position: e.position,
+            attitude: e.attitude,
+            std: Some(PoseStd {
+                east: e.position_cov[(0, 0)].max(0.0).sqrt(),
+                north: e.position_cov[(1, 1)].max(0.0).sqrt(),
+                height: e.position_cov[(2, 2)].max(0.0).sqrt(),
+                roll: e.attitude_std[0],
+                pitch: e.attitude_std[1],
+                heading: e.attitude_std[2],
+            }),
+        })
+        .collect();
+    Ok(Trajectory::new(records, &ValidationLimits::default())?)
+}
+
+/// Cholesky of D·C·D with D = diag(C)^−½: the states span 15 orders of magnitude.
+struct ScaledCholesky {
+    chol: Cholesky<f64, U15>,
+    scale: Vec15,
+}
+
+impl ScaledCholesky {
+    fn new(c: &Mat15) -> Option<Self> {
+        let scale = Vec15::from_fn(|i, _| 1.0 / c[(i, i)].sqrt());
+        if !scale.iter().all(|s| s.is_finite()) {
+            return None;
+        }
+        let scaled = Mat15::from_fn(|i, j| c[(i, j)] * scale[i] * scale[j]);
+        Some(Self { chol: Cholesky::new(scaled)?, scale })
+    }
+
+    fn solve_vec(&self, b: &Vec15) -> Vec15 {
+        self.chol.solve(&b.component_mul(&self.scale)).component_mul(&self.scale)
+    }
+
+    fn solve_mat(&self, b: &SMatrix<f64, 15, 15>) -> Mat15 {
+        let d = Mat15::from_diagonal(&self.scale);
+        d * self.chol.solve(&(d * b))
+    }
+}

@@ -1,0 +1,189 @@
+//! The nominal navigation state, its strapdown mechanisation and the error-state transition.
+//!
+//! Mechanisation in the map frame (east-north-up), flat Earth, Earth rotation neglected, gravity along −z:
+//! the same model the simulator (`plumbline_synth::motion::imu`) generates increments with. Error state
+//! (15): δp, δv (map), φ (attitude error, map-frame rotation vector, C_true = Exp(φ)·C), δb_a, δb_g (body).
+
+use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
+
+use crate::config::{ImuModel, ImuSample};
+
+/// 15 × 15 matrix of the error state.
+pub(crate) type Mat15 = SMatrix<f64, 15, 15>;
+/// Error-state vector.
+pub(crate) type Vec15 = SVector<f64, 15>;
+
+/// Offsets of the error-state blocks.
+pub(crate) const POS: usize = 0;
+pub(crate) const VEL: usize = 3;
+pub(crate) const ATT: usize = 6;
+pub(crate) const BA: usize = 9;
+pub(crate) const BG: usize = 12;
+
+/// The nominal (whole) state at one epoch.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Nominal {
+    pub time: f64,
+    pub position: Vector3<f64>,
+    pub velocity: Vector3<f64>,
+    /// R_B^M.
+    pub attitude: UnitQuaternion<f64>,
+    pub accel_bias: Vector3<f64>,
+    pub gyro_bias: Vector3<f64>,
+}
+
+/// Skew-symmetric matrix: `skew(a) * b == a × b`.
+pub(crate) fn skew(a: &Vector3<f64>) -> Matrix3<f64> {
+    Matrix3::new(0.0, -a.z, a.y, a.z, 0.0, -a.x, -a.y, a.x, 0.0)
+}
+
+impl Nominal {
+    /// Bias-corrected increments: (Δθ − b_g dt, Δv − b_a dt).
+    fn corrected(&self, s: &ImuSample) -> (Vector3<f64>, Vector3<f64>) {
+        (s.delta_theta.v - self.gyro_bias * s.dt, s.delta_v.v - self.accel_bias * s.dt)
+    }
+
+    /// The velocity increment in the map frame (without gravity), rotated with the mid-interval attitude.
+    fn map_delta_v(&self, s: &ImuSample) -> Vector3<f64> {
+        let (theta, dv) = self.corrected(s);
+        (self.attitude * UnitQuaternion::from_scaled_axis(theta * 0.5)) * dv
+    }
+
+    /// Strapdown step over one IMU interval: attitude by the rotation vector, velocity with the mid-interval
+    /// attitude, position by the trapezoid (the simulator's increment definition, `motion::imu`).
+    pub fn propagate(&self, s: &ImuSample, gravity: f64) -> Self {
+        let (theta, _) = self.corrected(s);
+        let velocity = self.velocity + self.map_delta_v(s) + Vector3::new(0.0, 0.0, -gravity * s.dt);
+        Self {
+            time: s.time,
+            position: self.position + (self.velocity + velocity) * (0.5 * s.dt),
+            velocity,
+            attitude: self.attitude * UnitQuaternion::from_scaled_axis(theta),
+            ..*self
+        }
+    }
+
+    /// Inject an error-state estimate (closed loop): the corrected nominal state.
+    pub fn inject(&self, dx: &Vec15) -> Self {
+        let block = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
+        Self {
+            time: self.time,
+            position: self.position + block(POS),
+            velocity: self.velocity + block(VEL),
+            attitude: UnitQuaternion::from_scaled_axis(block(ATT)) * self.attitude,
+            accel_bias: self.accel_bias + block(BA),
+            gyro_bias: self.gyro_bias + block(BG),
+        }
+    }
+
+    /// Error-state transition F over the interval of `s` (first order in dt).
+    pub fn transition(&self, s: &ImuSample, tau: f64) -> Mat15 {
+        let c = self.attitude.to_rotation_matrix().into_inner();
+        let decay = (-s.dt / tau).exp();
+        let mut f = Mat15::identity();
+        f.fixed_view_mut::<3, 3>(POS, VEL).copy_from(&(Matrix3::identity() * s.dt));
+        f.fixed_view_mut::<3, 3>(VEL, ATT).copy_from(&(-skew(&self.map_delta_v(s))));
+        f.fixed_view_mut::<3, 3>(VEL, BA).copy_from(&(-c * s.dt));
+        f.fixed_view_mut::<3, 3>(ATT, BG).copy_from(&(-c * s.dt));
+        for i in BA..15 {
+            f[(i, i)] = decay;
+        }
+        f
+    }
+}
+
+/// Diagonal process noise of one interval from the IMU model (random walks and Gauss–Markov biases).
+pub(crate) fn process_noise(imu: &ImuModel, dt: f64) -> Vec15 {
+    let gm = 1.0 - (-2.0 * dt / imu.bias_correlation_time).exp();
+    let mut q = Vec15::zeros();
+    for a in 0..3 {
+        q[VEL + a] = imu.accel_random_walk.powi(2) * dt;
+        q[ATT + a] = imu.gyro_random_walk.powi(2) * dt;
+        q[BA + a] = imu.accel_bias_instability.powi(2) * gm;
+        q[BG + a] = imu.gyro_bias_instability.powi(2) * gm;
+    }
+    q
+}
+
+/// One covariance prediction: F P Fᵀ + Q.
+pub(crate) fn predict_cov(f: &Mat15, p: &Mat15, q: &Vec15) -> Mat15 {
+    let mut out = f * p * f.transpose();
+    for i in 0..15 {
+        out[(i, i)] += q[i];
+    }
+    out
+}
+
+/// Jacobian of (roll, pitch, heading) with respect to the map-frame attitude error φ (ENU).
+pub(crate) fn euler_jacobian(attitude: &UnitQuaternion<f64>) -> Matrix3<f64> {
+    let r = plumbline_geo::Rotation::<plumbline_geo::Map, plumbline_geo::Body>::from_quaternion(*attitude);
+    let a = plumbline_geo::Attitude::from_rotation(&r);
+    let (sp, cp) = a.pitch.sin_cos();
+    let (sh, ch) = a.heading.sin_cos();
+    // NED rates ω = E·(roll˙, pitch˙, heading˙) for R = Rz(h)·Ry(p)·Rx(r) (ARCHITECTURE.md, Angles).
+    let e = Matrix3::new(ch * cp, -sh, 0.0, sh * cp, ch, 0.0, -sp, 0.0, 1.0);
+    let enu_to_ned = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, -1.0);
+    e.try_inverse().map_or(Matrix3::zeros(), |inv| inv * enu_to_ned)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use plumbline_geo::{Attitude, Body, Map, Rotation};
+
+    fn angles(q: &UnitQuaternion<f64>) -> Vector3<f64> {
+        let a = Attitude::from_rotation(&Rotation::<Map, Body>::from_quaternion(*q));
+        Vector3::new(a.roll, a.pitch, a.heading)
+    }
+
+    /// The Euler Jacobian agrees with finite differences of Exp(φ)·C through `Attitude::from_rotation`.
+    #[test]
+    fn euler_jacobian_matches_finite_differences() {
+        for (r, p, h) in [(0.02, -0.05, 0.3), (-0.1, 0.2, 2.5), (0.3, 0.1, 4.0), (0.0, 0.0, 1.0)] {
+            let q = *Attitude::new(r, p, h).to_rotation().quaternion();
+            let j = euler_jacobian(&q);
+            let eps = 1e-6;
+            for axis in 0..3 {
+                let mut phi = Vector3::zeros();
+                phi[axis] = eps;
+                let plus = angles(&(UnitQuaternion::from_scaled_axis(phi) * q));
+                let minus = angles(&(UnitQuaternion::from_scaled_axis(-phi) * q));
+                let fd = (plus - minus) / (2.0 * eps);
+                let col = j.column(axis);
+                assert!((fd - col).norm() < 1e-6, "attitude ({r}, {p}, {h}) axis {axis}: fd {fd:?} vs {col:?}");
+            }
+        }
+    }
+
+    /// One error-state step predicts how a small initial error propagates through the mechanisation.
+    #[test]
+    fn transition_matches_perturbed_mechanisation() {
+        let nominal = Nominal {
+            time: 0.0,
+            position: Vector3::new(10.0, 20.0, 3.0),
+            velocity: Vector3::new(8.0, -3.0, 0.1),
+            attitude: *Attitude::new(0.03, -0.02, 1.2).to_rotation().quaternion(),
+            accel_bias: Vector3::new(1e-3, -2e-3, 5e-4),
+            gyro_bias: Vector3::new(1e-5, 2e-5, -1e-5),
+        };
+        let s = ImuSample {
+            time: 0.01,
+            dt: 0.01,
+            delta_theta: plumbline_geo::Vec3::new(0.001, -0.002, 0.004),
+            delta_v: plumbline_geo::Vec3::new(0.02, 0.01, -0.098),
+        };
+        let f = nominal.transition(&s, 3600.0);
+        let base = nominal.propagate(&s, 9.8);
+        let dx = Vec15::from_fn(|i, _| {
+            [1e-3, -2e-3, 1e-3, 1e-3, 2e-3, -1e-3, 1e-4, -2e-4, 3e-4, 1e-3, 2e-3, -1e-3, 1e-4, 2e-4, 1e-4][i]
+        });
+        let moved = nominal.inject(&dx).propagate(&s, 9.8);
+        let predicted = f * dx;
+        let err =
+            |o: usize, got: Vector3<f64>| (got - Vector3::new(predicted[o], predicted[o + 1], predicted[o + 2])).norm();
+        assert!(err(POS, moved.position - base.position) < 1e-6);
+        assert!(err(VEL, moved.velocity - base.velocity) < 1e-6);
+        let dphi = (moved.attitude * base.attitude.inverse()).scaled_axis();
+        assert!(err(ATT, dphi) < 1e-7, "attitude {dphi:?} vs {:?}", predicted.fixed_rows::<3>(ATT));
+    }
+}

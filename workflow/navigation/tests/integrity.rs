@@ -1,0 +1,90 @@
+#![allow(clippy::unwrap_used)]
+//! Innovation tests (paper 001 §3.1.2): nominal false-alarm rates on clean data, detection of injected
+//! faults (a 1 m GNSS jump for 10 s, a step in an accelerometer bias).
+
+mod common;
+
+use plumbline_navigation::{Component, Flag, IntegrityConfig, TestKind, filter, test_innovations};
+use plumbline_synth::motion::imu::ImuErrors;
+
+/// |count − n·p| within 4 binomial standard deviations (+1 for discreteness).
+fn within_binomial(count: usize, n: usize, p: f64) -> bool {
+    let mean = n as f64 * p;
+    (count as f64 - mean).abs() <= 4.0 * (mean * (1.0 - p)).sqrt() + 1.0
+}
+
+#[test]
+fn clean_data_rejects_at_nominal_rate() {
+    let window = 10;
+    let local = IntegrityConfig { alpha: 0.01, window };
+    let global = IntegrityConfig { alpha: 0.05, window };
+    let (mut epochs, mut windows) = (0usize, 0usize);
+    let count = |flags: &[Flag], kind: TestKind, keep: &dyn Fn(&Flag) -> bool| {
+        flags.iter().filter(|f| f.test == kind && keep(f)).count()
+    };
+    let (mut lo, mut ls, mut go, mut gs) = (0, 0, 0, 0);
+    for seed in [1, 2, 3, 4] {
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+        let inn = &fw.innovations;
+        epochs += inn.len();
+        let fl = test_innovations(inn, &local).unwrap();
+        lo += count(&fl, TestKind::LocalOverall, &|_| true);
+        ls += count(&fl, TestKind::LocalSlippage, &|_| true);
+        // Non-overlapping windows only: overlapping ones are correlated.
+        let ends: Vec<f64> = inn.iter().skip(window - 1).step_by(window).map(|i| i.time).collect();
+        windows += ends.len();
+        let fg = test_innovations(inn, &global).unwrap();
+        let at_end = |f: &Flag| ends.contains(&f.time);
+        go += count(&fg, TestKind::GlobalOverall, &at_end);
+        gs += count(&fg, TestKind::GlobalSlippage, &at_end);
+    }
+    println!("{epochs} epochs: local overall {lo}, local slippage {ls}; {windows} windows: global {go}, {gs}");
+    assert!(within_binomial(lo, epochs, 0.01), "local overall {lo} of {epochs}");
+    // The slippage flag reports the worst of three nearly independent components.
+    let any3 = |a: f64| 1.0 - (1.0 - a).powi(3);
+    assert!(within_binomial(ls, epochs, any3(0.01)), "local slippage {ls} of {epochs}");
+    assert!(within_binomial(go, windows, 0.05), "global overall {go} of {windows}");
+    assert!(within_binomial(gs, windows, any3(0.05)), "global slippage {gs} of {windows}");
+}
+
+#[test]
+fn gnss_jump_is_flagged_and_blamed_on_its_component() {
+    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let (a, b) = (t0 + 80.0, t0 + 90.0);
+    for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
+        f.position.p.y += 1.0;
+    }
+    let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let flags = test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap();
+    let first = |kind| flags.iter().find(|f| f.test == kind && f.time >= a).unwrap();
+    let jump = first(TestKind::LocalOverall);
+    assert!(jump.time < a + 0.01, "local overall fires at the jump's first fix, not at {}", jump.time - a);
+    assert!(jump.statistic > 100.0 * jump.critical, "1 m against 1 cm σ: {}", jump.statistic);
+    let slip = first(TestKind::LocalSlippage);
+    assert_eq!((slip.time, slip.component), (jump.time, Some(Component::GnssNorth)));
+    let back = flags.iter().find(|f| f.test == TestKind::LocalSlippage && f.time >= b).unwrap();
+    assert!(back.time < b + 0.01 && back.component == Some(Component::GnssNorth), "jump back at {}", back.time - b);
+    let before = flags.iter().filter(|f| f.time < a).count();
+    assert!(before <= 6, "{before} flags before the jump at α = 0.001");
+}
+
+#[test]
+fn accelerometer_bias_step_is_flagged() {
+    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let step_at = t0 + 100.0;
+    let step = 0.01; // ~1 mg on the forward axis
+    for r in s.imu.iter_mut().filter(|r| r.time > step_at) {
+        r.delta_v.v.x += step * r.dt;
+    }
+    let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let flags = test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap();
+    let after: Vec<&Flag> = flags.iter().filter(|f| f.time > step_at).collect();
+    let first = after.first().expect("the bias step is detected");
+    println!("first flag {:?} after {:.2} s; {} flags after the step", first.test, first.time - step_at, after.len());
+    assert!(first.time - step_at < 5.0, "detected {} s after the step", first.time - step_at);
+    let before = flags.iter().filter(|f| f.time <= step_at).count();
+    assert!(before <= 6, "{before} flags before the step at α = 0.001");
+}
