@@ -172,27 +172,11 @@ fn msurf(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> SurfDescrip
 /// and, if `mutual`, also nearest from B's side; returns (index in A, index in B, distance).
 pub fn match_surf(a: &[SurfDescriptor], b: &[SurfDescriptor], ratio: f32, mutual: bool) -> Vec<(usize, usize, f32)> {
     let dist = |x: &SurfDescriptor, y: &SurfDescriptor| x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f32>();
-    let nearest = |d: &SurfDescriptor, set: &[SurfDescriptor]| {
-        let mut best = (f32::INFINITY, f32::INFINITY, usize::MAX);
-        for (j, e) in set.iter().enumerate() {
-            let h = dist(d, e);
-            if h < best.0 {
-                best = (h, best.0, j);
-            } else if h < best.1 {
-                best.1 = h;
-            }
-        }
-        best
-    };
-    let back: Vec<usize> = if mutual { b.par_iter().map(|d| nearest(d, a).2).collect() } else { Vec::new() };
-    a.par_iter()
-        .enumerate()
-        .filter_map(|(i, d)| {
-            let (best, second, j) = nearest(d, b);
-            // Squared distances: compare with ratio².
-            let passes = j != usize::MAX && best < ratio * ratio * second;
-            (passes && (!mutual || back[j] == i)).then_some((i, j, best.sqrt()))
-        })
+    // Squared distances: compare with ratio².
+    let passes = |best: f32, second: f32| best < ratio * ratio * second;
+    crate::nearest::match_nearest(a, b, dist, passes, mutual, f32::INFINITY)
+        .into_iter()
+        .map(|(i, j, d2)| (i, j, d2.sqrt()))
         .collect()
 }
 

@@ -12,6 +12,7 @@ pub mod kaze;
 pub mod lsm;
 pub mod models;
 pub mod ncc;
+mod nearest;
 pub mod ortho;
 pub mod ransac;
 pub mod warp;

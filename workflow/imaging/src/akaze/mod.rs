@@ -125,26 +125,10 @@ pub struct DescriptorMatch {
 /// Nearest neighbours of A's descriptors in B that pass Lowe's ratio test (best < `ratio` · second best)
 /// and, if `mutual`, are also A's nearest from B's side.
 pub fn match_descriptors(a: &[Descriptor], b: &[Descriptor], ratio: f64, mutual: bool) -> Vec<DescriptorMatch> {
-    let nearest = |d: &Descriptor, set: &[Descriptor]| {
-        let mut best = (u32::MAX, u32::MAX, usize::MAX);
-        for (j, e) in set.iter().enumerate() {
-            let h = hamming(d, e);
-            if h < best.0 {
-                best = (h, best.0, j);
-            } else if h < best.1 {
-                best.1 = h;
-            }
-        }
-        best
-    };
-    let back: Vec<usize> = if mutual { b.par_iter().map(|d| nearest(d, a).2).collect() } else { Vec::new() };
-    a.par_iter()
-        .enumerate()
-        .filter_map(|(i, d)| {
-            let (best, second, j) = nearest(d, b);
-            let passes = j != usize::MAX && f64::from(best) < ratio * f64::from(second);
-            (passes && (!mutual || back[j] == i)).then_some(DescriptorMatch { a: i, b: j, distance: best })
-        })
+    let passes = |best: u32, second: u32| f64::from(best) < ratio * f64::from(second);
+    crate::nearest::match_nearest(a, b, hamming, passes, mutual, u32::MAX)
+        .into_iter()
+        .map(|(a, b, distance)| DescriptorMatch { a, b, distance })
         .collect()
 }
 
