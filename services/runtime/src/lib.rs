@@ -20,7 +20,7 @@ pub mod secret;
 pub mod store;
 
 pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
-pub use crs::{CrsError, CrsTransform, crs_name, is_projected, meridian_convergence};
+pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, is_projected, meridian_convergence};
 pub use logging::{TracingError, init_tracing};
 pub use secret::Secret;
 pub use store::{

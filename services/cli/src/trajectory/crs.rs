@@ -5,11 +5,12 @@
 
 use plumbline_geo::formats::{Horizontal, MapPoint, RawTrajectory};
 use plumbline_geo::{Trajectory, TrajectoryRecord, ValidationLimits};
-use plumbline_runtime::{CrsError, CrsTransform, meridian_convergence};
+use plumbline_runtime::{CrsError, CrsTransform, MeridianConvergence};
 
 /// A projected CRS and the geographic CRS its inputs/outputs use, with transforms both ways.
 pub struct Projection {
     projected: u32,
+    convergence: MeridianConvergence,
     to_map: CrsTransform,
     to_geographic: CrsTransform,
 }
@@ -25,6 +26,7 @@ impl Projection {
     pub fn new(geographic: u32, projected: u32) -> Result<Self, CrsError> {
         Ok(Self {
             projected,
+            convergence: MeridianConvergence::new(projected)?,
             to_map: CrsTransform::new(geographic, projected)?,
             to_geographic: CrsTransform::new(projected, geographic)?,
         })
@@ -33,14 +35,14 @@ impl Projection {
     /// Geographic → projected, with the convergence at the point.
     pub fn project(&self, lon: f64, lat: f64, h: f64) -> Result<MapPoint, CrsError> {
         let (e, n, h) = self.to_map.transform_point(lon, lat, h)?;
-        let convergence = meridian_convergence(self.projected, lon, lat)?;
+        let convergence = self.convergence.at(lon, lat)?;
         Ok(MapPoint { e, n, h, convergence_rad: convergence })
     }
 
     /// Projected → geographic, with the convergence at the point.
     pub fn unproject(&self, e: f64, n: f64, h: f64) -> Result<(f64, f64, f64, f64), CrsError> {
         let (lon, lat, h) = self.to_geographic.transform_point(e, n, h)?;
-        let convergence = meridian_convergence(self.projected, lon, lat)?;
+        let convergence = self.convergence.at(lon, lat)?;
         Ok((lon, lat, h, convergence))
     }
 }

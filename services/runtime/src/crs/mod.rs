@@ -13,7 +13,7 @@ mod convergence;
 use gdal::errors::GdalError;
 use gdal::spatial_ref::{AxisMappingStrategy, CoordTransform, SpatialRef};
 
-pub use convergence::meridian_convergence;
+pub use convergence::{MeridianConvergence, meridian_convergence};
 
 /// Why a CRS operation failed; the message names the EPSG codes involved.
 #[derive(Debug, thiserror::Error)]
