@@ -114,7 +114,7 @@ fn failed(step: impl Into<String>) -> impl FnOnce(GdalError) -> GdalWriteError {
 }
 
 /// A fresh `/vsimem/` path.
-fn vsimem(extension: &str) -> String {
+pub(crate) fn vsimem_path(extension: &str) -> String {
     static NEXT: AtomicU64 = AtomicU64::new(0);
     let n = NEXT.fetch_add(1, Ordering::Relaxed);
     format!("/vsimem/plumbline-{}-{n}.{extension}", std::process::id())
@@ -136,7 +136,7 @@ pub fn geopackage(layers: &[PointLayer], epsg: u32) -> Result<Vec<u8>, GdalWrite
     route_gdal_messages();
     check_layers(layers)?;
     let srs = srs(epsg)?;
-    let path = vsimem("gpkg");
+    let path = vsimem_path("gpkg");
     let driver = DriverManager::get_driver_by_name("GPKG").map_err(failed("find the GPKG driver"))?;
     let mut ds = driver.create_vector_only(&path).map_err(failed("create a GeoPackage"))?;
     let result = write_layers(&mut ds, layers, &srs);
@@ -221,7 +221,7 @@ fn geotiff_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Resul
         return Err(GdalWriteError::Invalid { item: item(), field: "data", problem });
     }
     let srs = srs(raster.epsg)?;
-    let path = vsimem("tif");
+    let path = vsimem_path("tif");
     let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
     let options = gdal::raster::RasterCreationOptions::from_iter(["COMPRESS=DEFLATE", "TILED=YES"]);
     let mut ds = driver

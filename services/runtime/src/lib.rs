@@ -9,11 +9,13 @@
 //! - [`store`] — [`open_store`] from a `file://`, `memory://`, `s3://` URL or a plain path;
 //!   [`read_url`] / [`write_url`] for one object named by URL.
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
+//! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding.
 //! - [`logging`] — [`init_tracing`].
 
 pub mod cadastre;
 pub mod config;
 pub mod crs;
+pub mod gdal_read;
 pub mod gdal_write;
 pub mod logging;
 pub mod secret;

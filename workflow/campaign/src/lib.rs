@@ -31,6 +31,7 @@ pub mod manifest;
 mod parse;
 mod problem;
 mod schema;
+pub mod tables;
 mod validate;
 
 pub use cadastre_features::{
