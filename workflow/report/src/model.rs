@@ -1,0 +1,300 @@
+//! The report's data, version 1: every figure `report.html` shows, in the same units.
+
+use plumbline_geo::metrics::{Comparison, Stats};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// A report of any supported version, tagged by `"version"`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "version")]
+pub enum ReportDoc {
+    /// Version 1.
+    #[serde(rename = "1")]
+    V1(Report),
+}
+
+/// The quality report of one campaign run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Report {
+    /// Which campaign.
+    pub campaign: CampaignInfo,
+    /// Counts at a glance.
+    pub summary: Summary,
+    /// Before/after against a reference trajectory, when the manifest names one.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub accuracy: Option<Accuracy>,
+    /// The correction applied along the trajectory (decimated for plotting).
+    pub correction: CorrectionSeries,
+    /// Cross-track difference to the reference along the trajectory, before and after (decimated).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_track: Option<CrossTrackSeries>,
+    /// The map: trajectory coloured by correction, images and poles.
+    pub map: MapData,
+    /// Normalised residuals (residual / σ) per observation kind, for the histograms.
+    pub residuals: Vec<Residuals>,
+    /// Per-stage progress and time.
+    pub stages: Vec<Stage>,
+    /// Per-tile diagnostics.
+    pub tiles: Vec<TileLine>,
+    /// Every skipped input item, with its reason.
+    pub skipped: Vec<SkippedItem>,
+    /// Observations rejected by data snooping.
+    pub rejected: Vec<RejectedObservation>,
+    /// Epochs flagged by the integrity and consistency tests.
+    pub flags: Vec<FlaggedEpoch>,
+}
+
+/// Identity of the campaign.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CampaignInfo {
+    /// Campaign id.
+    pub id: String,
+    /// Human-readable name.
+    pub name: String,
+    /// EPSG code of the mapping frame.
+    pub crs: u32,
+    /// The program and version that wrote the report.
+    pub generated_by: String,
+}
+
+/// Counts at a glance.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Summary {
+    /// Trajectory epochs corrected.
+    pub epochs: usize,
+    /// Duration of the trajectory, seconds.
+    pub duration_s: f64,
+    /// Length driven, metres.
+    pub length_m: f64,
+    /// Panoramas processed.
+    pub images: usize,
+    /// Panoramas with aerial correspondences (paper 000 Table 1 "images matched").
+    pub images_matched: usize,
+    /// Tie points used.
+    pub ties: usize,
+    /// Pole coordinate updates used.
+    pub pole_updates: usize,
+    /// GNSS positions used.
+    pub gnss: usize,
+    /// Largest horizontal correction, metres.
+    pub max_correction_m: f64,
+    /// Adjustment's a-posteriori σ0.
+    pub sigma0: f64,
+}
+
+/// Differences to a reference, summarised in the paper-002 table form.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Figures {
+    /// Along-track |d| statistics, metres.
+    pub along: Stats,
+    /// Cross-track |d| statistics, metres.
+    pub cross: Stats,
+    /// Height |d| statistics, metres.
+    pub height: Stats,
+    /// Horizontal RMSE, metres.
+    pub rmse_2d: f64,
+    /// 3D RMSE, metres.
+    pub rmse_3d: f64,
+}
+
+impl From<&Comparison> for Figures {
+    fn from(c: &Comparison) -> Self {
+        Self { along: c.along, cross: c.cross, height: c.height, rmse_2d: c.rmse_2d, rmse_3d: c.rmse_3d }
+    }
+}
+
+/// Before (DG) and after (adjusted) against the reference.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Accuracy {
+    /// The reference trajectory's name (URL).
+    pub reference: String,
+    /// The DG trajectory against the reference.
+    pub before: Figures,
+    /// The corrected trajectory against the reference.
+    pub after: Figures,
+}
+
+/// The correction (adjusted − DG) along the trajectory, with its posterior σ.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CorrectionSeries {
+    /// Epoch times, seconds.
+    pub time: Vec<f64>,
+    /// Easting correction, metres.
+    pub east: Vec<f64>,
+    /// Northing correction, metres.
+    pub north: Vec<f64>,
+    /// Height correction, metres.
+    pub up: Vec<f64>,
+    /// Posterior horizontal σ, metres.
+    pub sigma_horizontal: Vec<f64>,
+}
+
+/// Cross-track differences to the reference, before and after.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CrossTrackSeries {
+    /// Epoch times, seconds.
+    pub time: Vec<f64>,
+    /// DG minus reference, metres.
+    pub before: Vec<f64>,
+    /// Corrected minus reference, metres.
+    pub after: Vec<f64>,
+}
+
+/// A trajectory vertex for the map.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TrackPoint {
+    /// Easting, metres.
+    pub e: f64,
+    /// Northing, metres.
+    pub n: f64,
+    /// Horizontal correction there, metres.
+    pub correction: f64,
+}
+
+/// What became of a mapped image or pole.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum MarkState {
+    /// Used as control (image registered to the aerial block, pole matched).
+    Used,
+    /// Processed without result.
+    Unused,
+    /// Skipped for a reason listed in `skipped`.
+    Skipped,
+}
+
+/// An image or pole on the map.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MapMark {
+    /// Id of the image or pole.
+    pub id: String,
+    /// Easting, metres.
+    pub e: f64,
+    /// Northing, metres.
+    pub n: f64,
+    /// What became of it.
+    pub state: MarkState,
+}
+
+/// Everything drawn on the map.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MapData {
+    /// The corrected trajectory (decimated).
+    pub track: Vec<TrackPoint>,
+    /// Panorama positions.
+    pub images: Vec<MapMark>,
+    /// Cadastre poles near the trajectory.
+    pub poles: Vec<MapMark>,
+}
+
+/// Normalised residuals of one observation kind.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Residuals {
+    /// Observation kind: `tie`, `pole`, `gnss`.
+    pub kind: String,
+    /// Residual / σ per observation component.
+    pub normalised: Vec<f64>,
+}
+
+/// One stage of the run.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Stage {
+    /// Stage name (e.g. `registration`, `poles`, `adjustment`).
+    pub name: String,
+    /// Items finished.
+    pub done: usize,
+    /// Items in all.
+    pub total: usize,
+    /// Items skipped.
+    pub skipped: usize,
+    /// Wall time, seconds.
+    pub seconds: f64,
+}
+
+/// One tile's diagnostics.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileLine {
+    /// Tile id (e.g. `c12_r-3`).
+    pub tile: String,
+    /// Panoramas processed.
+    pub images: usize,
+    /// Panoramas registered to the aerial block.
+    pub matched: usize,
+    /// Tie points produced.
+    pub ties: usize,
+    /// Pole updates produced.
+    pub poles: usize,
+    /// Items skipped.
+    pub skipped: usize,
+}
+
+/// An input item that was skipped, and why.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct SkippedItem {
+    /// The stage that skipped it.
+    pub stage: String,
+    /// The item: file, record or feature.
+    pub item: String,
+    /// Short reason class, used for counting (e.g. `decode`, `too_few_aerial`).
+    pub reason: String,
+    /// The full message.
+    pub detail: String,
+}
+
+/// An observation rejected by data snooping.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RejectedObservation {
+    /// Observation kind: `tie`, `pole`, `gnss`.
+    pub kind: String,
+    /// Its id (tie point id, cadastre id, epoch).
+    pub id: String,
+    /// Epoch of the observation, seconds.
+    pub time: f64,
+    /// Baarda's w-test value at rejection.
+    pub w_test: f64,
+}
+
+/// An epoch flagged by an integrity or consistency test.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FlaggedEpoch {
+    /// Epoch, seconds.
+    pub time: f64,
+    /// The test that fired (e.g. `local_overall`, `consistency`).
+    pub test: String,
+    /// The sensor it blames (e.g. `gnss`, `imu`, `dg`).
+    pub sensor: String,
+}
+
+impl Report {
+    /// Skipped items counted by (stage, reason), most frequent first.
+    pub fn skipped_by_reason(&self) -> Vec<(String, String, usize)> {
+        let mut counts: std::collections::BTreeMap<(String, String), usize> = Default::default();
+        for s in &self.skipped {
+            *counts.entry((s.stage.clone(), s.reason.clone())).or_default() += 1;
+        }
+        let mut out: Vec<(String, String, usize)> = counts.into_iter().map(|((s, r), n)| (s, r, n)).collect();
+        out.sort_by(|a, b| b.2.cmp(&a.2).then_with(|| (&a.0, &a.1).cmp(&(&b.0, &b.1))));
+        out
+    }
+
+    /// `report.json`: the versioned document, pretty-printed.
+    pub fn to_json(&self) -> Vec<u8> {
+        serde_json::to_vec_pretty(&ReportDoc::V1(self.clone())).unwrap_or_default()
+    }
+}
