@@ -10,7 +10,7 @@
 //!   [`read_url`] / [`write_url`] for one object named by URL.
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
 //! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding.
-//! - [`logging`] — [`init_tracing`].
+//! - [`logging`] — [`init_tracing`]; [`progress`] — bars, log lines or JSON lines for long work.
 
 pub mod cadastre;
 pub mod config;
@@ -18,6 +18,7 @@ pub mod crs;
 pub mod gdal_read;
 pub mod gdal_write;
 pub mod logging;
+pub mod progress;
 pub mod secret;
 pub mod store;
 

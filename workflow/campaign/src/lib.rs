@@ -30,6 +30,7 @@ mod location;
 pub mod manifest;
 mod parse;
 mod problem;
+pub mod progress;
 mod schema;
 pub mod tables;
 mod validate;
