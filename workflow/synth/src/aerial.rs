@@ -15,6 +15,17 @@ pub fn small_format(width: u32, height: u32) -> MetricInterior {
     MetricInterior { focal_mm: 50.0, xp_mm: 0.0, yp_mm: 0.0, k1: 0.0, k2: 0.0, pixel_mm: 0.004, width, height }
 }
 
+/// Radial distortion of [`small_format_distorted`]: K1 in mm⁻², K2 in mm⁻⁴ (together about −1.1 px at the
+/// corners of a 1000 × 750 frame: small, as after a good calibration, but large enough that ignoring it
+/// costs a pixel, 12 cm on the ground).
+pub const SMALL_FORMAT_DISTORTION: (f64, f64) = (-4.0e-4, 2.0e-5);
+
+/// [`small_format`] with the radial distortion [`SMALL_FORMAT_DISTORTION`] (what `plumbline simulate` flies).
+pub fn small_format_distorted(width: u32, height: u32) -> MetricInterior {
+    let (k1, k2) = SMALL_FORMAT_DISTORTION;
+    MetricInterior { k1, k2, ..small_format(width, height) }
+}
+
 /// One frame of the block.
 #[derive(Clone, Debug)]
 pub struct Frame {
@@ -93,5 +104,21 @@ mod tests {
             assert!(d > 1e-4 && d < 0.3, "{d}");
         }
         assert_eq!(text.lines().count(), frames.len() + 1);
+    }
+
+    #[test]
+    fn the_flown_camera_is_distorted_by_about_a_pixel_at_the_corners() {
+        use plumbline_geo::camera::{CameraModel, Pixel};
+        let plain = Pinhole::from_metric(&small_format(1000, 750)).unwrap();
+        let flown = Pinhole::from_metric(&small_format_distorted(1000, 750)).unwrap();
+        let shift = |u: f64, v: f64| {
+            let ray = plain.unproject(Pixel { u, v }).unwrap();
+            let p = flown.project(&ray).unwrap();
+            (p.u - u).hypot(p.v - v)
+        };
+        let corner = shift(0.5, 0.5);
+        assert!((0.8..1.4).contains(&corner), "corner shift {corner} px");
+        assert!(shift(500.0, 375.0) < 1e-9, "the principal point does not move");
+        assert!(shift(500.0, 200.0) < 0.1 * corner);
     }
 }

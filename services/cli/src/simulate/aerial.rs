@@ -30,7 +30,7 @@ pub(crate) fn write(world: &World, gsd: f64, seed: u64, sink: &Sink) -> anyhow::
         return Err(invalid(format!("--aerial-gsd {gsd}: expected 0.02–1 m")));
     }
     let spec = BlockSpec { gsd, ..BlockSpec::standard() };
-    let interior = aerial::small_format(FRAME_PX.0, FRAME_PX.1);
+    let interior = aerial::small_format_distorted(FRAME_PX.0, FRAME_PX.1);
     let (cam, frames) = aerial::block(world, &interior, &spec, &AtErrors::typical(), seed).context("aerial camera")?;
     let scene = Scene::aerial(world);
     for (i, frame) in frames.iter().enumerate() {
