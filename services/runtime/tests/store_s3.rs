@@ -1,14 +1,10 @@
 //! `s3://` stores against a real S3-compatible server (`moto_server`, PyPI `moto[server]`); no mocks.
 
-mod support {
-    pub mod moto;
-}
-
 use bytes::Bytes;
 use futures::TryStreamExt;
 use object_store::ObjectStoreExt;
 use plumbline_runtime::{S3Options, Secret, StoreErrorKind, get_bytes, open_store, put_bytes, read_url, write_url};
-use support::moto::MotoServer;
+use plumbline_testkit::MotoServer;
 
 fn options(server: &MotoServer) -> S3Options {
     S3Options {

@@ -1,9 +1,11 @@
 //! A real S3-compatible server for tests: `moto_server` on a free loopback port, killed on drop.
 
 use std::io::{ErrorKind, Read, Write};
-use std::net::{TcpListener, TcpStream};
+use std::net::TcpStream;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+use crate::free_port;
 
 const INSTALL_HINT: &str = "install it with `pip install 'moto[server]'` (it must be on PATH)";
 const STARTUP_TIMEOUT: Duration = Duration::from_secs(60);
@@ -86,10 +88,4 @@ impl Drop for MotoServer {
 
 fn parse_status(response: &str) -> Option<u16> {
     response.split_whitespace().nth(1)?.parse().ok()
-}
-
-/// A port that was free a moment ago: bind port 0, read it, release it.
-fn free_port() -> u16 {
-    let listener = TcpListener::bind("127.0.0.1:0").expect("bind a free loopback port");
-    listener.local_addr().expect("local address").port()
 }

