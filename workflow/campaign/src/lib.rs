@@ -29,6 +29,7 @@ mod inputs;
 mod location;
 pub mod manifest;
 mod parse;
+pub mod plan;
 mod problem;
 pub mod progress;
 mod schema;

@@ -29,3 +29,9 @@ fn check(file: &str, generated: &str) {
 fn schemas_are_current() {
     check(plumbline_campaign::MANIFEST_SCHEMA_FILE, &plumbline_campaign::manifest_schema_json());
 }
+
+#[test]
+fn plan_schema_is_current() {
+    let schema = serde_json::to_value(schemars::schema_for!(plumbline_campaign::plan::PlanDoc)).unwrap_or_default();
+    check("plan.v1.schema.json", &plumbline_campaign::canonical_json(&schema));
+}
