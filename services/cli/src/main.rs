@@ -3,10 +3,12 @@
 //! Exit codes: 0 success, 1 failure while working (I/O, store, internal), 2 invalid input (a bad manifest,
 //! a malformed or implausible trajectory, an unknown CRS, a bad argument).
 
+mod adjust;
 mod cadastre;
 mod exit;
 mod io;
 mod matching;
+mod navigate;
 mod simulate;
 mod trajectory;
 mod validate;
@@ -44,6 +46,10 @@ enum Command {
     /// Cadastre tools: inspect a GeoPackage's layers, CRS, classes and problems.
     #[command(subcommand)]
     Cadastre(cadastre::Command),
+    /// Adjust a DG trajectory with observation sets (poles, tie points, GNSS); write it corrected.
+    Adjust(adjust::Args),
+    /// Fuse raw GNSS and IMU (Kalman filter + RTS smoother) with integrity tests; write the smoothed trajectory.
+    Navigate(navigate::Args),
 }
 
 fn main() -> ExitCode {
@@ -64,6 +70,8 @@ fn main() -> ExitCode {
             Command::Simulate(args) => simulate::run(&ctx, args).await,
             Command::Match(args) => matching::run(&ctx, args).await,
             Command::Cadastre(cmd) => cadastre::run(&ctx, cmd).await,
+            Command::Adjust(args) => adjust::run(&ctx, args).await,
+            Command::Navigate(args) => navigate::run(&ctx, args).await,
         }
     });
     match result {

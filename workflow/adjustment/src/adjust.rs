@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::AdjustmentConfig;
 use crate::normal::{assemble, cost, node};
 use crate::observations::{ObservationError, ObservationRef, TiePointId};
-use crate::problem::{AdjustmentInput, Problem};
+use crate::problem::{AdjustmentInput, Kind, Problem};
 use crate::solver::{Factorizer, SelectedInverse, SolverError, SolverTimings};
 use crate::stats::{VarianceFactors, node_covariances, sigma0, variance_factors, w_tests};
 
@@ -111,6 +111,7 @@ pub fn adjust(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) 
                 for (i, w) in found {
                     active[i] = false;
                     rejected.push(RejectedObservation { item: problem.obs[i].item.clone(), w, round });
+                    rejected.extend(drop_undetermined(&problem, i, &mut active, w, round));
                 }
                 round += 1;
             }
@@ -118,6 +119,35 @@ pub fn adjust(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) 
         None => factor_at(&problem, &x, &active, config.huber, &mut fac)?,
     };
     Ok(finish(problem, &x, &active, &selected, rejected, iterations, fac.timings))
+}
+
+/// After rejecting observation `i`: if it belonged to a tie point that is no longer determined (neither
+/// aerial coordinates nor two rays left), reject the point's remaining observations too, as the whole tie.
+fn drop_undetermined(p: &Problem, i: usize, active: &mut [bool], w: f64, round: usize) -> Option<RejectedObservation> {
+    let (Kind::Ray { point, .. } | Kind::Aerial { point, .. }) = p.obs[i].kind else {
+        return None;
+    };
+    let of_point = |o: &crate::problem::Obs| matches!(o.kind, Kind::Ray { point: q, .. } | Kind::Aerial { point: q, .. } if q == point);
+    let (mut rays, mut aerial) = (0, false);
+    for (o, _) in p.obs.iter().zip(active.iter()).filter(|(o, a)| **a && of_point(o)) {
+        match o.kind {
+            Kind::Aerial { .. } => aerial = true,
+            _ => rays += 1,
+        }
+    }
+    if aerial || rays >= 2 {
+        return None;
+    }
+    for (o, a) in p.obs.iter().zip(active.iter_mut()) {
+        if of_point(o) {
+            *a = false;
+        }
+    }
+    let index = match &p.obs[i].item {
+        ObservationRef::TieRay { index, .. } | ObservationRef::TieAerial { index, .. } => *index,
+        _ => return None,
+    };
+    Some(RejectedObservation { item: ObservationRef::Tie { index, point: p.points[point].clone() }, w, round })
 }
 
 fn initial_state(p: &Problem) -> Vec<f64> {

@@ -14,10 +14,13 @@
 //!   recurrences on the factor's pattern).
 //! - **Output** ([`Adjustment`]): node corrections with covariances, tie points, rejected and skipped
 //!   observations, variance factors, timings; [`Adjustment::apply`] corrects a full-rate trajectory.
+//!   A tie point that snooping leaves undetermined (no aerial coordinates, fewer than two rays) is rejected
+//!   whole. [`export`] writes the chain and pole CUPTs as plain data for the GTSAM comparison bench.
 
 mod adjust;
 mod apply;
 mod config;
+mod export;
 mod model;
 mod nodes;
 mod normal;
@@ -31,6 +34,7 @@ mod stats;
 
 pub use adjust::{AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, adjust};
 pub use config::{AdjustmentConfig, RandomWalk, Snooping};
+pub use export::{ExportedNode, ExportedPole, ExportedProblem, export};
 pub use nodes::WeakLink;
 pub use observations::{
     AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1, PoleUpdate,

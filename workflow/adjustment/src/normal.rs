@@ -62,6 +62,18 @@ pub(crate) struct Normal {
 pub(crate) fn assemble(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) -> Normal {
     let mut n = Normal { values: vec![0.0; p.pattern.nnz()], gradient: vec![0.0; p.pattern.dim()], cost: 0.0 };
     assemble_chain(p, x, &mut n);
+    // A tie point whose observations were all rejected keeps an identity block: decoupled, it stays put.
+    let mut observed = vec![false; p.points.len()];
+    for (o, _) in p.obs.iter().zip(active).filter(|(_, a)| **a) {
+        if let Kind::Ray { point, .. } | Kind::Aerial { point, .. } = o.kind {
+            observed[point] = true;
+        }
+    }
+    for (i, _) in observed.iter().enumerate().filter(|(_, o)| !**o) {
+        for c in 0..3 {
+            n.values[p.pattern.diagonal(p.point_offset(i) + c)] += 1.0;
+        }
+    }
     let lins = parallel::map(p.par, p.obs.len(), |i| active[i].then(|| linearize(p, &p.obs[i], x)));
     for (o, lin) in p.obs.iter().zip(lins) {
         let Some(lin) = lin else { continue };

@@ -160,3 +160,26 @@ fn the_corrected_trajectory_carries_interpolated_posterior_sigma() {
     let dg = s.dg.records().iter().find(|r| r.time == mid.time).unwrap();
     assert!((mid.position.p - dg.position.p - delta.fixed_rows::<3>(0)).norm() < 1e-9);
 }
+
+#[test]
+fn the_export_holds_the_nodes_chain_and_poles_the_adjustment_solves() {
+    let s = scene(30.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+    let mut obs = ObservationSetV1 { poles: poles(&s, 20, 0.03, 0.02, &mut rng), ..Default::default() };
+    obs.poles[3].sigma_camera = -1.0;
+    let result = run(&s, &obs, &[], &AdjustmentConfig::default());
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
+    let exported = plumbline_adjustment::export(&input, &AdjustmentConfig::default());
+    assert_eq!(exported.nodes.len(), result.nodes.len());
+    assert_eq!(exported.links.len(), result.nodes.len() - 1);
+    assert_eq!(exported.poles.len(), obs.poles.len() - 1, "the broken pole is left out");
+    for (e, n) in exported.nodes.iter().zip(&result.nodes) {
+        assert_eq!(e.time, n.time);
+    }
+    for (e, l) in exported.links.iter().zip(&result.link_variances) {
+        assert!((e[0] * e[0] - l[0]).abs() < 1e-15 && (e[5] * e[5] - l[5]).abs() < 1e-18);
+    }
+    let p = &exported.poles[0];
+    assert!((p.sigma - obs.poles[0].sigma()).abs() < 1e-15 && p.cadastre == obs.poles[0].cadastre);
+}

@@ -95,3 +95,39 @@ fn aerial_tie_points_and_gnss_control_all_three_coordinates() {
     assert!(rms(&horizontal[35..566]) < 0.04, "rms {}", rms(&horizontal[35..566]));
     assert!(result.skipped.is_empty() && result.rejected.is_empty(), "{:?} {:?}", result.skipped, result.rejected);
 }
+
+#[test]
+fn a_tie_point_left_undetermined_by_snooping_is_rejected_whole() {
+    let s = scene(60.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let poles = poles(&s, 30, 0.02, 0.02, &mut rng);
+    // Two rays, one 20 mrad off, and aerial coordinates 5 m off: snooping rejects the aerial coordinates, then
+    // one of the two inconsistent rays; a single ray cannot fix the point's three coordinates.
+    let tr = &s.truth[300];
+    let x = tr.position.p + tr.attitude.to_rotation().matrix() * Vector3::new(4.0, 8.0, 2.5);
+    let mut bad = tie(&s, "lonely", x, &[300, 340], 5e-4, &mut rng);
+    let d = Vector3::from(bad.rays[1].direction);
+    let turned = nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), 0.02) * d;
+    bad.rays[1].direction = turned.normalize().into();
+    let (sh, sv) = (0.03f64, 0.06f64);
+    let covariance = [[sh * sh, 0.0, 0.0], [0.0, sh * sh, 0.0], [0.0, 0.0, sv * sv]];
+    bad.aerial = Some(AerialPoint { position: (x + Vector3::new(3.0, -4.0, 0.0)).into(), covariance });
+    let obs = ObservationSetV1 { poles, ties: vec![bad], ..Default::default() };
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
+    let result = adjust(&input, &AdjustmentConfig::default(), Par::Seq).unwrap();
+    let tie_items: Vec<_> = result
+        .rejected
+        .iter()
+        .filter(|r| !matches!(r.item, plumbline_adjustment::ObservationRef::Pole { .. }))
+        .map(|r| r.item.clone())
+        .collect();
+    eprintln!("rejected {tie_items:?}");
+    let whole = plumbline_adjustment::ObservationRef::Tie {
+        index: 0,
+        point: plumbline_adjustment::TiePointId("lonely".into()),
+    };
+    assert_eq!(tie_items.last(), Some(&whole), "{:?}", result.rejected);
+    let after = horizontal_errors(&result.apply(&s.dg).unwrap(), &s.truth);
+    assert!(rms(&after[15..586]) < 0.03, "rms {}", rms(&after[15..586]));
+}

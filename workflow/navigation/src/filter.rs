@@ -4,6 +4,7 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 use plumbline_geo::Rotation;
 
+use crate::adaptive::{Adaptation, Decision, Monitor, reopen};
 use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
 use crate::state::{ATT, BA, BG, POS, VEL};
 use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
@@ -24,6 +25,8 @@ pub struct Innovation {
     /// C_v = C_y + A·C_{k|k−1}·Aᵀ (paper 001 §3.1; the predicted covariance, as the innovation's
     /// definition requires — the paper's C_{k|k} is a typo).
     pub covariance: Matrix3<f64>,
+    /// What the filter did with the fix ([`Decision::Used`] always for [`filter`]).
+    pub decision: Decision,
 }
 
 /// A GNSS fix the filter did not use, and why.
@@ -62,17 +65,42 @@ pub struct ForwardPass {
     pub skipped: Vec<SkippedFix>,
 }
 
-/// Run the filter over `imu` (contiguous increments starting at `initial.time`) and `gnss` (time-sorted).
+/// Run the filter over `imu` (contiguous increments starting at `initial.time`) and `gnss` (time-sorted),
+/// using every valid fix as it comes.
 pub fn filter(
     imu: &[ImuSample],
     gnss: &[GnssFix],
     initial: &InitialState,
     config: &NavConfig,
 ) -> Result<ForwardPass, NavError> {
+    run_filter(imu, gnss, initial, config, None)
+}
+
+/// The filter acting on its own tests (see the `adaptive` module): fixes the local test rejects are
+/// excluded, and the covariances re-opened where the tests blame the IMU; each innovation carries the
+/// [`Decision`] taken.
+pub fn filter_adaptive(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    initial: &InitialState,
+    config: &NavConfig,
+    adaptation: &Adaptation,
+) -> Result<ForwardPass, NavError> {
+    adaptation.check()?;
+    run_filter(imu, gnss, initial, config, Some(Monitor::new(*adaptation)))
+}
+
+fn run_filter(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    initial: &InitialState,
+    config: &NavConfig,
+    monitor: Option<Monitor>,
+) -> Result<ForwardPass, NavError> {
     config.check()?;
     initial.check()?;
     check_samples(imu, initial.time)?;
-    let mut run = Run::new(imu, initial, config);
+    let mut run = Run::new(imu, initial, config, monitor);
     run.fixes_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5);
     for s in imu {
         run.predict(s);
@@ -88,11 +116,12 @@ struct Run<'a> {
     state: Nominal,
     p: Mat15,
     next_fix: usize,
+    monitor: Option<Monitor>,
     out: ForwardPass,
 }
 
 impl<'a> Run<'a> {
-    fn new(imu: &'a [ImuSample], init: &InitialState, config: &'a NavConfig) -> Self {
+    fn new(imu: &'a [ImuSample], init: &InitialState, config: &'a NavConfig, monitor: Option<Monitor>) -> Self {
         let attitude = *init.attitude.to_rotation().quaternion();
         let state = Nominal {
             time: init.time,
@@ -114,7 +143,7 @@ impl<'a> Run<'a> {
             innovations: Vec::new(),
             skipped: Vec::new(),
         };
-        Self { config, imu, state, p, next_fix: 0, out }
+        Self { config, imu, state, p, next_fix: 0, monitor, out }
     }
 
     /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
@@ -129,7 +158,7 @@ impl<'a> Run<'a> {
     /// Apply every fix within `half` seconds of the current epoch.
     fn fixes_at(&mut self, gnss: &[GnssFix], half: f64) {
         let epoch = self.out.nominal.len() - 1;
-        let prior = self.p;
+        let mut prior = self.p;
         let mut update = Vec15::zeros();
         while let Some(fix) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
             let index = self.next_fix;
@@ -140,7 +169,10 @@ impl<'a> Run<'a> {
                 let reason = NavError::FixOutsideImu { index, time: fix.time };
                 self.out.skipped.push(SkippedFix { fix: index, reason });
             } else {
-                update += self.update(index, fix);
+                let (dx, reopened) = self.update(index, fix);
+                update += dx;
+                // Re-opening is process noise added at this epoch: the smoother's C_{k|k−1} includes it.
+                prior += reopened;
             }
         }
         if update != Vec15::zeros() {
@@ -150,8 +182,9 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// Update (paper 001 §2.1) with one antenna position; returns the injected error-state estimate.
-    fn update(&mut self, index: usize, fix: &GnssFix) -> Vec15 {
+    /// Update (paper 001 §2.1) with one antenna position; returns the injected error-state estimate and the
+    /// covariance the adaptive filter added before the update.
+    fn update(&mut self, index: usize, fix: &GnssFix) -> (Vec15, Mat15) {
         let c = self.state.attitude.to_rotation_matrix().into_inner();
         let arm = c * self.config.lever_arm.v;
         let predicted = self.state.position + self.state.velocity * (fix.time - self.state.time) + arm;
@@ -161,11 +194,23 @@ impl<'a> Run<'a> {
         // Antenna = p + Exp(φ)·C·l ≈ p + C·l − (C·l)×φ.
         h.fixed_view_mut::<3, 3>(0, ATT).copy_from(&(-skew(&arm)));
         let r = Matrix3::from_diagonal(&Vector3::from(fix.std.map(|s| s * s)));
+        let s = h * self.p * h.transpose() + r;
+        let before = self.p;
+        let decision = match &mut self.monitor {
+            None => Decision::Used,
+            Some(m) => {
+                let age = m.episode_age(fix.time);
+                let d = m.decide(fix.time, &residual, &s);
+                reopen(&mut self.p, d, &self.config.imu, &residual, age);
+                d
+            }
+        };
+        self.out.innovations.push(Innovation { time: fix.time, fix: index, residual, covariance: s, decision });
+        let reopened = self.p - before;
         let ph = self.p * h.transpose();
         let s = h * ph + r;
-        self.out.innovations.push(Innovation { time: fix.time, fix: index, residual, covariance: s });
-        let Some(s_inv) = s.try_inverse() else {
-            return Vec15::zeros();
+        let Some(s_inv) = s.try_inverse().filter(|_| decision != Decision::Excluded) else {
+            return (Vec15::zeros(), reopened);
         };
         let k = ph * s_inv;
         let dx = k * residual;
@@ -173,7 +218,7 @@ impl<'a> Run<'a> {
         // Joseph form keeps C_{k|k} symmetric and positive definite.
         self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
         self.state = self.state.inject(&dx);
-        dx
+        (dx, reopened)
     }
 
     fn finish(mut self, total_fixes: usize) -> ForwardPass {

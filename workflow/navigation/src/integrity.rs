@@ -2,9 +2,13 @@
 //! global versions over a moving window of N epochs.
 //!
 //! The slippage tests blame one component of the GNSS fix (east, north or up): the one with the largest
-//! statistic. With GNSS and an IMU alone a failure cannot be pinned on either sensor (paper 001 §3.2); a
-//! jump in the fixes shows as an abrupt local rejection, an IMU bias step as a slow growth the global tests
-//! catch first.
+//! statistic. With GNSS and an IMU alone a failure cannot be pinned on either sensor for certain (paper 001
+//! §3.2); a jump in the fixes shows as an abrupt local rejection, an IMU bias step as a slow growth the
+//! global tests catch first. Each flag names the sensor that pattern points to ([`Sensor`]): a local
+//! rejection is *abrupt* when its innovation also differs significantly from the mean innovation of the
+//! preceding window (χ²₃ test of v_k − v̄ with C_v,k + C̄/N) — a jump, blamed on GNSS; a local rejection
+//! that continues the preceding trend, and a global rejection whose window holds no abrupt one, blame the
+//! IMU (a drift the prediction model does not know).
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
@@ -37,6 +41,16 @@ pub enum Component {
     GnssNorth,
     /// GNSS height.
     GnssUp,
+}
+
+/// The sensor a flag blames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Sensor {
+    /// The GNSS fixes (abrupt disagreement).
+    Gnss,
+    /// The IMU (a slow trend only the global tests see).
+    Imu,
 }
 
 const COMPONENTS: [Component; 3] = [Component::GnssEast, Component::GnssNorth, Component::GnssUp];
@@ -74,6 +88,8 @@ pub struct Flag {
     pub critical: f64,
     /// The blamed component (slippage tests only).
     pub component: Option<Component>,
+    /// The blamed sensor.
+    pub sensor: Sensor,
 }
 
 /// Every rejection of the four tests over `innovations` (time order), sorted by time then test.
@@ -88,8 +104,10 @@ pub fn test_innovations(innovations: &[Innovation], config: &IntegrityConfig) ->
     let c1 = chi2_critical(1.0, config.alpha);
     let c3 = chi2_critical(3.0, config.alpha);
     let cn = chi2_critical(3.0 * config.window as f64, config.alpha);
+    let abrupt = abrupt_rejections(innovations, &parts, config.window, c1, c3);
     let mut flags = Vec::new();
     for (k, (inn, p)) in innovations.iter().zip(&parts).enumerate() {
+        let in_window = abrupt[(k + 1).saturating_sub(config.window)..=k].iter().any(|a| *a);
         let flag = |test, statistic, critical, component, start: f64| Flag {
             time: inn.time,
             fix: inn.fix,
@@ -98,6 +116,11 @@ pub fn test_innovations(innovations: &[Innovation], config: &IntegrityConfig) ->
             statistic,
             critical,
             component,
+            sensor: match test {
+                TestKind::LocalOverall | TestKind::LocalSlippage if abrupt[k] => Sensor::Gnss,
+                TestKind::GlobalOverall | TestKind::GlobalSlippage if in_window => Sensor::Gnss,
+                _ => Sensor::Imu,
+            },
         };
         // paper 001 §3.1.2, local overall test
         if p.nis >= c3 {
@@ -126,6 +149,28 @@ pub fn test_innovations(innovations: &[Innovation], config: &IntegrityConfig) ->
         }
     }
     Ok(flags)
+}
+
+/// Whether each innovation is a local rejection that breaks with the preceding `window` innovations.
+fn abrupt_rejections(innovations: &[Innovation], parts: &[Parts], window: usize, c1: f64, c3: f64) -> Vec<bool> {
+    (0..innovations.len())
+        .map(|k| {
+            let p = &parts[k];
+            if p.nis < c3 && largest(&p.weighted, &p.inv_diag).1 < c1 {
+                return false;
+            }
+            let before = &innovations[k.saturating_sub(window)..k];
+            if before.is_empty() {
+                return true;
+            }
+            let n = before.len() as f64;
+            let mean: Vector3<f64> = before.iter().map(|i| i.residual).sum::<Vector3<f64>>() / n;
+            let cov: Matrix3<f64> = before.iter().map(|i| i.covariance).sum::<Matrix3<f64>>() / (n * n);
+            let d = innovations[k].residual - mean;
+            let c = innovations[k].covariance + cov;
+            c.try_inverse().is_none_or(|inv| d.dot(&(inv * d)) >= c3)
+        })
+        .collect()
 }
 
 /// The per-innovation pieces: normalised innovation squared, C_v⁻¹ v and diag(C_v⁻¹).

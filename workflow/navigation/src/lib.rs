@@ -8,12 +8,17 @@
 //! added to the `state` module's transition before it is used on it.
 //!
 //! ```text
+//! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (levelling + GNSS course, static start)
 //! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
+//! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
+//!     re-opened where the IMU is blamed; each innovation carries its Decision
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ
-//! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag>
+//! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag> (each blaming a Sensor)
 //! check_consistency(&dg, &image_motions, &ConsistencyConfig) → flags + WeakLinks for the adjustment
 //! ```
 
+mod adaptive;
+mod align;
 mod chi2;
 mod config;
 mod consistency;
@@ -22,11 +27,13 @@ mod integrity;
 mod smoother;
 mod state;
 
+pub use adaptive::{Adaptation, Decision};
+pub use align::{AlignmentConfig, align};
 pub use chi2::{chi2_cdf, chi2_critical};
 pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
-pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter};
-pub use integrity::{Component, Flag, IntegrityConfig, TestKind, test_innovations};
+pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
+pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
 
 /// Why the filter or smoother could not run, naming the item and field.
@@ -53,6 +60,9 @@ pub enum NavError {
     /// A predicted covariance could not be factorised.
     #[error("predicted covariance at time {time} is not positive definite")]
     Singular { time: f64 },
+    /// The coarse alignment from GNSS and IMU data failed.
+    #[error("alignment: {reason}")]
+    Alignment { reason: &'static str },
     /// The smoothed trajectory failed validation.
     #[error("smoothed trajectory is invalid: {0}")]
     Trajectory(#[from] plumbline_geo::TrajectoryError),

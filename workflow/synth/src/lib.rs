@@ -6,6 +6,7 @@ pub mod aerial;
 pub mod cadastre;
 pub mod map;
 pub mod motion;
+pub mod observations;
 pub mod ortho;
 pub mod render;
 pub mod route;

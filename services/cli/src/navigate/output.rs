@@ -1,0 +1,83 @@
+//! Writing the results of `plumbline navigate`: the smoothed trajectory, the flags and the summary.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use plumbline_geo::Trajectory;
+use plumbline_geo::formats::{self, RawTrajectory};
+use plumbline_navigation::{Decision, Flag, ForwardPass, InitialState};
+use serde_json::{Value, json};
+
+/// The smoothed trajectory as projected CSV with σ.
+pub fn trajectory_csv(trajectory: &Trajectory) -> Vec<u8> {
+    formats::write_csv(&RawTrajectory::from_map_projected(trajectory.records()))
+}
+
+/// Snake-case name of a serialisable enum value.
+fn name<T: serde::Serialize>(value: &T) -> String {
+    serde_json::to_value(value).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+}
+
+/// One row per rejection: time, fix index, test, statistic, critical value, blamed component and sensor.
+pub fn flags_csv(flags: &[Flag]) -> Vec<u8> {
+    let mut s = String::from("time_s,fix,window_start_s,test,statistic,critical,component,sensor\n");
+    for f in flags {
+        let component = f.component.as_ref().map(name).unwrap_or_default();
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{}",
+            f.time,
+            f.fix,
+            f.window_start,
+            name(&f.test),
+            f.statistic,
+            f.critical,
+            component,
+            name(&f.sensor)
+        );
+    }
+    s.into_bytes()
+}
+
+/// What the filter did: fixes by decision (with the times of every non-plain one), skipped fixes with
+/// their reason, flag counts by test and sensor, and the alignment.
+pub fn summary(forward: &ForwardPass, flags: &[Flag], initial: &InitialState, adaptive: bool) -> Value {
+    let mut decisions: BTreeMap<String, usize> = BTreeMap::new();
+    for i in &forward.innovations {
+        *decisions.entry(name(&i.decision)).or_default() += 1;
+    }
+    let actions: Vec<Value> = forward
+        .innovations
+        .iter()
+        .filter(|i| i.decision != Decision::Used)
+        .map(|i| json!({"time": i.time, "fix": i.fix, "decision": i.decision}))
+        .collect();
+    let skipped: Vec<Value> =
+        forward.skipped.iter().map(|k| json!({"fix": k.fix, "reason": k.reason.to_string()})).collect();
+    let mut by_test: BTreeMap<String, usize> = BTreeMap::new();
+    let mut by_sensor: BTreeMap<String, usize> = BTreeMap::new();
+    for f in flags {
+        *by_test.entry(name(&f.test)).or_default() += 1;
+        *by_sensor.entry(name(&f.sensor)).or_default() += 1;
+    }
+    let a = &initial.attitude;
+    let (accel, gyro) = forward.final_biases();
+    json!({
+        "version": "1",
+        "adaptive": adaptive,
+        "epochs": forward.len(),
+        "fixes": forward.innovations.len(),
+        "decisions": decisions,
+        "actions": actions,
+        "skipped_fixes": skipped,
+        "flags": {"total": flags.len(), "by_test": by_test, "by_sensor": by_sensor},
+        "alignment": {
+            "time": initial.time,
+            "position": [initial.position.x(), initial.position.y(), initial.position.z()],
+            "roll_deg": a.roll.to_degrees(),
+            "pitch_deg": a.pitch.to_degrees(),
+            "heading_deg": a.heading.to_degrees(),
+        },
+        "final_biases": {"accelerometer_mps2": [accel.x, accel.y, accel.z], "gyro_radps": [gyro.x, gyro.y, gyro.z]},
+    })
+}

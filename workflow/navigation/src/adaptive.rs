@@ -1,0 +1,179 @@
+//! The filter acting on its own tests (paper 001 §3.2: detect, identify, then remove or re-model): each
+//! GNSS innovation is tested before it is used.
+//!
+//! - **Local overall test rejects** (paper 001 §3.1.2): the fix disagrees abruptly with the prediction — a
+//!   GNSS jump is the hypothesis, the fix is excluded. While fixes keep being rejected, the rejected
+//!   innovations are compared with the first of the episode: a GNSS jump shifts them all by the same
+//!   amount, an IMU fault makes them drift apart. When that drift is significant (the same χ² test on
+//!   v_k − v_first with covariance C_v,k + C_v,first), or the episode outlasts `max_exclusion`, the IMU is
+//!   blamed: the filter re-opens position, velocity and bias covariances and takes the fix.
+//! - **Local test passes, global tests over the last `window` used innovations reject**: a slow trend the
+//!   local test cannot see — an IMU bias step is the hypothesis (§3.1.2, "little jumps in bias"), so the
+//!   bias covariances are re-opened to their turn-on σ and the bias is re-estimated; the window restarts.
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+use crate::NavError;
+use crate::chi2::chi2_critical;
+use crate::config::ImuModel;
+use crate::state::{BA, BG, Mat15, POS, VEL};
+
+/// Parameters of the adaptive filter.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Adaptation {
+    /// Significance level α of the local and global tests.
+    pub alpha: f64,
+    /// Used innovations in the moving window of the global tests (≥ 1).
+    pub window: usize,
+    /// Longest run of excluded fixes before the filter blames itself and re-opens its covariance, s.
+    pub max_exclusion: f64,
+}
+
+impl Default for Adaptation {
+    fn default() -> Self {
+        Self { alpha: 0.001, window: 25, max_exclusion: 30.0 }
+    }
+}
+
+impl Adaptation {
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), NavError> {
+        if !(self.alpha > 0.0 && self.alpha < 1.0) {
+            return Err(NavError::Config { field: "adaptation.alpha", value: self.alpha, expected: "in (0, 1)" });
+        }
+        if self.window == 0 {
+            return Err(NavError::Config { field: "adaptation.window", value: 0.0, expected: ">= 1 fix" });
+        }
+        if !(self.max_exclusion.is_finite() && self.max_exclusion > 0.0) {
+            let value = self.max_exclusion;
+            return Err(NavError::Config { field: "adaptation.max_exclusion", value, expected: "a finite time > 0 s" });
+        }
+        Ok(())
+    }
+}
+
+/// What the filter did with a fix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Decision {
+    /// Used as it is.
+    Used,
+    /// Rejected by the local test and not used (GNSS blamed).
+    Excluded,
+    /// Used after re-opening the bias covariances (global tests rejected: IMU blamed).
+    BiasReset,
+    /// Used after re-opening position, velocity and bias covariances (rejected fixes drifted apart, or the
+    /// exclusion lasted too long: IMU blamed).
+    Reinitialised,
+}
+
+/// The per-innovation pieces of the tests: vᵀC⁻¹v, C⁻¹v, diag(C⁻¹).
+#[derive(Clone, Copy, Debug)]
+struct Parts {
+    nis: f64,
+    weighted: Vector3<f64>,
+    inv_diag: Vector3<f64>,
+}
+
+impl Parts {
+    fn of(v: &Vector3<f64>, c: &Matrix3<f64>) -> Option<Self> {
+        let inv = c.try_inverse()?;
+        let weighted = inv * v;
+        Some(Self { nis: v.dot(&weighted), weighted, inv_diag: inv.diagonal() })
+    }
+}
+
+/// The running state of the tests inside the filter.
+#[derive(Clone, Debug)]
+pub(crate) struct Monitor {
+    config: Adaptation,
+    local: f64,
+    global: f64,
+    slippage: f64,
+    window: std::collections::VecDeque<Parts>,
+    /// First rejected fix of the current exclusion episode: time, innovation, covariance.
+    episode: Option<(f64, Vector3<f64>, Matrix3<f64>)>,
+}
+
+impl Monitor {
+    pub fn new(config: Adaptation) -> Self {
+        Self {
+            local: chi2_critical(3.0, config.alpha),
+            global: chi2_critical(3.0 * config.window as f64, config.alpha),
+            slippage: chi2_critical(1.0, config.alpha),
+            window: std::collections::VecDeque::with_capacity(config.window),
+            episode: None,
+            config,
+        }
+    }
+
+    /// Seconds since the current exclusion episode started (0 outside one).
+    pub fn episode_age(&self, time: f64) -> f64 {
+        self.episode.map_or(0.0, |(start, ..)| time - start)
+    }
+
+    /// The decision for innovation `v` with covariance `c` of the fix at `time`.
+    pub fn decide(&mut self, time: f64, v: &Vector3<f64>, c: &Matrix3<f64>) -> Decision {
+        let Some(parts) = Parts::of(v, c) else {
+            return Decision::Excluded;
+        };
+        // paper 001 §3.1.2, local overall test
+        if parts.nis >= self.local {
+            return self.rejected(time, v, c);
+        }
+        self.episode = None;
+        if self.window.len() == self.config.window {
+            self.window.pop_front();
+        }
+        self.window.push_back(parts);
+        if self.window.len() == self.config.window && self.global_rejects() {
+            self.window.clear();
+            return Decision::BiasReset;
+        }
+        Decision::Used
+    }
+
+    fn rejected(&mut self, time: f64, v: &Vector3<f64>, c: &Matrix3<f64>) -> Decision {
+        let Some((start, v0, c0)) = self.episode else {
+            self.episode = Some((time, *v, *c));
+            return Decision::Excluded;
+        };
+        let drift = Parts::of(&(v - v0), &(c + c0)).map_or(f64::INFINITY, |p| p.nis);
+        if drift >= self.local || time - start > self.config.max_exclusion {
+            self.episode = None;
+            self.window.clear();
+            return Decision::Reinitialised;
+        }
+        Decision::Excluded
+    }
+
+    /// paper 001 §3.1.2, global overall and global slippage tests over the window.
+    fn global_rejects(&self) -> bool {
+        let total: f64 = self.window.iter().map(|p| p.nis).sum();
+        let num: Vector3<f64> = self.window.iter().map(|p| p.weighted).sum();
+        let den: Vector3<f64> = self.window.iter().map(|p| p.inv_diag).sum();
+        let slip = (0..3).map(|i| if den[i] > 0.0 { num[i] * num[i] / den[i] } else { 0.0 }).fold(0.0, f64::max);
+        total >= self.global || slip >= self.slippage
+    }
+}
+
+/// Re-open the covariance for `decision`: the bias blocks to their turn-on σ, and for a re-initialisation
+/// also position and velocity to the size of the innovation (`v`) and its growth over `elapsed` seconds.
+pub(crate) fn reopen(p: &mut Mat15, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64) {
+    if matches!(decision, Decision::Used | Decision::Excluded) {
+        return;
+    }
+    for a in 0..3 {
+        p[(BA + a, BA + a)] += imu.accel_bias.powi(2);
+        p[(BG + a, BG + a)] += imu.gyro_bias.powi(2);
+    }
+    if decision == Decision::Reinitialised {
+        let rate = 2.0 / elapsed.max(1.0);
+        for a in 0..3 {
+            p[(POS + a, POS + a)] += v[a] * v[a];
+            p[(VEL + a, VEL + a)] += (v[a] * rate).powi(2);
+        }
+    }
+}
