@@ -1,4 +1,34 @@
 //! Pole-like objects from cadastres as control (paper 002): detection in depth images and point clouds,
 //! matching to the cadastre, and coordinate updates (CUPTs) for the adjustment.
 //!
-//! Synchronous and I/O-free; rayon parallelism inside.
+//! Synchronous and I/O-free; rayon parallelism inside. The pipeline of one drive:
+//! 1. [`depth::decode_depth_png`] + [`depth::depth_points`] (or [`las::read_las`] + [`points::FramePoints`])
+//!    put the measurements into the mapping frame through the DG pose;
+//! 2. [`detect::detect`] finds vertical structures per frame;
+//! 3. [`matching::match_frames`] associates them with the cadastre (one common offset per frame, tracks over
+//!    consecutive frames, ambiguities rejected, never forced; [`matching::MatchInput`] per frame);
+//! 4. [`cupt::coordinate_updates`] turns the matches into `plumbline_adjustment::PoleUpdate`s and
+//!    [`report::frame_reports`] into the versioned per-frame diagnostics.
+//!
+//! [`pipeline::process_depth_frames`] runs all of it for a drive's depth images (the CLI's entry point).
+
+pub mod cupt;
+pub mod depth;
+pub mod detect;
+pub mod las;
+pub mod matching;
+pub mod pipeline;
+pub mod points;
+pub mod report;
+
+pub use cupt::{CuptConfig, coordinate_updates};
+pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
+pub use detect::{
+    DetectConfig, DetectError, Detection, FrameDetections, ViewSector, detect, detect_on_ground, estimate_ground,
+    ground_from_neighbours,
+};
+pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las};
+pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};
+pub use pipeline::{DepthFrame, PointFrame, PoleConfig, PoleOutput, process_depth_frames, process_point_frames};
+pub use points::{FramePoint, FramePoints};
+pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};
