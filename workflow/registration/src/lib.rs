@@ -5,3 +5,8 @@
 
 pub mod aerial;
 pub mod mm;
+pub mod output;
+pub mod pipeline;
+
+pub use output::{TileResult, TileResultV1};
+pub use pipeline::{PipelineConfig, StageTimings, TileRun, register_tile};

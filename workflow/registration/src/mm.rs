@@ -1,1 +1,150 @@
 //! Steps 1–4 of paper 000 §3: ortho-projection, MM↔MM transformation, corner matching and triangulation.
+//!
+//! Inputs are decoded panoramas with their DG poses ([`Panorama`]) and the camera rig they share
+//! ([`PanoramaRig`]); every step is a pure function of them and of [`MmConfig`].
+
+pub mod corners;
+pub mod ortho;
+pub mod transform;
+pub mod triangulate;
+
+#[cfg(test)]
+pub(crate) mod testing;
+
+use plumbline_geo::MapFromBody;
+use plumbline_geo::camera::Equirectangular;
+use plumbline_geo::dg::CameraMount;
+use plumbline_imaging::corners::Foerstner;
+use plumbline_imaging::kaze::KazeConfig;
+use plumbline_imaging::{GrayImage, ImagingError, Mask};
+
+pub use corners::{CornerMatch, CornerMatches, match_corners};
+pub use ortho::{OrthoPatch, ortho_patch};
+pub use transform::{FallbackReason, PairTransform, TransformSource, features, orientation_transform, pair_transform};
+pub use triangulate::{MmPoint, RayIntersection, TriangulationStats, intersect_rays, triangulate};
+
+/// One equirectangular panorama as the pipeline receives it: decoded, with its DG pose.
+#[derive(Clone, Debug)]
+pub struct Panorama {
+    /// Image id (unique within the campaign).
+    pub id: String,
+    /// Exposure time on the trajectory's time scale, seconds.
+    pub time: f64,
+    /// The gray panorama; its size must match [`PanoramaRig::camera`].
+    pub image: GrayImage,
+    /// The vehicle pose at `time` from direct georeferencing (carries the DG error).
+    pub pose: MapFromBody,
+    /// 1σ horizontal uncertainty of the DG position, metres.
+    pub position_sigma: f64,
+}
+
+/// What all panoramas of a campaign share: the camera model, its mounting and the vehicle mask.
+#[derive(Clone, Debug)]
+pub struct PanoramaRig {
+    /// The equirectangular camera model (image size).
+    pub camera: Equirectangular,
+    /// Lever arm and boresight of the panoramic camera.
+    pub mount: CameraMount,
+    /// Pixels showing the vehicle itself (set = vehicle), same size as the panoramas.
+    pub vehicle_mask: Option<Mask>,
+    /// Height of the camera centre above the road, metres: places the ground plane of §3.2.
+    pub camera_height: f64,
+}
+
+/// Parameters of steps 1–4 (paper 000 §3.2–§3.5); `Default` gives the paper's values where it states them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MmConfig {
+    /// Ground sampling distance of the MM ortho-images, metres (paper 000 §3.2: 3 cm).
+    pub gsd: f64,
+    /// Half the side of the square ortho-image around the camera, metres.
+    pub half_extent: f64,
+    /// KAZE settings: two octaves, upright, threshold tuned for ortho-images (paper 000 §3.3).
+    pub kaze: KazeConfig,
+    /// Keypoints closer than this to an invalid ortho cell are dropped, pixels (their blobs see the mask edge).
+    pub kaze_margin: usize,
+    /// Radius around the DG-predicted position in which KAZE matches are sought, metres.
+    pub guide_radius: f64,
+    /// Nearest/second-nearest descriptor distance ratio.
+    pub kaze_ratio: f32,
+    /// RANSAC inlier threshold on the transfer error, ortho pixels.
+    pub ransac_threshold: f64,
+    /// Fewest RANSAC inliers for a feature-based transformation.
+    pub min_kaze_inliers: usize,
+    /// Largest disagreement, metres, between the feature-based and the orientation-based position of the
+    /// first image's centre in the second image (paper 000 §3.3's verification).
+    pub max_disagreement: f64,
+    /// Largest deviation of the similarity's scale from 1 (both ortho-images have the same GSD).
+    pub max_scale_deviation: f64,
+    /// Förstner operator for the corners (paper 000 §3.4).
+    pub foerstner: Foerstner,
+    /// Corners farther than this from the camera (horizontally, metres) are not matched: the panorama's
+    /// ground resolution falls with range, and the patch beyond serves the aerial registration only.
+    pub max_corner_distance: f64,
+    /// Strongest corners kept per image.
+    pub max_corners: usize,
+    /// Half-size of the NCC/LSM template, pixels.
+    pub template_half: usize,
+    /// NCC search radius around the transferred corner with a feature-based transformation, pixels.
+    pub search_radius: usize,
+    /// NCC search radius with the orientation-based fallback, pixels (covers the relative DG error).
+    pub fallback_search_radius: usize,
+    /// Smallest accepted NCC coefficient.
+    pub min_ncc: f64,
+    /// Largest accepted LSM standard deviation of the matched position, pixels.
+    pub max_lsm_std: f64,
+    /// Largest distance between the LSM and the NCC position, pixels.
+    pub max_lsm_shift: f64,
+    /// Smallest intersection angle of the two rays, radians.
+    pub min_ray_angle: f64,
+    /// Largest distance of the triangulated point from either ray, metres.
+    pub max_miss: f64,
+    /// Largest height of a triangulated point above or below the ground plane, metres (kerbs, camber).
+    pub max_height_offset: f64,
+}
+
+impl Default for MmConfig {
+    fn default() -> Self {
+        Self {
+            gsd: 0.03,
+            half_extent: 14.0,
+            kaze: KazeConfig { octaves: 2, sublevels: 4, threshold: 0.0003, upright: true, ..KazeConfig::default() },
+            kaze_margin: 12,
+            guide_radius: 1.0,
+            kaze_ratio: 0.9,
+            ransac_threshold: 2.0,
+            min_kaze_inliers: 12,
+            max_disagreement: 0.3,
+            max_scale_deviation: 0.03,
+            foerstner: Foerstner { min_weight_factor: 0.5, nms_radius: 5, ..Foerstner::default() },
+            max_corner_distance: 20.0,
+            max_corners: 400,
+            template_half: 8,
+            search_radius: 5,
+            fallback_search_radius: 12,
+            min_ncc: 0.8,
+            max_lsm_std: 0.3,
+            max_lsm_shift: 1.5,
+            min_ray_angle: 2f64.to_radians(),
+            max_miss: 0.08,
+            max_height_offset: 0.5,
+        }
+    }
+}
+
+/// Errors of steps 1–4, naming the panorama and what failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MmError {
+    /// The configuration or the rig is unusable.
+    #[error("registration parameter `{field}` = {value}: {reason}")]
+    Config { field: &'static str, value: f64, reason: &'static str },
+    /// An image primitive failed on a panorama.
+    #[error("panorama {image}: {step}: {source}")]
+    Imaging {
+        /// Panorama id.
+        image: String,
+        /// The step (e.g. "ortho-projection").
+        step: &'static str,
+        /// The primitive's error.
+        source: ImagingError,
+    },
+}

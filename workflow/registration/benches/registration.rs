@@ -1,0 +1,164 @@
+//! Registration accuracy and speed on a synthetic campaign, per GNSS profile, in paper 000 Table 1's form:
+//! images, images matched, correspondences, share correct (aerial position within 2 aerial pixels of the
+//! true ground point, horizontally), why images failed, and the time per stage per panorama.
+//!
+//! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
+//! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
+//! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`).
+
+#![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
+
+#[path = "../tests/support/mod.rs"]
+mod support;
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use plumbline_geo::tiling::TileId;
+use plumbline_registration::mm::TransformSource;
+use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
+use plumbline_synth::world;
+use support::{AERIAL_GSD, Campaign, Profile, Spec};
+
+fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
+    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
+fn profile(name: &str) -> Option<Profile> {
+    match name {
+        "open" => Some(Profile::Open),
+        "urban" => Some(Profile::Urban),
+        "canyon" => Some(Profile::Canyon),
+        "mixed" => Some(Profile::Mixed),
+        _ => None,
+    }
+}
+
+/// One profile's numbers.
+struct Row {
+    name: String,
+    images: usize,
+    matched: usize,
+    kaze_pairs: usize,
+    correspondences: usize,
+    correct: usize,
+    median_error: f64,
+    dg_error_median: f64,
+    reasons: BTreeMap<String, usize>,
+    timings: StageTimings,
+    build_s: f64,
+}
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+}
+
+fn run(name: &str, spec: &Spec) -> Row {
+    let t0 = Instant::now();
+    let campaign = Campaign::build(spec);
+    let build_s = t0.elapsed().as_secs_f64();
+    let run = register_tile(
+        TileId { col: 0, row: 0 },
+        &campaign.panoramas,
+        &campaign.rig,
+        &campaign.reference,
+        &PipelineConfig::default(),
+    );
+    let result = run.result.into_latest();
+    let horizontal: Vec<f64> = campaign.aerial_errors(&result).iter().map(|(e, _)| e[0].hypot(e[1])).collect();
+    let kaze_pairs = result.images.iter().filter(|d| matches!(d.transform, Some(TransformSource::Kaze { .. }))).count();
+    Row {
+        name: name.to_owned(),
+        images: result.summary.images,
+        matched: result.summary.images_matched,
+        kaze_pairs,
+        correspondences: horizontal.len(),
+        correct: horizontal.iter().filter(|&&e| e <= 2.0 * AERIAL_GSD).count(),
+        median_error: median(horizontal),
+        dg_error_median: median(campaign.dg_error.clone()),
+        reasons: result.summary.discarded,
+        timings: run.timings,
+        build_s,
+    }
+}
+
+fn print_tables(rows: &[Row]) {
+    println!(
+        "\n| profile | images | images matched | correspondences | correct (≤ 2 px = {:.2} m) | median horiz. error (m) | median DG error (m) | KAZE pairs |",
+        2.0 * AERIAL_GSD
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let share = if r.correspondences > 0 { 100.0 * r.correct as f64 / r.correspondences as f64 } else { f64::NAN };
+        println!(
+            "| {} | {} | {} ({:.0} %) | {} | {:.1} % | {:.3} | {:.3} | {} |",
+            r.name,
+            r.images,
+            r.matched,
+            100.0 * r.matched as f64 / r.images.max(1) as f64,
+            r.correspondences,
+            share,
+            r.median_error,
+            r.dg_error_median,
+            r.kaze_pairs
+        );
+    }
+    println!("\n| profile | why images failed (count) |\n|---|---|");
+    for r in rows {
+        let reasons: Vec<String> = r.reasons.iter().map(|(k, v)| format!("{k}: {v}")).collect();
+        println!("| {} | {} |", r.name, reasons.join(", "));
+    }
+    println!(
+        "\n| profile | ortho-projection | features | matching | triangulation | aerial | elapsed | render (not pipeline) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let per = |d: std::time::Duration| 1e3 * d.as_secs_f64() / r.images.max(1) as f64;
+        let t = &r.timings;
+        println!(
+            "| {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.2} ms | {:.0} ms | {:.0} ms | {:.1} s total |",
+            r.name,
+            per(t.ortho),
+            per(t.features),
+            per(t.matching),
+            per(t.triangulation),
+            per(t.aerial),
+            per(t.total),
+            r.build_s
+        );
+    }
+    println!("\nStage times are thread-time per panorama (stages run in parallel on rayon's pool); `elapsed` is the");
+    println!("wall time of `register_tile` divided by the panoramas, on {} threads.", rayon::current_num_threads());
+}
+
+fn main() {
+    let preset = match std::env::var("MM_BENCH_PRESET").as_deref() {
+        Ok("district") => world::Preset::District,
+        _ => world::Preset::Tiny,
+    };
+    let profiles: String = env("MM_BENCH_PROFILES", "open,urban,canyon".to_owned());
+    let base = Spec {
+        preset,
+        seed: env("MM_BENCH_SEED", 1),
+        profile: Profile::Open,
+        length: env("MM_BENCH_LENGTH", 400.0),
+        spacing: env("MM_BENCH_SPACING", 5.0),
+        width: env("MM_BENCH_WIDTH", 1024),
+        window: None,
+    };
+    println!(
+        "registration bench: preset {preset:?}, seed {}, route {} m, panoramas every {} m at {} px",
+        base.seed, base.length, base.spacing, base.width
+    );
+    let rows: Vec<Row> = profiles
+        .split(',')
+        .filter_map(|name| profile(name.trim()).map(|p| (name.trim(), p)))
+        .map(|(name, p)| {
+            let row = run(name, &Spec { profile: p, ..base });
+            eprintln!("{name}: {} of {} images matched", row.matched, row.images);
+            row
+        })
+        .collect();
+    print_tables(&rows);
+}

@@ -1,0 +1,127 @@
+//! Settings of the MM ↔ aerial registration (paper 000 §3.6–3.9) with the paper's values where it gives them.
+
+use plumbline_imaging::filter::Wallis;
+use plumbline_imaging::kaze::KazeConfig;
+use plumbline_imaging::lsm::LsmConfig;
+use plumbline_imaging::ransac::RansacConfig;
+
+/// Bounds of the plausibility check on the initial transformation (paper 000 §3.7): the MM pose may be
+/// wrong by a few metres, so only the translation's size (and a near-identity rotation and scale) is tested.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Plausibility {
+    /// Allowed ground offset as a multiple of the patch's DG position σ.
+    pub sigma_factor: f64,
+    /// Allowed ground offset added to `sigma_factor · σ` (covers AT and matching errors), metres.
+    pub floor_m: f64,
+    /// Largest rotation between the rotated MM patch and the aerial patch, radians.
+    pub max_rotation: f64,
+    /// Largest relative scale difference.
+    pub max_scale_error: f64,
+}
+
+impl Default for Plausibility {
+    fn default() -> Self {
+        Self { sigma_factor: 3.0, floor_m: 0.5, max_rotation: 4f64.to_radians(), max_scale_error: 0.04 }
+    }
+}
+
+impl Plausibility {
+    /// The largest ground offset (m) the check accepts for a DG position σ.
+    pub fn bound_m(&self, position_sigma: f64) -> f64 {
+        self.sigma_factor * position_sigma.max(0.0) + self.floor_m
+    }
+}
+
+/// Settings of [`super::register_patch`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AerialConfig {
+    /// σ of the aerial camera's optical point spread, aerial pixels (paper 000 §3.6: the Gaussian that
+    /// simulates the aerial optics; added in quadrature to the anti-aliasing σ of the 3 cm → GSD resampling).
+    pub optics_blur_px: f64,
+    /// Wallis filter applied to both patches (paper 000 §3.7), in aerial pixels.
+    pub wallis: Wallis,
+    /// KAZE for the initial transformation: upright, two octaves (paper 000 §3.3, §3.7).
+    pub kaze: KazeConfig,
+    /// Distance-ratio test of the KAZE descriptor matching.
+    pub match_ratio: f32,
+    /// RANSAC of the initial (similarity) transformation; threshold in aerial pixels.
+    pub initial_ransac: RansacConfig,
+    /// Fewest KAZE inliers for an initial transformation.
+    pub min_initial_inliers: usize,
+    /// When KAZE finds no initial transformation, correlate the whole prepared patch instead (a translation;
+    /// module `correlate`).
+    pub correlation_fallback: bool,
+    /// Smallest NCC of the whole-patch correlation fallback.
+    pub min_correlation: f64,
+    /// The fallback's coarse peak must exceed the best placement a coarse pixel pair away by this much.
+    pub min_correlation_margin: f64,
+    /// Plausibility bounds of the initial transformation.
+    pub plausibility: Plausibility,
+    /// The patch centre must project at least this far inside an aerial frame, pixels.
+    pub frame_margin_px: f64,
+    /// Aerial frames that must pass the initial transformation and the matching (paper 000 §3.7: two).
+    pub min_images: usize,
+    /// Half-size of the NCC/LSM template, aerial pixels (paper 000 §3.8: a small window).
+    pub template_half: usize,
+    /// NCC search radius around the transferred point, aerial pixels.
+    pub search_radius: usize,
+    /// Smallest accepted NCC coefficient.
+    pub min_ncc: f64,
+    /// Least-squares matching iterations.
+    pub lsm: LsmConfig,
+    /// LSM results further than this from the NCC peak are not trusted (the NCC position is kept), pixels.
+    pub lsm_max_shift_px: f64,
+    /// RANSAC over an image's correspondences (paper 000 §3.8); threshold in aerial pixels.
+    pub match_ransac: RansacConfig,
+    /// Fewest correspondences per aerial image (paper 000 §3.8: ten).
+    pub min_correspondences: usize,
+    /// Ground intersections of one point's rays may differ from their median by this many aerial pixels
+    /// (paper 000 §3.8 consistency across aerial images).
+    pub consistency_px: f64,
+    /// A-priori σ of a matched aerial image coordinate, pixels (weights of the triangulation).
+    pub pixel_sigma: f64,
+    /// A ray whose reprojection error exceeds this (pixels) is a blunder (paper 000 §3.9).
+    pub max_reprojection_px: f64,
+    /// A triangulated height further than `height_sigmas · σ_H + height_floor_m` from the patch's ground
+    /// height is a blunder (paper 000 §3.9; two nadir rays hide mismatches along their baseline).
+    pub height_sigmas: f64,
+    /// See `height_sigmas`; covers the DG height error and objects above the ground, metres.
+    pub height_floor_m: f64,
+    /// σ of an orthophoto position, orthophoto pixels.
+    pub ortho_sigma_px: f64,
+    /// σ of a terrain height, metres.
+    pub terrain_sigma_m: f64,
+}
+
+impl Default for AerialConfig {
+    fn default() -> Self {
+        Self {
+            optics_blur_px: 0.7,
+            wallis: Wallis { half_window: 12, target_mean: 127.0, target_std: 50.0, contrast: 0.9, brightness: 0.9 },
+            kaze: KazeConfig { octaves: 2, sublevels: 4, threshold: 0.0005, upright: true, ..KazeConfig::default() },
+            match_ratio: 0.85,
+            initial_ransac: RansacConfig { threshold: 1.5, ..RansacConfig::default() },
+            min_initial_inliers: 6,
+            correlation_fallback: true,
+            min_correlation: 0.5,
+            min_correlation_margin: 0.1,
+            plausibility: Plausibility::default(),
+            frame_margin_px: 10.0,
+            min_images: 2,
+            template_half: 6,
+            search_radius: 3,
+            min_ncc: 0.7,
+            lsm: LsmConfig::default(),
+            lsm_max_shift_px: 1.0,
+            match_ransac: RansacConfig { threshold: 1.0, ..RansacConfig::default() },
+            min_correspondences: 10,
+            consistency_px: 1.5,
+            pixel_sigma: 0.3,
+            max_reprojection_px: 1.0,
+            height_sigmas: 3.0,
+            height_floor_m: 2.0,
+            ortho_sigma_px: 0.5,
+            terrain_sigma_m: 0.2,
+        }
+    }
+}

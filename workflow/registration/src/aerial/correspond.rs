@@ -1,0 +1,126 @@
+//! Step 7 of paper 000 (§3.8): every MM corner transferred into each passing aerial image with its initial
+//! transformation, matched by NCC in a small window and refined by least-squares matching; RANSAC outlier
+//! removal per image; and the consistency of the same point across aerial images (ground intersections).
+
+use nalgebra::Matrix3;
+use plumbline_imaging::GrayImage;
+use plumbline_imaging::lsm::{least_squares_match, translation};
+use plumbline_imaging::models::{Correspondence, Model};
+use plumbline_imaging::ncc::NccSearcher;
+use plumbline_imaging::ransac::ransac;
+use plumbline_imaging::warp::apply_h;
+
+use super::config::AerialConfig;
+use super::correlate::search;
+use super::diagnostics::ImageRejection;
+use super::prepare::Prepared;
+
+/// One MM corner found in one aerial image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct PointMatch {
+    /// Index into the patch's points.
+    pub slot: usize,
+    /// Position in the prepared MM patch.
+    pub prepared: [f64; 2],
+    /// Position in the aerial window.
+    pub window: [f64; 2],
+}
+
+/// Matches of one image and how many corners could be tried.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct CornerMatches {
+    /// Corners with a full valid template whose transfer lies inside the aerial patch.
+    pub candidates: usize,
+    /// Corners matched above the NCC threshold.
+    pub matches: Vec<PointMatch>,
+}
+
+/// Match the corners (`corners[slot]` in prepared pixels) into the Wallis-filtered aerial `window` around
+/// their transfer by `transform` (paper 000 §3.8: template in the MM patch, search window in the aerial one).
+pub(crate) fn match_corners(
+    prepared: &Prepared,
+    corners: &[[f64; 2]],
+    window: &GrayImage,
+    transform: &Matrix3<f64>,
+    config: &AerialConfig,
+) -> CornerMatches {
+    let searcher = NccSearcher::new(window);
+    let reach = (config.search_radius + config.template_half) as f64;
+    let (w, h) = (window.width() as f64, window.height() as f64);
+    let candidates: Vec<(usize, [f64; 2], (f64, f64))> = corners
+        .iter()
+        .enumerate()
+        .filter(|(_, q)| prepared.valid_around(**q, config.template_half))
+        .filter_map(|(slot, &q)| Some((slot, q, apply_h(transform, q[0], q[1])?)))
+        .filter(|(_, _, (u, v))| *u >= reach && *v >= reach && *u <= w - reach && *v <= h - reach)
+        .collect();
+    let matches = candidates
+        .iter()
+        .filter_map(|&(slot, q, (u, v))| {
+            let template = prepared.template(q, config.template_half);
+            let m = search(&searcher, &template, [u, v], config.search_radius)?;
+            if m.score < config.min_ncc {
+                return None;
+            }
+            // paper 000 §3.8: NCC, then least-squares matching to subpixel precision
+            let refined = least_squares_match(&template, window, translation(m.u, m.v), &config.lsm)
+                .ok()
+                .map(|l| [l.affine[0], l.affine[3]])
+                .filter(|p| (p[0] - m.u).hypot(p[1] - m.v) <= config.lsm_max_shift_px);
+            Some(PointMatch { slot, prepared: q, window: refined.unwrap_or([m.u, m.v]) })
+        })
+        .collect();
+    CornerMatches { candidates: candidates.len(), matches }
+}
+
+/// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers if at least
+/// `config.min_correspondences` remain.
+pub(crate) fn remove_outliers(
+    matches: Vec<PointMatch>,
+    config: &AerialConfig,
+) -> Result<Vec<PointMatch>, ImageRejection> {
+    let needed = config.min_correspondences;
+    let too_few = |found| ImageRejection::TooFewCorrespondences { found, needed };
+    if matches.len() < needed.max(Model::Similarity.min_samples()) {
+        return Err(too_few(matches.len()));
+    }
+    let pairs: Vec<Correspondence> = matches.iter().map(|m| Correspondence { a: m.prepared, b: m.window }).collect();
+    let fit = ransac(Model::Similarity, &pairs, &config.match_ransac)
+        .map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
+    let kept: Vec<PointMatch> = matches.into_iter().zip(&fit.inliers).filter(|p| *p.1).map(|p| p.0).collect();
+    if kept.len() < needed { Err(too_few(kept.len())) } else { Ok(kept) }
+}
+
+/// Paper 000 §3.8 consistency across aerial images: `grounds[k]` is where observation k of one point meets
+/// the ground; observations farther than `tolerance_m` from the component-wise median are flagged. With
+/// two observations that disagree neither can be trusted, so both are flagged.
+pub(crate) fn consistent(grounds: &[[f64; 2]], tolerance_m: f64) -> Vec<bool> {
+    let median = |k: usize| {
+        let mut v: Vec<f64> = grounds.iter().map(|g| g[k]).collect();
+        v.sort_by(f64::total_cmp);
+        let n = v.len();
+        if n == 0 {
+            f64::NAN
+        } else if n % 2 == 1 {
+            v[n / 2]
+        } else {
+            0.5 * (v[n / 2 - 1] + v[n / 2])
+        }
+    };
+    let m = [median(0), median(1)];
+    grounds.iter().map(|g| (g[0] - m[0]).hypot(g[1] - m[1]) <= tolerance_m).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn consistency_flags_the_ray_that_leaves_the_others_and_both_of_a_disagreeing_pair() {
+        let three = consistent(&[[10.0, 20.0], [10.05, 19.98], [10.9, 20.1]], 0.18);
+        assert_eq!(three, vec![true, true, false]);
+        // Two rays 0.5 m apart: the median is halfway, 0.25 m from each.
+        assert_eq!(consistent(&[[0.0, 0.0], [0.5, 0.0]], 0.18), vec![false, false]);
+        assert_eq!(consistent(&[[0.0, 0.0], [0.2, 0.0]], 0.18), vec![true, true]);
+    }
+}

@@ -1,0 +1,177 @@
+//! The driver of steps 5–8 (paper 000 §3.6–3.9) for one MM patch: overlapping aerial images, per image the
+//! prepared patch, the initial transformation and the corner matching (in parallel), the cross-image
+//! consistency, and the triangulation (frames) or the orthophoto + terrain lookup.
+
+use rayon::prelude::*;
+
+use super::config::AerialConfig;
+use super::correspond::consistent;
+use super::diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
+use super::image::{ImageResult, MmSide, register_image};
+use super::initial::mm_features;
+use super::points::{ortho_points, triangulate_points};
+use super::prepare::{BlurredPatch, blur_patch, prepare};
+use super::view::{LocalGeometry, View};
+use super::{AerialOutcome, AerialReference, MmPatch};
+
+/// Views whose up directions agree within this (radians) and whose GSDs agree within `SAME_GSD` share one
+/// prepared MM patch and its KAZE features (the frames of one strip).
+const SAME_HEADING: f64 = 0.01;
+/// Relative GSD difference for sharing a prepared MM patch.
+const SAME_GSD: f64 = 0.01;
+
+/// Register one MM patch against the aerial reference (paper 000 §3.6–3.9). Never fails: an unusable patch
+/// or reference is reported in [`AerialOutcome::discarded`], each aerial image's fate in `images`.
+pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: &AerialConfig) -> AerialOutcome {
+    let discard = |images, why| AerialOutcome { points: Vec::new(), images, discarded: Some(why) };
+    let height = match validate(patch) {
+        Ok(h) => h,
+        Err(reason) => return discard(Vec::new(), AerialDiscard::InvalidPatch { reason }),
+    };
+    let centre = [patch.grid.centre[0], patch.grid.centre[1], height];
+    let (views, needed): (Vec<View<'_>>, usize) = match reference {
+        AerialReference::Frames(frames) => (frames.iter().map(View::Frame).collect(), config.min_images),
+        AerialReference::Orthophoto(o) => (vec![View::Ortho(o)], 1),
+    };
+    // paper 000 §3.7: the recording location projected into the whole block
+    let overlapping: Vec<(View<'_>, LocalGeometry)> = views
+        .into_iter()
+        .filter_map(|v| {
+            v.local_geometry(centre).filter(|g| v.contains(g.pixel, config.frame_margin_px)).map(|g| (v, g))
+        })
+        .collect();
+    if overlapping.is_empty() {
+        return discard(Vec::new(), AerialDiscard::NoOverlap);
+    }
+    let gsd = median_gsd(&overlapping);
+    let blurred = match blur_patch(patch.image, patch.valid, patch.grid, gsd, config.optics_blur_px) {
+        Ok(b) => b,
+        Err(e) => return discard(Vec::new(), AerialDiscard::InvalidPatch { reason: e.to_string() }),
+    };
+    let (group, representatives) = orientation_groups(&overlapping);
+    let sides: Vec<Result<MmSide, ImageRejection>> =
+        representatives.par_iter().map(|g| mm_side(&blurred, g, config)).collect();
+    let mut results: Vec<ImageResult> =
+        overlapping.par_iter().zip(&group).map(|((v, g), &k)| register_image(patch, &sides[k], v, g, config)).collect();
+    let passed = results.iter().filter(|r| r.diagnostic.passed).count();
+    if passed < needed {
+        return discard(diagnostics(results), AerialDiscard::TooFewPlausible { passed, needed });
+    }
+    let views: Vec<View<'_>> = overlapping.iter().map(|p| p.0).collect();
+    if matches!(reference, AerialReference::Frames(_)) {
+        enforce_consistency(&mut results, &views, height, gsd, config);
+    }
+    let images = results.iter().filter(|r| !r.matches.is_empty()).count();
+    if images < needed {
+        return discard(diagnostics(results), AerialDiscard::TooFewCorrespondences { images, needed });
+    }
+    let points = match reference {
+        AerialReference::Frames(_) => triangulate_points(patch, &results, &views, height, config),
+        AerialReference::Orthophoto(o) => ortho_points(patch, &results, &views[0], o, height, config),
+    };
+    let discarded = points.is_empty().then_some(AerialDiscard::NoTriangulatedPoints);
+    AerialOutcome { points, images: diagnostics(results), discarded }
+}
+
+/// The group of every view and each group's local geometry (its first member's).
+fn orientation_groups(views: &[(View<'_>, LocalGeometry)]) -> (Vec<usize>, Vec<LocalGeometry>) {
+    let mut reps: Vec<LocalGeometry> = Vec::new();
+    let group = views
+        .iter()
+        .map(|(_, g)| {
+            let same = |r: &LocalGeometry| {
+                let turn = (g.up_heading - r.up_heading + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);
+                (turn - std::f64::consts::PI).abs() < SAME_HEADING && (g.gsd / r.gsd - 1.0).abs() < SAME_GSD
+            };
+            reps.iter().position(same).unwrap_or_else(|| {
+                reps.push(*g);
+                reps.len() - 1
+            })
+        })
+        .collect();
+    (group, reps)
+}
+
+/// Step 5 (and step 6's MM features) for one orientation.
+fn mm_side(blurred: &BlurredPatch, local: &LocalGeometry, config: &AerialConfig) -> Result<MmSide, ImageRejection> {
+    let imaging = |e: plumbline_imaging::ImagingError| ImageRejection::Imaging { message: e.to_string() };
+    let prepared = prepare(blurred, local.up_heading, local.gsd, &config.wallis).map_err(imaging)?;
+    let features = mm_features(&prepared, config).map_err(imaging)?;
+    Ok(MmSide { prepared, features })
+}
+
+/// The patch's ground height (median of its points' heights), or what is wrong with the patch.
+fn validate(patch: &MmPatch<'_>) -> Result<f64, String> {
+    let (img, valid, grid) = (patch.image, patch.valid, patch.grid);
+    if img.width() != grid.width || img.height() != grid.height {
+        return Err(format!(
+            "image {}×{} does not match its grid {}×{}",
+            img.width(),
+            img.height(),
+            grid.width,
+            grid.height
+        ));
+    }
+    if valid.width() != grid.width || valid.height() != grid.height {
+        return Err(format!("valid mask {}×{} does not match the grid", valid.width(), valid.height()));
+    }
+    if !(patch.position_sigma.is_finite() && patch.position_sigma >= 0.0) {
+        return Err(format!("position_sigma = {} must be finite and non-negative", patch.position_sigma));
+    }
+    if let Some(p) = patch.points.iter().find(|p| !p.map.iter().chain(&p.pixel).all(|x| x.is_finite())) {
+        return Err(format!("point {} has non-finite coordinates", p.index));
+    }
+    let mut heights: Vec<f64> = patch.points.iter().map(|p| p.map[2]).collect();
+    heights.sort_by(f64::total_cmp);
+    heights.get(heights.len() / 2).copied().ok_or_else(|| "no points".to_string())
+}
+
+fn median_gsd(views: &[(View<'_>, LocalGeometry)]) -> f64 {
+    let mut g: Vec<f64> = views.iter().map(|v| v.1.gsd).collect();
+    g.sort_by(f64::total_cmp);
+    g[g.len() / 2]
+}
+
+fn diagnostics(results: Vec<ImageResult>) -> Vec<AerialImageDiagnostic> {
+    results.into_iter().map(|r| r.diagnostic).collect()
+}
+
+/// Paper 000 §3.8: drop observations whose ground intersection (at the patch height) disagrees with the
+/// point's other observations, then images left with too few correspondences.
+fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: f64, gsd: f64, config: &AerialConfig) {
+    let tolerance = config.consistency_px * gsd;
+    let mut dropped: Vec<Vec<bool>> = results.iter().map(|r| vec![false; r.matches.len()]).collect();
+    let slots: std::collections::BTreeSet<usize> = results.iter().flat_map(|r| r.matches.iter().map(|m| m.0)).collect();
+    for slot in slots {
+        let obs: Vec<(usize, usize, [f64; 2])> = results
+            .iter()
+            .enumerate()
+            .flat_map(|(i, r)| r.matches.iter().enumerate().filter(|m| m.1.0 == slot).map(move |(k, m)| (i, k, m.1)))
+            .collect();
+        let grounds: Vec<[f64; 2]> = obs.iter().map(|&(i, _, px)| ground(&views[i], px, height)).collect();
+        for (&(i, k, _), ok) in obs.iter().zip(consistent(&grounds, tolerance)) {
+            dropped[i][k] = !ok;
+        }
+    }
+    for (r, dropped) in results.iter_mut().zip(dropped) {
+        let mut flags = dropped.into_iter();
+        r.matches.retain(|_| !flags.next().unwrap_or(false));
+        let found = r.matches.len();
+        if r.diagnostic.passed && r.diagnostic.rejection.is_none() && found < config.min_correspondences {
+            r.diagnostic.rejection =
+                Some(ImageRejection::TooFewCorrespondences { found, needed: config.min_correspondences });
+            r.matches.clear();
+        }
+        r.diagnostic.correspondences = r.matches.len();
+    }
+}
+
+/// Where the ray through a pixel meets the plane at `height` (NaN when it does not).
+fn ground(view: &View<'_>, pixel: [f64; 2], height: f64) -> [f64; 2] {
+    let Some((o, d)) = view.ray(pixel) else { return [f64::NAN; 2] };
+    if d[2].abs() < 1e-12 {
+        return [f64::NAN; 2];
+    }
+    let s = (height - o[2]) / d[2];
+    [o[0] + s * d[0], o[1] + s * d[1]]
+}

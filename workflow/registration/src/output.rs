@@ -1,0 +1,178 @@
+//! Step 9 of paper 000 §3 (issue 5): the versioned per-tile result — tie observations for the adjustment
+//! (`plumbline_adjustment::TiePoint`) and a diagnostic per panorama saying what each step found and why an
+//! image was discarded. Schema: `schemas/tile-result.v1.schema.json`.
+
+use std::collections::BTreeMap;
+use std::fmt;
+
+use plumbline_adjustment::TiePoint;
+use plumbline_geo::tiling::TileId;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::aerial::{AerialDiscard, AerialImageDiagnostic};
+use crate::mm::TransformSource;
+
+/// The result of registering one tile, versioned on the wire (`"version": "1"`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "version")]
+pub enum TileResult {
+    /// Version 1.
+    #[serde(rename = "1")]
+    V1(TileResultV1),
+}
+
+impl TileResult {
+    /// The newest version's content (upgrading older ones when there are any).
+    pub fn into_latest(self) -> TileResultV1 {
+        match self {
+            TileResult::V1(v) => v,
+        }
+    }
+}
+
+/// Version 1 of the tile result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileResultV1 {
+    /// The tile.
+    pub tile: TileId,
+    /// Tie points: rays from two panoramas, with aerial-derived coordinates when matched (paper 000 §3.9).
+    pub ties: Vec<TiePoint>,
+    /// One diagnostic per panorama, in time order.
+    pub images: Vec<ImageDiagnostic>,
+    /// Counts over the tile.
+    pub summary: TileSummary,
+}
+
+/// What the pipeline found for one panorama (its MM patch is the ortho-image of this panorama).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ImageDiagnostic {
+    /// Panorama id.
+    pub image: String,
+    /// Exposure time, seconds.
+    pub time: f64,
+    /// The panorama it was paired with (paper 000 §3.3), if any.
+    pub neighbour: Option<String>,
+    /// The MM↔MM transformation used and why (KAZE or the orientation-based fallback).
+    pub transform: Option<TransformSource>,
+    /// Corner counts through steps 3–4.
+    pub corners: CornerCounts,
+    /// One entry per aerial image overlapping the recording location (paper 000 §3.7–§3.8).
+    pub aerial_images: Vec<AerialImageDiagnostic>,
+    /// Points with aerial-derived coordinates.
+    pub aerial_points: usize,
+    /// Ties left out because they failed the adjustment's checks (non-unit ray, covariance not SPD).
+    #[serde(default)]
+    pub dropped_ties: usize,
+    /// Why no aerial points came from this panorama (None = matched).
+    pub discarded: Option<DiscardReason>,
+}
+
+/// Corner counts of one panorama pair.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CornerCounts {
+    /// Förstner corners detected.
+    pub detected: usize,
+    /// Corners whose windows lie on valid cells of both ortho-images.
+    pub candidates: usize,
+    /// Corners matched by NCC + LSM.
+    pub matched: usize,
+    /// Matches triangulated and kept.
+    pub triangulated: usize,
+    /// Rejected: rays nearly parallel or behind a camera.
+    pub rejected_geometry: usize,
+    /// Rejected: rays pass each other too far apart.
+    pub rejected_miss: usize,
+    /// Rejected: point too far from the ground plane.
+    pub rejected_off_ground: usize,
+}
+
+/// Why a panorama produced no aerial points.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum DiscardReason {
+    /// No other panorama of the tile lies within the pairing distance.
+    NoNeighbour {
+        /// Distance to the nearest panorama in time order, metres (None = it is alone).
+        nearest_m: Option<f64>,
+    },
+    /// A step failed on this panorama's input.
+    Failed {
+        /// The step.
+        step: String,
+        /// What failed.
+        message: String,
+    },
+    /// Too few corners were triangulated to attempt the aerial registration.
+    TooFewMmPoints {
+        /// Points triangulated.
+        points: usize,
+        /// Points required.
+        needed: usize,
+    },
+    /// The aerial registration discarded the patch (paper 000 §3.7–§3.9).
+    Aerial(AerialDiscard),
+}
+
+impl DiscardReason {
+    /// A short key for counting reasons (e.g. `aerial.too_few_plausible`).
+    pub fn key(&self) -> String {
+        match self {
+            Self::NoNeighbour { .. } => "no_neighbour".into(),
+            Self::Failed { step, .. } => format!("failed.{step}"),
+            Self::TooFewMmPoints { .. } => "too_few_mm_points".into(),
+            Self::Aerial(a) => {
+                let kind = serde_json::to_value(a).ok().and_then(|v| v["kind"].as_str().map(str::to_owned));
+                format!("aerial.{}", kind.unwrap_or_else(|| "other".into()))
+            }
+        }
+    }
+}
+
+impl fmt::Display for DiscardReason {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Self::NoNeighbour { nearest_m: Some(d) } => write!(f, "no neighbour within range (nearest {d:.1} m)"),
+            Self::NoNeighbour { nearest_m: None } => write!(f, "no other panorama in the tile"),
+            Self::Failed { step, message } => write!(f, "{step} failed: {message}"),
+            Self::TooFewMmPoints { points, needed } => write!(f, "{points} MM points triangulated, {needed} needed"),
+            Self::Aerial(a) => write!(f, "{a}"),
+        }
+    }
+}
+
+/// Counts over a tile, in paper 000 Table 1's terms.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileSummary {
+    /// Panoramas in the tile.
+    pub images: usize,
+    /// Panoramas with aerial points.
+    pub images_matched: usize,
+    /// Tie points.
+    pub ties: usize,
+    /// Tie points with aerial coordinates (correspondences).
+    pub ties_with_aerial: usize,
+    /// Panoramas discarded, by reason key.
+    pub discarded: BTreeMap<String, usize>,
+}
+
+impl TileSummary {
+    /// Count the diagnostics and ties.
+    pub fn of(images: &[ImageDiagnostic], ties: &[TiePoint]) -> Self {
+        let mut discarded = BTreeMap::new();
+        for reason in images.iter().filter_map(|d| d.discarded.as_ref()) {
+            *discarded.entry(reason.key()).or_insert(0) += 1;
+        }
+        Self {
+            images: images.len(),
+            images_matched: images.iter().filter(|d| d.discarded.is_none()).count(),
+            ties: ties.len(),
+            ties_with_aerial: ties.iter().filter(|t| t.aerial.is_some()).count(),
+            discarded,
+        }
+    }
+}

@@ -1,0 +1,195 @@
+//! A synthetic campaign for the registration tests and the benchmark: a `plumbline_synth` world, a drive
+//! with DG errors, panoramas rendered with the TRUE poses (DG poses for processing), the aerial frames
+//! covering them (AT-reported orientations for processing), and the truth to score tie points against.
+
+#![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
+
+use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
+use plumbline_geo::dg::intersect_height;
+use plumbline_geo::{MapFromBody, Point3};
+use plumbline_imaging::{GrayImage, Mask};
+use plumbline_registration::TileResultV1;
+use plumbline_registration::aerial::{AerialFrame, AerialReference};
+use plumbline_registration::mm::{Panorama, PanoramaRig};
+use plumbline_synth::aerial::{block, small_format};
+use plumbline_synth::motion::dg::{self, DgConfig};
+use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
+use plumbline_synth::motion::{Drive, DriveConfig};
+use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, VehicleBody, render_aerial, render_panorama};
+use plumbline_synth::route::{Canyon, Route};
+use plumbline_synth::sensors::{self, Mount, Shot};
+use plumbline_synth::world::{self, World, WorldConfig};
+use rayon::prelude::*;
+
+/// Aerial frame size (the simulator's small format) and GSD.
+const FRAME_PX: (u32, u32) = (1000, 750);
+pub const AERIAL_GSD: f64 = 0.12;
+
+/// GNSS environment of the whole drive (`None`: the world's own streets decide).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Profile {
+    Open,
+    Urban,
+    Canyon,
+    Mixed,
+}
+
+/// What to simulate.
+#[derive(Clone, Copy, Debug)]
+pub struct Spec {
+    pub preset: world::Preset,
+    pub seed: u64,
+    pub profile: Profile,
+    /// Route length, metres.
+    pub length: f64,
+    /// Distance between panoramas, metres.
+    pub spacing: f64,
+    /// Panorama width, pixels.
+    pub width: u32,
+    /// Keep only this many consecutive panoramas centred on a junction (None = all).
+    pub window: Option<usize>,
+}
+
+/// A campaign ready for `register_tile`, with its truth.
+pub struct Campaign {
+    pub panoramas: Vec<Panorama>,
+    pub rig: PanoramaRig,
+    pub reference: AerialReference,
+    /// True vehicle pose per panorama id.
+    pub truth: Vec<(String, MapFromBody)>,
+    pub ground_height: f64,
+    /// Horizontal DG error per panorama, metres.
+    pub dg_error: Vec<f64>,
+}
+
+fn luma(rgb: &[u8]) -> f32 {
+    0.299 * f32::from(rgb[0]) + 0.587 * f32::from(rgb[1]) + 0.114 * f32::from(rgb[2])
+}
+
+fn with_profile(mut route: Route, profile: Profile) -> Route {
+    let canyon = match profile {
+        Profile::Open => Canyon::OPEN,
+        Profile::Urban => URBAN_STREET,
+        Profile::Canyon => DEEP_CANYON,
+        Profile::Mixed => return route,
+    };
+    route.waypoints.iter_mut().for_each(|w| w.canyon = canyon);
+    route
+}
+
+/// `window` consecutive shots centred on the shot nearest to a junction of the route.
+fn around_junction(shots: Vec<Shot>, route: &Route, window: usize) -> Vec<Shot> {
+    let junctions: Vec<[f64; 2]> = route.waypoints.iter().filter(|w| w.junction).map(|w| [w.east, w.north]).collect();
+    let dist = |s: &Shot| {
+        let p = s.truth.position;
+        junctions.iter().map(|j| (p.x() - j[0]).hypot(p.y() - j[1])).fold(f64::INFINITY, f64::min)
+    };
+    // Skip the first shots: the drive starts standing still at a junction.
+    let skip = window.min(shots.len() / 3);
+    let best = (skip..shots.len()).min_by(|&a, &b| dist(&shots[a]).total_cmp(&dist(&shots[b]))).unwrap_or(0);
+    let start = best.saturating_sub(window / 2).min(shots.len().saturating_sub(window));
+    shots.into_iter().skip(start).take(window).collect()
+}
+
+impl Campaign {
+    /// Simulate and render.
+    pub fn build(spec: &Spec) -> Campaign {
+        let world = World::generate(&WorldConfig::new(spec.preset, spec.seed)).expect("world");
+        let route = with_profile(world.route(spec.seed, spec.length), spec.profile);
+        let drive_config = DriveConfig::default();
+        let drive = Drive::simulate(&route, &drive_config, spec.seed).expect("drive");
+        let dg = dg::simulate(&drive, &DgConfig::default(), spec.seed).expect("dg");
+        let times = sensors::spaced_times(&drive, spec.spacing).expect("times");
+        let mut shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory).expect("shots");
+        if let Some(w) = spec.window {
+            shots = around_junction(shots, &route, w);
+        }
+        let camera = Equirectangular::new(spec.width, spec.width / 2).expect("camera");
+        let mount = Mount::PANORAMA.camera_mount();
+        // Calibration: the IMU rides imu_height above the road, the camera 1.85 m above the IMU.
+        let camera_height = drive_config.imu_height - Mount::PANORAMA.lever_arm_m[2];
+        let scene = Scene::mobile(&world);
+        let rendered: Vec<_> = shots
+            .iter()
+            .map(|s| render_panorama(&scene, &camera, &mount, &s.truth.pose(), &VehicleBody::van()))
+            .collect();
+        let (w, h) = (camera.width as usize, camera.height as usize);
+        let vehicle_mask = rendered.first().map(|p| Mask::from_fn(w, h, |c, r| p.mask.as_raw()[r * w + c] == 0));
+        let panoramas = shots
+            .iter()
+            .zip(&rendered)
+            .map(|(s, p)| {
+                let raw = p.image.as_raw();
+                let image = GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]));
+                let std = s.dg.std.expect("DG σ");
+                Panorama {
+                    id: s.id.clone(),
+                    time: s.time,
+                    image,
+                    pose: s.dg.pose(),
+                    position_sigma: std.east.max(std.north),
+                }
+            })
+            .collect();
+        let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height };
+        let reference = aerial_frames(&world, spec.seed, &shots);
+        let truth = shots.iter().map(|s| (s.id.clone(), s.truth.pose())).collect();
+        let dg_error = shots
+            .iter()
+            .map(|s| (s.dg.position.x() - s.truth.position.x()).hypot(s.dg.position.y() - s.truth.position.y()))
+            .collect();
+        Campaign { panoramas, rig, reference, truth, ground_height: world.config.ground_height, dg_error }
+    }
+
+    /// For each tie with aerial coordinates: its aerial position minus the true ground point of its first
+    /// ray (the panorama's TRUE pose intersected with the true ground), and the reported σ of each axis.
+    pub fn aerial_errors(&self, result: &TileResultV1) -> Vec<([f64; 3], [f64; 3])> {
+        result
+            .ties
+            .iter()
+            .filter_map(|t| {
+                let a = t.aerial.as_ref()?;
+                let image = t.id.0.split(':').next()?;
+                let (_, pose) = self.truth.iter().find(|(id, _)| id == image)?;
+                let cam = self.rig.mount.camera_pose(pose);
+                let d =
+                    plumbline_geo::Vec3::new(t.rays[0].direction[0], t.rays[0].direction[1], t.rays[0].direction[2]);
+                let g = intersect_height(&cam.translation, &cam.rotation.apply(&d), self.ground_height)?;
+                let p = Point3::new(a.position[0], a.position[1], a.position[2]);
+                let e = p - g;
+                let sigma = [0, 1, 2].map(|k| a.covariance[k][k].sqrt());
+                Some(([e.x(), e.y(), e.z()], sigma))
+            })
+            .collect()
+    }
+}
+
+/// The frames of the standard block whose image contains a panorama's ground point, rendered with their
+/// true orientation; the reference carries the AT-reported one.
+fn aerial_frames(world: &World, seed: u64, shots: &[Shot]) -> AerialReference {
+    let spec = BlockSpec { gsd: AERIAL_GSD, ..BlockSpec::standard() };
+    let interior = small_format(FRAME_PX.0, FRAME_PX.1);
+    let (cam, frames) = block(world, &interior, &spec, &AtErrors::typical(), seed).expect("aerial block");
+    let sees = |cam: &Pinhole, pose: &plumbline_geo::MapFromCamera| {
+        shots.iter().any(|s| {
+            let p = s.truth.position;
+            let ground = Point3::new(p.x(), p.y(), world.config.ground_height);
+            let d = pose.inverse().transform_point(&ground);
+            cam.project(&plumbline_geo::Vec3::new(d.x(), d.y(), d.z())).is_some_and(|px| cam.contains(px))
+        })
+    };
+    let scene = Scene::aerial(world);
+    let chosen: Vec<_> = frames.iter().enumerate().filter(|(_, f)| sees(&cam, &f.truth)).collect();
+    let rendered: Vec<AerialFrame> = chosen
+        .par_iter()
+        .map(|(i, f)| {
+            let optics = AerialOptics::typical(seed.wrapping_mul(7_919).wrapping_add(*i as u64));
+            let rgb = render_aerial(&scene, &cam, &f.truth, &optics);
+            let (w, h) = (FRAME_PX.0 as usize, FRAME_PX.1 as usize);
+            let raw = rgb.as_raw();
+            let image = GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]));
+            AerialFrame { id: f.id.clone(), image, camera: cam, pose: f.reported }
+        })
+        .collect();
+    AerialReference::Frames(rendered)
+}

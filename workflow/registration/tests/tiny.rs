@@ -1,0 +1,60 @@
+//! The whole pipeline on a junction of the synthetic `tiny` world: panoramas rendered with the true poses,
+//! processed with the DG poses, registered against aerial frames (AT-reported orientations); tie points
+//! scored against the truth.
+
+#![allow(clippy::unwrap_used)]
+
+mod support;
+
+use plumbline_geo::tiling::TileId;
+use plumbline_registration::{PipelineConfig, TileResult, register_tile};
+use plumbline_synth::world;
+use support::{AERIAL_GSD, Campaign, Profile, Spec};
+
+/// Panoramas every 5 m (the simulator's `district` spacing), 1024 × 512, around a junction.
+fn spec(seed: u64) -> Spec {
+    Spec {
+        preset: world::Preset::Tiny,
+        seed,
+        profile: Profile::Mixed,
+        length: 400.0,
+        spacing: 5.0,
+        width: 1024,
+        window: Some(7),
+    }
+}
+
+#[test]
+fn tiny_junction_registers_with_correct_ties() {
+    let seed = std::env::var("MM_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
+    let campaign = Campaign::build(&spec(seed));
+    let run = register_tile(
+        TileId { col: 0, row: 0 },
+        &campaign.panoramas,
+        &campaign.rig,
+        &campaign.reference,
+        &PipelineConfig::default(),
+    );
+    let result = run.result.clone().into_latest();
+    let summary = &result.summary;
+    eprintln!("seed {seed}: {summary:?}; {:?}", run.timings);
+    // Every image has a diagnostic; every discarded one says why.
+    assert_eq!(result.images.len(), campaign.panoramas.len());
+    // Paper 000 reached 10–23 % of images at junction-rich areas; issue 5 asks ≥ 50 % where markings exist.
+    assert!(summary.images_matched * 2 >= summary.images, "{summary:?}");
+    // Correct: the aerial position within 2 aerial pixels of the true ground point, horizontally (two
+    // nadir frames with a 1500 m flying height fix the height only to metres: checked against its σ).
+    let errors = campaign.aerial_errors(&result);
+    assert_eq!(errors.len(), summary.ties_with_aerial);
+    assert!(errors.len() >= 2 * summary.images_matched, "{} correspondences", errors.len());
+    let correct = errors.iter().filter(|(e, _)| e[0].hypot(e[1]) <= 2.0 * AERIAL_GSD).count();
+    assert!(correct * 100 >= errors.len() * 99, "{correct} of {} correct: {errors:?}", errors.len());
+    let consistent = errors.iter().filter(|(e, s)| e[2].abs() <= 3.0 * s[2]).count();
+    assert!(consistent * 100 >= errors.len() * 99, "{consistent} of {} heights within 3σ", errors.len());
+    // The result survives its wire format, and every tie passes the adjustment's checks.
+    let json = serde_json::to_string(&run.result).unwrap();
+    assert!(json.starts_with(r#"{"version":"1""#));
+    let back: TileResult = serde_json::from_str(&json).unwrap();
+    assert_eq!(back, run.result);
+    assert!(result.ties.iter().enumerate().all(|(i, t)| t.problems(i).is_empty()));
+}
