@@ -182,10 +182,25 @@ fn kaze_row(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
     );
 }
 
+/// `imaging profile akaze|akaze-upright|kaze`: one detection on image A, nothing else (for callgrind).
+fn profile(which: &str, a: &GrayImage) {
+    let n = match which {
+        "akaze" => akaze(a, &AkazeConfig::default()).unwrap().keypoints.len(),
+        "akaze-upright" => akaze(a, &AkazeConfig { upright: true, ..AkazeConfig::default() }).unwrap().keypoints.len(),
+        "kaze" => kaze(a, &KazeConfig::default()).unwrap().keypoints.len(),
+        other => panic!("unknown detector {other}"),
+    };
+    println!("{which}: {n} keypoints");
+}
+
 fn main() {
     let blobs = scene::blobs(42, 3000, 1024.0);
     let truth = scene::truth(1024.0);
     let a = scene::render(1024, &blobs, &Matrix3::identity(), 1.0, 1.0, 128.0);
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|x| x == "profile") {
+        return profile(args.get(i + 1).map_or("akaze", String::as_str), &a);
+    }
     let b = scene::render(1024, &blobs, &truth, 0.8, 0.7, 0.7 * 128.0 + 25.0);
     println!("threads: {}", rayon::current_num_threads());
     primitives(&a, &b);

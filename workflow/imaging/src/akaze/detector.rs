@@ -4,8 +4,9 @@
 use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 
-use super::scale_space::{Level, scharr};
+use super::scale_space::Level;
 use crate::image::GrayImage;
+use crate::stencil::{hessian_det, scharr_pair};
 
 /// Derivatives of one level, kept for the descriptor.
 #[derive(Clone, Debug)]
@@ -25,17 +26,19 @@ pub(crate) fn derivatives(levels: &[Level], factor: f64) -> Vec<Derivatives> {
         .par_iter()
         .map(|lv| {
             let s = ((lv.sigma * factor / lv.ratio()).round() as usize).max(1);
-            let (lx, ly) = (scharr(&lv.image, s, true), scharr(&lv.image, s, false));
-            let (lxx, lxy, lyy) = (scharr(&lx, s, true), scharr(&lx, s, false), scharr(&ly, s, false));
-            let s2 = (s * s) as f32;
-            let det = GrayImage::from_fn(lv.image.width(), lv.image.height(), |c, r| {
-                // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
-                (lxx.get(c, r) * lyy.get(c, r) - lxy.get(c, r).powi(2)) * s2 * s2
-            });
-            let sf = s as f32;
-            Derivatives { lx: lx.map(|x| x * sf), ly: ly.map(|x| x * sf), det, step: s }
+            level_derivatives(&lv.image, s)
         })
         .collect()
+}
+
+/// First derivatives and Hessian determinant of `image` at spacing `s`, all scale-normalised.
+pub(crate) fn level_derivatives(image: &GrayImage, s: usize) -> Derivatives {
+    let (mut lx, mut ly) = scharr_pair(image, s);
+    // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
+    let det = hessian_det(&lx, &ly, s);
+    let sf = s as f32;
+    lx.data_mut().iter_mut().chain(ly.data_mut().iter_mut()).for_each(|x| *x *= sf);
+    Derivatives { lx, ly, det, step: s }
 }
 
 /// A detected point before description.
@@ -50,6 +53,8 @@ pub(crate) struct Candidate {
     pub level: usize,
     /// Suppression radius in input pixels.
     pub radius: f64,
+    /// Scale σ in input pixels (the level's, or refined between levels).
+    pub sigma: f64,
 }
 
 /// 3×3 maxima above `threshold` on every level, refined to subpixel.
@@ -68,6 +73,7 @@ pub(crate) fn candidates(levels: &[Level], ders: &[Derivatives], threshold: f32)
                     response: d.det.get(c, r),
                     level: i,
                     radius: d.step as f64 * ratio,
+                    sigma: lv.sigma,
                 })
             })
         })
@@ -75,7 +81,7 @@ pub(crate) fn candidates(levels: &[Level], ders: &[Derivatives], threshold: f32)
 }
 
 /// Strict 3×3 maxima above the threshold, at least 2 pixels inside the level.
-fn level_maxima(det: &GrayImage, threshold: f32) -> Vec<(usize, usize)> {
+pub(crate) fn level_maxima(det: &GrayImage, threshold: f32) -> Vec<(usize, usize)> {
     let (w, h) = (det.width(), det.height());
     let mut out = Vec::new();
     for r in 2..h.saturating_sub(2) {
