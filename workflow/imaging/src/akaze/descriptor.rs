@@ -22,63 +22,77 @@ fn floor(v: f64) -> isize {
     if (i as f64) > v { i - 1 } else { i }
 }
 
-/// (L, Lx, Ly) at the 21×21 pattern samples, derivatives rotated into the keypoint's frame; sample (i, j)
-/// sits at offset (j − 10, i − 10)·scale rotated by `angle`, read at the level pixel containing it.
-fn samples(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Box<[[[f32; 3]; SIDE]; SIDE]> {
-    let (s, c) = angle.sin_cos();
-    let (sf, cf) = (s as f32, c as f32);
-    let mut out = Box::new([[[0.0f32; 3]; SIDE]; SIDE]);
-    for (i, line) in out.iter_mut().enumerate() {
-        let py = (i as i64 - PATTERN) as f64 * scale;
-        for (j, v) in line.iter_mut().enumerate() {
-            let px = (j as i64 - PATTERN) as f64 * scale;
-            let (col, row) = (floor(x + c * px - s * py), floor(y + s * px + c * py));
-            let (lx, ly) = (d.lx.get_clamped(col, row), d.ly.get_clamped(col, row));
-            *v = [lv.image.get_clamped(col, row), cf * lx + sf * ly, -sf * lx + cf * ly];
-        }
-    }
-    out
+/// Cell sums of (L, Lx, Ly) for the 2×2, 3×3 and 4×4 grids, cells in row-major order.
+struct Cells {
+    g2: [[f32; 3]; 4],
+    g3: [[f32; 3]; 9],
+    g4: [[f32; 3]; 16],
 }
 
-/// Sums of (L, Lx, Ly) over every cell of a `g`×`g` grid of ⌈2·PATTERN/g⌉-sample cells (all cells of a
-/// grid have the same sample count, so sums compare as the means do).
-fn cell_sums(grid: &[[[f32; 3]; SIDE]; SIDE], g: usize) -> Vec<[f32; 3]> {
-    let step = (2 * PATTERN as usize).div_ceil(g);
-    let mut out = Vec::with_capacity(g * g);
-    for gy in 0..g {
-        for gx in 0..g {
-            let mut acc = [0.0f32; 3];
-            for line in &grid[gy * step..(gy + 1) * step] {
-                for v in &line[gx * step..(gx + 1) * step] {
-                    acc[0] += v[0];
-                    acc[1] += v[1];
-                    acc[2] += v[2];
-                }
+/// For each of the 21 sample offsets along one axis, its cell in the 2-, 3- and 4-cell grids (cells of
+/// ⌈20/g⌉ = 10, 7 and 5 samples); `None` where the offset lies past a grid's last cell.
+fn axis_cells(i: usize) -> [Option<usize>; 3] {
+    [(i < 20).then_some(i / 10), Some(i / 7), (i < 20).then_some(i / 5)]
+}
+
+/// Sum (L, Lx, Ly) over every cell of the three grids in one pass over the 21×21 pattern samples: sample
+/// (i, j) sits at offset (j − 10, i − 10)·scale rotated by `angle`, read at the level pixel containing it
+/// (clamped into the level), with the derivatives rotated into the keypoint's frame. All cells of a grid
+/// have the same sample count, so sums compare as the means do.
+fn cell_sums(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Cells {
+    let (s, c) = angle.sin_cos();
+    let (sf, cf) = (s as f32, c as f32);
+    let (w, h) = (lv.image.width() as isize, lv.image.height() as isize);
+    let (l, lx, ly) = (lv.image.data(), d.lx.data(), d.ly.data());
+    let mut cells = Cells { g2: [[0.0; 3]; 4], g3: [[0.0; 3]; 9], g4: [[0.0; 3]; 16] };
+    let add = |acc: &mut [f32; 3], v: [f32; 3]| acc.iter_mut().zip(v).for_each(|(a, b)| *a += b);
+    for i in 0..SIDE {
+        let py = (i as i64 - PATTERN) as f64 * scale;
+        let rows = axis_cells(i);
+        for j in 0..SIDE {
+            let px = (j as i64 - PATTERN) as f64 * scale;
+            let col = floor(x + c * px - s * py).clamp(0, w - 1);
+            let row = floor(y + s * px + c * py).clamp(0, h - 1);
+            let k = (row * w + col) as usize;
+            let (gx, gy) = (lx[k], ly[k]);
+            let v = [l[k], cf * gx + sf * gy, -sf * gx + cf * gy];
+            let cols = axis_cells(j);
+            if let (Some(r), Some(q)) = (rows[0], cols[0]) {
+                add(&mut cells.g2[2 * r + q], v);
             }
-            out.push(acc);
+            if let (Some(r), Some(q)) = (rows[1], cols[1]) {
+                add(&mut cells.g3[3 * r + q], v);
+            }
+            if let (Some(r), Some(q)) = (rows[2], cols[2]) {
+                add(&mut cells.g4[4 * r + q], v);
+            }
         }
     }
-    out
+    cells
+}
+
+/// Set one bit per channel for every pair of cells (i < j): cell i's value above cell j's.
+fn compare(cells: &[[f32; 3]], desc: &mut Descriptor, bit: &mut usize) {
+    for i in 0..cells.len() {
+        for j in i + 1..cells.len() {
+            for (x, y) in cells[i].iter().zip(&cells[j]) {
+                if x > y {
+                    desc[*bit / 64] |= 1 << (*bit % 64);
+                }
+                *bit += 1;
+            }
+        }
+    }
 }
 
 /// The M-LDB descriptor of a point at level pixel (x, y) with scale `scale` (level pixels) and `angle`.
 pub(crate) fn describe(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Descriptor {
-    let grid = samples(lv, d, x, y, scale, angle);
+    let cells = cell_sums(lv, d, x, y, scale, angle);
     let mut desc = [0u64; 8];
     let mut bit = 0usize;
-    for g in [2, 3, 4] {
-        let cells = cell_sums(&grid, g);
-        for i in 0..cells.len() {
-            for j in i + 1..cells.len() {
-                for (x, y) in cells[i].iter().zip(&cells[j]) {
-                    if x > y {
-                        desc[bit / 64] |= 1 << (bit % 64);
-                    }
-                    bit += 1;
-                }
-            }
-        }
-    }
+    compare(&cells.g2, &mut desc, &mut bit);
+    compare(&cells.g3, &mut desc, &mut bit);
+    compare(&cells.g4, &mut desc, &mut bit);
     desc
 }
 
@@ -95,38 +109,58 @@ static DISC: LazyLock<Vec<(f64, f64, f64)>> = LazyLock::new(|| {
     out
 });
 
+/// Start angles of the orientation windows: 0, 0.15, … < 2π, accumulated as the authors' loop does.
+static STARTS: LazyLock<Vec<f64>> = LazyLock::new(|| {
+    let mut out = Vec::new();
+    let mut a = 0.0;
+    while a < std::f64::consts::TAU {
+        out.push(a);
+        a += 0.15;
+    }
+    out
+});
+
 /// Dominant orientation: the sliding π/3 window (start angles 0, 0.15, … < 2π) with the largest summed
 /// Gaussian-weighted gradient over a disc of radius 6·scale (SURF's scheme, as KAZE and AKAZE use it).
-/// The samples are sorted by angle once, so each window's sum is a difference of prefix sums.
+/// Each sample is added to the contiguous run of windows containing its angle through a difference array,
+/// so the cost is linear in samples plus windows.
 pub(crate) fn orientation(d: &Derivatives, x: f64, y: f64, scale: f64) -> f64 {
     use std::f64::consts::{FRAC_PI_3, TAU};
-    let mut samples: Vec<(f64, f64, f64)> = DISC
-        .iter()
-        .map(|&(i, j, w)| {
-            let (col, row) = (floor(x + i * scale), floor(y + j * scale));
-            let (gx, gy) = (f64::from(d.lx.get_clamped(col, row)) * w, f64::from(d.ly.get_clamped(col, row)) * w);
-            let a = gy.atan2(gx);
-            (if a < 0.0 { a + TAU } else { a }, gx, gy)
-        })
-        .collect();
-    samples.sort_by(|a, b| a.0.total_cmp(&b.0));
-    // Angles twice round the circle, with prefix sums, so a window [a, a + π/3) is one contiguous range.
-    let n = samples.len();
-    let angles: Vec<f64> = (0..2 * n).map(|k| samples[k % n].0 + if k < n { 0.0 } else { TAU }).collect();
-    let mut prefix = vec![(0.0f64, 0.0f64); 2 * n + 1];
-    for k in 0..2 * n {
-        prefix[k + 1] = (prefix[k].0 + samples[k % n].1, prefix[k].1 + samples[k % n].2);
-    }
-    let mut best = (0.0, 0.0);
-    let mut a = 0.0;
-    while a < TAU {
-        let lo = angles.partition_point(|&t| t < a);
-        let hi = angles.partition_point(|&t| t < a + FRAC_PI_3);
-        let (sx, sy) = (prefix[hi].0 - prefix[lo].0, prefix[hi].1 - prefix[lo].1);
-        if sx * sx + sy * sy > best.0 {
-            best = (sx * sx + sy * sy, sy.atan2(sx));
+    let starts = &*STARTS;
+    let m = starts.len();
+    // Number of window starts ≤ t: the estimate ⌊t/0.15⌋ + 1 corrected against the accumulated starts.
+    let count = |t: f64| {
+        let mut k = (floor(t / 0.15) + 1).clamp(0, m as isize) as usize;
+        while k > 0 && starts[k - 1] > t {
+            k -= 1;
         }
-        a += 0.15;
+        while k < m && starts[k] <= t {
+            k += 1;
+        }
+        k
+    };
+    let mut diff = [(0.0f64, 0.0f64); 64];
+    for &(i, j, w) in DISC.iter() {
+        let (col, row) = (floor(x + i * scale), floor(y + j * scale));
+        let (gx, gy) = (f64::from(d.lx.get_clamped(col, row)) * w, f64::from(d.ly.get_clamped(col, row)) * w);
+        let a = f64::from((gy as f32).atan2(gx as f32)); // only decides window membership
+        let theta = if a < 0.0 { a + TAU } else { a };
+        // Windows k with θ − π/3 < start_k ≤ θ, and the same for θ + 2π (windows that wrap past 2π).
+        for t in [theta, theta + TAU] {
+            let (lo, hi) = (count(t - FRAC_PI_3), count(t));
+            if lo < hi {
+                diff[lo] = (diff[lo].0 + gx, diff[lo].1 + gy);
+                diff[hi] = (diff[hi].0 - gx, diff[hi].1 - gy);
+            }
+        }
+    }
+    let (mut best, mut sum) = ((0.0, 0.0), (0.0, 0.0));
+    for &(dx, dy) in &diff[..m] {
+        sum = (sum.0 + dx, sum.1 + dy);
+        let norm = sum.0 * sum.0 + sum.1 * sum.1;
+        if norm > best.0 {
+            best = (norm, sum.1.atan2(sum.0));
+        }
     }
     best.1
 }

@@ -32,9 +32,9 @@ pub(crate) fn contrast_factor(img: &GrayImage, percentile: f64) -> f32 {
     let Ok(smooth) = gaussian_blur(img, 1.0) else { return 0.03 };
     let (lx, ly) = scharr_pair(&smooth, 1);
     let (w, h) = (img.width(), img.height());
+    let inner = |im: &GrayImage, r: usize| -> Vec<f32> { im.row(r)[1..w.saturating_sub(1).max(1)].to_vec() };
     let mags: Vec<f32> = (1..h.saturating_sub(1))
-        .flat_map(|r| (1..w.saturating_sub(1)).map(move |c| (c, r)))
-        .map(|(c, r)| lx.get(c, r).hypot(ly.get(c, r)))
+        .flat_map(|r| inner(&lx, r).into_iter().zip(inner(&ly, r)).map(|(x, y)| (x * x + y * y).sqrt()))
         .filter(|&m| m > 0.0)
         .collect();
     let max = mags.iter().fold(0.0f32, |m, &x| m.max(x));
