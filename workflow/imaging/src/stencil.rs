@@ -1,6 +1,7 @@
 //! Row-slice stencils shared by KAZE and AKAZE: Scharr-type derivatives at a spacing s, the Perona–Malik
 //! conductance and the scale-normalised Hessian determinant, written as loops over equal-length row slices
-//! so that the compiler drops the bounds checks and vectorises the interior of every row.
+//! so that the compiler drops the bounds checks and vectorises the interior of every row, and fused so that
+//! no intermediate image is allocated.
 
 use rayon::prelude::*;
 
@@ -15,55 +16,49 @@ pub(crate) fn rows(w: usize, h: usize, f: impl Fn(usize, &mut [f32]) + Sync) -> 
     out
 }
 
-/// `out[c] = f(src[c − s], src[c], src[c + s])` along one row, indices clamped into the row.
-pub(crate) fn along_row(src: &[f32], out: &mut [f32], s: usize, f: impl Fn(f32, f32, f32) -> f32) {
-    let w = src.len().min(out.len());
-    let clamped = |c: usize| f(src[c.saturating_sub(s)], src[c], src[(c + s).min(w - 1)]);
-    if w <= 2 * s {
-        (0..w).for_each(|c| out[c] = clamped(c));
-        return;
-    }
-    let n = w - 2 * s;
-    let (left, mid, right, o) = (&src[..n], &src[s..s + n], &src[2 * s..2 * s + n], &mut out[s..s + n]);
-    for i in 0..n {
-        o[i] = f(left[i], mid[i], right[i]);
-    }
-    for c in (0..s).chain(w - s..w) {
-        out[c] = clamped(c);
-    }
-}
-
-/// `out[c] = f(up[c], mid[c], down[c])` over three rows of equal length.
-pub(crate) fn across_rows(up: &[f32], mid: &[f32], down: &[f32], out: &mut [f32], f: impl Fn(f32, f32, f32) -> f32) {
-    let n = out.len();
-    let (up, mid, down) = (&up[..n], &mid[..n], &down[..n]);
-    for i in 0..n {
-        out[i] = f(up[i], mid[i], down[i]);
-    }
-}
-
 /// Rows r − s, r, r + s of `img`, clamped into the image.
 pub(crate) fn neighbours(img: &GrayImage, r: usize, s: usize) -> (&[f32], &[f32], &[f32]) {
     let h = img.height();
     (img.row(r.saturating_sub(s)), img.row(r), img.row((r + s).min(h - 1)))
 }
 
-/// Apply `f(left, centre, right)` at spacing `s` along every row.
-pub(crate) fn horizontal(img: &GrayImage, s: usize, f: impl Fn(f32, f32, f32) -> f32 + Sync) -> GrayImage {
-    rows(img.width(), img.height(), |r, out| along_row(img.row(r), out, s, &f))
-}
+/// A 3×3 neighbourhood at spacing s: `n[dy][dx]` is the sample at (c + (dx − 1)s, r + (dy − 1)s).
+pub(crate) type Neighbourhood = [[f32; 3]; 3];
 
-/// Apply `f(up, centre, down)` at spacing `s` down every column.
-pub(crate) fn vertical(img: &GrayImage, s: usize, f: impl Fn(f32, f32, f32) -> f32 + Sync) -> GrayImage {
-    rows(img.width(), img.height(), |r, out| {
-        let (up, mid, down) = neighbours(img, r, s);
-        across_rows(up, mid, down, out, &f);
-    })
+/// `out[c] = f(neighbourhood of (c, r) at spacing s)` along row r, indices clamped into the image. The
+/// interior columns read nine shifted row slices of equal length, a loop the compiler vectorises.
+pub(crate) fn stencil_row(img: &GrayImage, r: usize, s: usize, out: &mut [f32], f: impl Fn(&Neighbourhood) -> f32) {
+    let w = img.width();
+    let (up, mid, down) = neighbours(img, r, s);
+    let lines = [up, mid, down];
+    let at = |c: usize| -> Neighbourhood { lines.map(|l| [l[c.saturating_sub(s)], l[c], l[(c + s).min(w - 1)]]) };
+    if w <= 2 * s {
+        (0..w).for_each(|c| out[c] = f(&at(c)));
+        return;
+    }
+    let n = w - 2 * s;
+    let [a, b, c] = lines.map(|l| (&l[..n], &l[s..s + n], &l[2 * s..2 * s + n]));
+    for (i, o) in out[s..s + n].iter_mut().enumerate() {
+        *o = f(&[[a.0[i], a.1[i], a.2[i]], [b.0[i], b.1[i], b.2[i]], [c.0[i], c.1[i], c.2[i]]]);
+    }
+    for c in (0..s).chain(w - s..w) {
+        out[c] = f(&at(c));
+    }
 }
 
 /// The Scharr-type smoothing (3, 10, 3)/16 across the derivative direction.
 fn smooth(a: f32, b: f32, c: f32) -> f32 {
     (3.0 * (a + c) + 10.0 * b) * (1.0 / 16.0)
+}
+
+/// Scharr-type ∂/∂x of a neighbourhood: central difference across 2s (`inv` = 1/2s), smoothed across.
+fn scharr_x(n: &Neighbourhood, inv: f32) -> f32 {
+    smooth(n[0][2] - n[0][0], n[1][2] - n[1][0], n[2][2] - n[2][0]) * inv
+}
+
+/// Scharr-type ∂/∂y of a neighbourhood.
+fn scharr_y(n: &Neighbourhood, inv: f32) -> f32 {
+    smooth(n[2][0] - n[0][0], n[2][1] - n[0][1], n[2][2] - n[0][2]) * inv
 }
 
 /// Scharr-type first derivatives (Lx, Ly) at spacing `s` (BMVC 2013 §4.2; the authors' kernels dilated to
@@ -72,50 +67,50 @@ fn smooth(a: f32, b: f32, c: f32) -> f32 {
 pub(crate) fn scharr_pair(img: &GrayImage, s: usize) -> (GrayImage, GrayImage) {
     let s = s.max(1);
     let inv = 1.0 / (2.0 * s as f32);
-    let (dh, sh) = rayon::join(|| horizontal(img, s, |a, _, c| (c - a) * inv), || horizontal(img, s, smooth));
-    rayon::join(|| vertical(&dh, s, smooth), || vertical(&sh, s, |a, _, c| (c - a) * inv))
+    let (w, h) = (img.width(), img.height());
+    rayon::join(
+        || rows(w, h, |r, out| stencil_row(img, r, s, out, |n| scharr_x(n, inv))),
+        || rows(w, h, |r, out| stencil_row(img, r, s, out, |n| scharr_y(n, inv))),
+    )
 }
 
 /// Perona–Malik g2 conductance 1 / (1 + |∇L_σ|²/k²) of an already smoothed image, with the gradient by
-/// the 3×3 Scharr-type operator (BMVC 2013 eq. (2)); the vertical pass is fused with the conductance.
+/// the 3×3 Scharr-type operator (BMVC 2013 eq. (2)), in one pass.
 pub(crate) fn conductance_of(smoothed: &GrayImage, k: f32) -> GrayImage {
-    let (dh, sh) = rayon::join(|| horizontal(smoothed, 1, |a, _, c| (c - a) * 0.5), || horizontal(smoothed, 1, smooth));
     let inv_k2 = 1.0 / (k * k);
     rows(smoothed.width(), smoothed.height(), |r, out| {
-        let n = out.len();
-        let (du, dm, dd) = neighbours(&dh, r, 1);
-        let (su, _, sd) = neighbours(&sh, r, 1);
-        let (du, dm, dd, su, sd) = (&du[..n], &dm[..n], &dd[..n], &su[..n], &sd[..n]);
-        for i in 0..n {
-            let lx = smooth(du[i], dm[i], dd[i]);
-            let ly = (sd[i] - su[i]) * 0.5;
-            out[i] = 1.0 / (1.0 + (lx * lx + ly * ly) * inv_k2); // BMVC 2013 eq. (2), g2
-        }
+        stencil_row(smoothed, r, 1, out, |n| {
+            let (lx, ly) = (scharr_x(n, 0.5), scharr_y(n, 0.5));
+            1.0 / (1.0 + (lx * lx + ly * ly) * inv_k2) // BMVC 2013 eq. (2), g2
+        });
     })
 }
 
 /// The scale-normalised Hessian determinant s⁴ (Lxx Lyy − Lxy²) from first derivatives `lx`, `ly` (not yet
-/// normalised) at spacing `s` (BMVC 2013 eq. (6); ECCV 2012 §4.1). Lxx and Lxy from `lx`, Lyy from `ly`,
-/// the vertical pass fused with the determinant.
+/// normalised) at spacing `s` (BMVC 2013 eq. (6); ECCV 2012 §4.1): Lxx and Lxy from `lx`, Lyy from `ly`,
+/// row by row through two scratch rows.
 pub(crate) fn hessian_det(lx: &GrayImage, ly: &GrayImage, s: usize) -> GrayImage {
     let s = s.max(1);
     let inv = 1.0 / (2.0 * s as f32);
     let s4 = (s * s * s * s) as f32;
-    let dxx = horizontal(lx, s, |a, _, c| (c - a) * inv);
-    let (sx, sy) = rayon::join(|| horizontal(lx, s, smooth), || horizontal(ly, s, smooth));
-    rows(lx.width(), lx.height(), |r, out| {
-        let n = out.len();
-        let (xu, xm, xd) = neighbours(&dxx, r, s);
-        let (au, _, ad) = neighbours(&sx, r, s);
-        let (bu, _, bd) = neighbours(&sy, r, s);
-        let (xu, xm, xd, au, ad, bu, bd) = (&xu[..n], &xm[..n], &xd[..n], &au[..n], &ad[..n], &bu[..n], &bd[..n]);
-        for i in 0..n {
-            let lxx = smooth(xu[i], xm[i], xd[i]);
-            let lxy = (ad[i] - au[i]) * inv;
-            let lyy = (bd[i] - bu[i]) * inv;
-            out[i] = (lxx * lyy - lxy * lxy) * s4; // BMVC 2013 eq. (6)
-        }
-    })
+    let w = lx.width();
+    let mut out = GrayImage::filled(w, lx.height(), 0.0);
+    if w == 0 {
+        return out;
+    }
+    out.data_mut().par_chunks_mut(w).enumerate().for_each_init(
+        || vec![0.0f32; 2 * w],
+        |scratch, (r, o)| {
+            let (lxx, lxy) = scratch.split_at_mut(w);
+            stencil_row(lx, r, s, lxx, |n| scharr_x(n, inv));
+            stencil_row(lx, r, s, lxy, |n| scharr_y(n, inv));
+            stencil_row(ly, r, s, o, |n| scharr_y(n, inv));
+            for ((o, &xx), &xy) in o.iter_mut().zip(lxx.iter()).zip(lxy.iter()) {
+                *o = (xx * *o - xy * xy) * s4; // BMVC 2013 eq. (6)
+            }
+        },
+    );
+    out
 }
 
 #[cfg(test)]

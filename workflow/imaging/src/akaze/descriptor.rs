@@ -16,59 +16,89 @@ const PATTERN: i64 = 10;
 /// Samples per side: offsets −PATTERN..=PATTERN (the 3×3 grid's cells of 7 reach +10).
 const SIDE: usize = 2 * PATTERN as usize + 1;
 
-/// ⌊v⌋ as an integer without a libm call (v is a pixel coordinate, far inside the isize range).
-fn floor(v: f64) -> isize {
-    let i = v as isize;
-    if (i as f64) > v { i - 1 } else { i }
+/// ⌊v⌋ clamped into 0..len, without a libm call: truncation differs from ⌊v⌋ only for negative
+/// non-integers, which the clamp sends to 0 either way.
+fn pixel(v: f64, len: isize) -> isize {
+    (v as isize).clamp(0, len - 1)
 }
 
-/// Cell sums of (L, Lx, Ly) for the 2×2, 3×3 and 4×4 grids, cells in row-major order.
-struct Cells {
-    g2: [[f32; 3]; 4],
-    g3: [[f32; 3]; 9],
-    g4: [[f32; 3]; 16],
+/// An approximation of atan2(y, x) in (−π, π], error below 10⁻⁵ rad (an odd degree-11 polynomial for atan
+/// on [0, 1], 2·10⁻⁶ rad, plus f32 rounding); orientation only uses it to put samples into windows 0.15 rad
+/// apart.
+fn fast_atan2(y: f32, x: f32) -> f32 {
+    use std::f32::consts::{FRAC_PI_2, PI};
+    let (ax, ay) = (x.abs(), y.abs());
+    let (lo, hi) = if ax < ay { (ax, ay) } else { (ay, ax) };
+    if hi == 0.0 {
+        return 0.0;
+    }
+    let a = lo / hi;
+    let s = a * a;
+    let p = ((((-0.011_721_2 * s + 0.052_653_32) * s - 0.116_432_87) * s + 0.193_543_46) * s - 0.332_623_47) * s;
+    let mut r = a * (p + 0.999_977_26);
+    if ay > ax {
+        r = FRAC_PI_2 - r;
+    }
+    if x < 0.0 {
+        r = PI - r;
+    }
+    if y < 0.0 { -r } else { r }
 }
 
-/// For each of the 21 sample offsets along one axis, its cell in the 2-, 3- and 4-cell grids (cells of
-/// ⌈20/g⌉ = 10, 7 and 5 samples); `None` where the offset lies past a grid's last cell.
-fn axis_cells(i: usize) -> [Option<usize>; 3] {
-    [(i < 20).then_some(i / 10), Some(i / 7), (i < 20).then_some(i / 5)]
+/// The 21×21 pattern samples of (L, Lx, Ly).
+type Grid = [[[f32; 3]; SIDE]; SIDE];
+
+/// Pixel index of each pattern offset −PATTERN..=PATTERN along one axis for an axis-aligned pattern:
+/// ⌊centre + offset·scale⌋ clamped into 0..len.
+fn axis(centre: f64, scale: f64, len: isize) -> [isize; SIDE] {
+    std::array::from_fn(|k| pixel(centre + (k as i64 - PATTERN) as f64 * scale, len))
 }
 
-/// Sum (L, Lx, Ly) over every cell of the three grids in one pass over the 21×21 pattern samples: sample
-/// (i, j) sits at offset (j − 10, i − 10)·scale rotated by `angle`, read at the level pixel containing it
-/// (clamped into the level), with the derivatives rotated into the keypoint's frame. All cells of a grid
-/// have the same sample count, so sums compare as the means do.
-fn cell_sums(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Cells {
-    let (s, c) = angle.sin_cos();
-    let (sf, cf) = (s as f32, c as f32);
+/// (L, Lx, Ly) at the 21×21 pattern samples, derivatives rotated into the keypoint's frame: sample (i, j)
+/// sits at offset (j − 10, i − 10)·scale rotated by `angle`, read at the level pixel containing it
+/// (clamped into the level). Upright, rows and columns of the pattern are rows and columns of the level.
+fn sample_grid(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Grid {
     let (w, h) = (lv.image.width() as isize, lv.image.height() as isize);
     let (l, lx, ly) = (lv.image.data(), d.lx.data(), d.ly.data());
-    let mut cells = Cells { g2: [[0.0; 3]; 4], g3: [[0.0; 3]; 9], g4: [[0.0; 3]; 16] };
-    let add = |acc: &mut [f32; 3], v: [f32; 3]| acc.iter_mut().zip(v).for_each(|(a, b)| *a += b);
-    for i in 0..SIDE {
+    if angle == 0.0 {
+        let (cols, rows) = (axis(x, scale, w), axis(y, scale, h));
+        return std::array::from_fn(|i| {
+            std::array::from_fn(|j| {
+                let k = (rows[i] * w + cols[j]) as usize;
+                [l[k], lx[k], ly[k]]
+            })
+        });
+    }
+    let (s, c) = angle.sin_cos();
+    let (sf, cf) = (s as f32, c as f32);
+    std::array::from_fn(|i| {
         let py = (i as i64 - PATTERN) as f64 * scale;
-        let rows = axis_cells(i);
-        for j in 0..SIDE {
+        std::array::from_fn(|j| {
             let px = (j as i64 - PATTERN) as f64 * scale;
-            let col = floor(x + c * px - s * py).clamp(0, w - 1);
-            let row = floor(y + s * px + c * py).clamp(0, h - 1);
+            let (col, row) = (pixel(x + c * px - s * py, w), pixel(y + s * px + c * py, h));
             let k = (row * w + col) as usize;
             let (gx, gy) = (lx[k], ly[k]);
-            let v = [l[k], cf * gx + sf * gy, -sf * gx + cf * gy];
-            let cols = axis_cells(j);
-            if let (Some(r), Some(q)) = (rows[0], cols[0]) {
-                add(&mut cells.g2[2 * r + q], v);
-            }
-            if let (Some(r), Some(q)) = (rows[1], cols[1]) {
-                add(&mut cells.g3[3 * r + q], v);
-            }
-            if let (Some(r), Some(q)) = (rows[2], cols[2]) {
-                add(&mut cells.g4[4 * r + q], v);
+            [l[k], cf * gx + sf * gy, -sf * gx + cf * gy]
+        })
+    })
+}
+
+/// Sums of (L, Lx, Ly) over the cells of the `G`×`G` grid of ⌈2·PATTERN/G⌉-sample cells, row-major. All
+/// cells have the same sample count, so sums compare as the means do.
+fn cell_sums<const G: usize, const N: usize>(grid: &Grid) -> [[f32; 3]; N] {
+    let step = (2 * PATTERN as usize).div_ceil(G);
+    let mut out = [[0.0f32; 3]; N];
+    for (i, line) in grid.iter().enumerate().take(G * step) {
+        for (q, cell) in line[..G * step].chunks_exact(step).enumerate() {
+            let acc = &mut out[(i / step) * G + q];
+            for v in cell {
+                acc[0] += v[0];
+                acc[1] += v[1];
+                acc[2] += v[2];
             }
         }
     }
-    cells
+    out
 }
 
 /// Set one bit per channel for every pair of cells (i < j): cell i's value above cell j's.
@@ -76,9 +106,7 @@ fn compare(cells: &[[f32; 3]], desc: &mut Descriptor, bit: &mut usize) {
     for i in 0..cells.len() {
         for j in i + 1..cells.len() {
             for (x, y) in cells[i].iter().zip(&cells[j]) {
-                if x > y {
-                    desc[*bit / 64] |= 1 << (*bit % 64);
-                }
+                desc[*bit / 64] |= u64::from(x > y) << (*bit % 64);
                 *bit += 1;
             }
         }
@@ -87,12 +115,12 @@ fn compare(cells: &[[f32; 3]], desc: &mut Descriptor, bit: &mut usize) {
 
 /// The M-LDB descriptor of a point at level pixel (x, y) with scale `scale` (level pixels) and `angle`.
 pub(crate) fn describe(lv: &Level, d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Descriptor {
-    let cells = cell_sums(lv, d, x, y, scale, angle);
+    let grid = sample_grid(lv, d, x, y, scale, angle);
     let mut desc = [0u64; 8];
     let mut bit = 0usize;
-    compare(&cells.g2, &mut desc, &mut bit);
-    compare(&cells.g3, &mut desc, &mut bit);
-    compare(&cells.g4, &mut desc, &mut bit);
+    compare(&cell_sums::<2, 4>(&grid), &mut desc, &mut bit);
+    compare(&cell_sums::<3, 9>(&grid), &mut desc, &mut bit);
+    compare(&cell_sums::<4, 16>(&grid), &mut desc, &mut bit);
     desc
 }
 
@@ -130,7 +158,7 @@ pub(crate) fn orientation(d: &Derivatives, x: f64, y: f64, scale: f64) -> f64 {
     let m = starts.len();
     // Number of window starts ≤ t: the estimate ⌊t/0.15⌋ + 1 corrected against the accumulated starts.
     let count = |t: f64| {
-        let mut k = (floor(t / 0.15) + 1).clamp(0, m as isize) as usize;
+        let mut k = ((t / 0.15) as isize + 1).clamp(0, m as isize) as usize;
         while k > 0 && starts[k - 1] > t {
             k -= 1;
         }
@@ -140,13 +168,18 @@ pub(crate) fn orientation(d: &Derivatives, x: f64, y: f64, scale: f64) -> f64 {
         k
     };
     let mut diff = [(0.0f64, 0.0f64); 64];
-    for &(i, j, w) in DISC.iter() {
-        let (col, row) = (floor(x + i * scale), floor(y + j * scale));
-        let (gx, gy) = (f64::from(d.lx.get_clamped(col, row)) * w, f64::from(d.ly.get_clamped(col, row)) * w);
-        let a = f64::from((gy as f32).atan2(gx as f32)); // only decides window membership
+    let (w, h) = (d.lx.width() as isize, d.lx.height() as isize);
+    let (lx, ly) = (d.lx.data(), d.ly.data());
+    for &(i, j, weight) in DISC.iter() {
+        let k = (pixel(y + j * scale, h) * w + pixel(x + i * scale, w)) as usize;
+        let (gx, gy) = (f64::from(lx[k]) * weight, f64::from(ly[k]) * weight);
+        let a = f64::from(fast_atan2(gy as f32, gx as f32)); // only decides window membership
         let theta = if a < 0.0 { a + TAU } else { a };
-        // Windows k with θ − π/3 < start_k ≤ θ, and the same for θ + 2π (windows that wrap past 2π).
-        for t in [theta, theta + TAU] {
+        // Windows k with θ − π/3 < start_k ≤ θ, and the same for θ + 2π (windows that wrap past 2π, which
+        // only angles below last start + π/3 − 2π can reach).
+        let wraps = theta + TAU - FRAC_PI_3 < starts[m - 1];
+        let turns = [theta, theta + TAU];
+        for &t in &turns[..if wraps { 2 } else { 1 }] {
             let (lo, hi) = (count(t - FRAC_PI_3), count(t));
             if lo < hi {
                 diff[lo] = (diff[lo].0 + gx, diff[lo].1 + gy);
@@ -191,7 +224,7 @@ mod tests {
     }
 
     #[test]
-    fn the_sliding_window_by_prefix_sums_equals_the_direct_sum() {
+    fn the_sliding_window_by_difference_array_equals_the_direct_sum() {
         for seed in 0..20u64 {
             let field = |c: usize, r: usize| {
                 let t = (seed as f32 + 1.0) * 0.37;
@@ -203,10 +236,11 @@ mod tests {
             let samples: Vec<(f64, f64, f64)> = DISC
                 .iter()
                 .map(|&(i, j, w)| {
-                    let (col, row) = (floor(x + i * scale), floor(y + j * scale));
+                    let (col, row) = ((x + i * scale).floor() as isize, (y + j * scale).floor() as isize);
                     let (gx, gy) =
                         (f64::from(d.lx.get_clamped(col, row)) * w, f64::from(d.ly.get_clamped(col, row)) * w);
-                    (gy.atan2(gx), gx, gy)
+                    // The same angle function as the fast form: this test is about the windows.
+                    (f64::from(fast_atan2(gy as f32, gx as f32)), gx, gy)
                 })
                 .collect();
             let (fast, direct) = (orientation(&d, x, y, scale), orientation_direct(&samples));
@@ -215,9 +249,22 @@ mod tests {
     }
 
     #[test]
-    fn floor_matches_the_library_floor() {
-        for v in [-3.5, -3.0, -0.2, 0.0, 0.7, 2.0, 1_023.999_999] {
-            assert_eq!(floor(v), v.floor() as isize, "{v}");
+    fn fast_atan2_is_within_its_bound_all_round_the_circle() {
+        let worst = (0..3600)
+            .map(|k| {
+                let a = f64::from(k) * std::f64::consts::TAU / 3600.0 - std::f64::consts::PI + 1e-4;
+                let (y, x) = ((3.0 * a.sin()) as f32, (3.0 * a.cos()) as f32);
+                (f64::from(fast_atan2(y, x)) - f64::from(y).atan2(f64::from(x))).abs()
+            })
+            .fold(0.0, f64::max);
+        assert!(worst < 1e-5, "{worst}");
+        assert_eq!(fast_atan2(0.0, 0.0), 0.0);
+    }
+
+    #[test]
+    fn pixel_is_the_clamped_floor() {
+        for v in [-3.5, -3.0, -0.2, 0.0, 0.7, 2.0, 9.999, 10.0, 12.5] {
+            assert_eq!(pixel(v, 10), (v.floor() as isize).clamp(0, 9), "{v}");
         }
     }
 }

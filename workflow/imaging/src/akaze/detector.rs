@@ -136,7 +136,8 @@ pub(crate) fn suppress(mut cands: Vec<Candidate>) -> Vec<Candidate> {
             (gx.saturating_sub(reach)..(gx + reach + 1).min(cols)).any(|x| {
                 grid[y * cols + x].iter().any(|&k| {
                     let o = &kept[k];
-                    o.level.abs_diff(c.level) <= 1 && (o.u - c.u).hypot(o.v - c.v) < o.radius.max(c.radius)
+                    o.level.abs_diff(c.level) <= 1
+                        && (o.u - c.u).powi(2) + (o.v - c.v).powi(2) < o.radius.max(c.radius).powi(2)
                 })
             })
         });
