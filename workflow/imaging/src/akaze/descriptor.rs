@@ -18,7 +18,7 @@ const SIDE: usize = 2 * PATTERN as usize + 1;
 
 /// ⌊v⌋ clamped into 0..len, without a libm call: truncation differs from ⌊v⌋ only for negative
 /// non-integers, which the clamp sends to 0 either way.
-fn pixel(v: f64, len: isize) -> isize {
+pub(crate) fn pixel(v: f64, len: isize) -> isize {
     (v as isize).clamp(0, len - 1)
 }
 

@@ -5,6 +5,7 @@
 
 use std::sync::LazyLock;
 
+use crate::akaze::descriptor::pixel;
 use crate::akaze::detector::Derivatives;
 
 /// A 64-float M-SURF descriptor (unit length).
@@ -31,29 +32,26 @@ fn outer(cy: usize, cx: usize) -> f32 {
     (-d2 / (2.0 * 1.5 * 1.5)).exp() as f32
 }
 
+/// The 24×24 samples of (u, v), the derivatives in the keypoint's frame.
+type Grid = [[(f32, f32); SIDE]; SIDE];
+
 /// The derivatives rotated into the keypoint's frame at the 24×24 samples (x + scale·(l − 12) rotated by
-/// `angle`, nearest pixel at or left/above), as (u, v) pairs.
-fn samples(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Box<[[(f32, f32); SIDE]; SIDE]> {
+/// `angle`, read at the pixel containing the point, clamped into the image), as (u, v) pairs.
+fn samples(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Grid {
     let (sn, cs) = angle.sin_cos();
     let (sf, cf) = (sn as f32, cs as f32);
-    let mut out = Box::new([[(0.0f32, 0.0f32); SIDE]; SIDE]);
-    let upright = angle == 0.0 && scale.fract() == 0.0;
-    let (col0, row0) = (x.floor() as isize, y.floor() as isize);
-    for (k, line) in out.iter_mut().enumerate() {
+    let (w, h) = (d.lx.width() as isize, d.lx.height() as isize);
+    let (lx, ly) = (d.lx.data(), d.ly.data());
+    std::array::from_fn(|k| {
         let py = (k as f64 - 12.0) * scale;
-        for (l, s) in line.iter_mut().enumerate() {
+        std::array::from_fn(|l| {
             let px = (l as f64 - 12.0) * scale;
-            // Upright with an integer scale: floor(x + px) = floor(x) + px exactly.
-            let (col, row) = if upright {
-                (col0 + px as isize, row0 + py as isize)
-            } else {
-                ((x + cs * px - sn * py).floor() as isize, (y + sn * px + cs * py).floor() as isize)
-            };
-            let (gx, gy) = (d.lx.get_clamped(col, row), d.ly.get_clamped(col, row));
-            *s = (cf * gx + sf * gy, -sf * gx + cf * gy);
-        }
-    }
-    out
+            let (col, row) = (pixel(x + cs * px - sn * py, w), pixel(y + sn * px + cs * py, h));
+            let i = (row * w + col) as usize;
+            let (gx, gy) = (lx[i], ly[i]);
+            (cf * gx + sf * gy, -sf * gx + cf * gy)
+        })
+    })
 }
 
 /// The M-SURF descriptor of a point at (x, y) pixels with `scale` (pixels) and `angle`: per subregion
