@@ -38,6 +38,30 @@ fn time<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
     t[t.len() / 2]
 }
 
+/// CPU time of this process so far, all threads alive, nanoseconds: the first field of every
+/// /proc/self/task/*/schedstat (Linux). A shared machine inflates wall time; CPU time much less.
+fn cpu_ns() -> Option<u64> {
+    let mut total = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
+/// Median CPU time of `runs` calls, milliseconds (0 where /proc is unavailable).
+fn cpu_time<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
+    let mut t: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = cpu_ns().unwrap_or(0);
+            std::hint::black_box(f());
+            cpu_ns().unwrap_or(0).saturating_sub(start) as f64 * 1e-6
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
 fn single<T: Send>(f: impl FnOnce() -> T + Send) -> T {
     rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap().install(f)
 }
@@ -122,10 +146,11 @@ struct Detected {
 /// Detection and matching on an image pair.
 type PairRun = Box<dyn Fn(&GrayImage, &GrayImage) -> Detected>;
 
-/// OpenCV's figures for one detector: ms (1 thread), keypoints A, repeatability, inliers.
+/// OpenCV's figures for one detector: wall and CPU ms (1 thread), keypoints A, repeatability, inliers.
 #[derive(Clone, Copy)]
 struct OpenCv {
     ms: f64,
+    cpu_ms: f64,
     keypoints: usize,
     repeatability: f64,
     inliers: usize,
@@ -195,6 +220,7 @@ fn opencv_row(name: &str) -> Option<OpenCv> {
     let f: Vec<&str> = line.split('\t').collect();
     Some(OpenCv {
         ms: f.get(1)?.parse().ok()?,
+        cpu_ms: f.get(8)?.parse().ok()?,
         keypoints: f.get(3)?.parse().ok()?,
         repeatability: f.get(5)?.parse().ok()?,
         inliers: f.get(7)?.parse().ok()?,
@@ -203,20 +229,23 @@ fn opencv_row(name: &str) -> Option<OpenCv> {
 
 fn features(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
     println!(
-        "\n| 1024² pair (0.2 rad, ×0.8, gain 0.7) | ours ms (1 thread) | ours ms (all threads) | OpenCV ms (1 thread) | ratio ours/OpenCV | keypoints A (ours / OpenCV) | repeatability (ours / OpenCV) | inliers (ours / OpenCV) |\n|---|---|---|---|---|---|---|---|"
+        "\n| 1024² pair (0.2 rad, ×0.8, gain 0.7) | ours ms (1 thread) | ours ms (all threads) | OpenCV ms (1 thread) | ratio ours/OpenCV | CPU ms 1 thread (ours / OpenCV) | CPU ratio | keypoints A (ours / OpenCV) | repeatability (ours / OpenCV) | inliers (ours / OpenCV) |\n|---|---|---|---|---|---|---|---|---|---|"
     );
     for det in [akaze_detector("AKAZE", false), akaze_detector("AKAZE upright", true), kaze_detector()] {
         let one = single(|| time(5, || (det.run)(a)));
+        let cpu = single(|| cpu_time(5, || (det.run)(a)));
         let all = time(5, || (det.run)(a));
         let detected = (det.pair)(a, b);
         let (rep, inl) = quality(&detected, truth, 1024.0);
         let cv = opencv_row(det.name);
-        let show = |f: fn(OpenCv, f64) -> String| cv.map_or("–".to_string(), |c| f(c, one));
+        let show = |f: fn(OpenCv, [f64; 2]) -> String| cv.map_or("–".to_string(), |c| f(c, [one, cpu]));
         println!(
-            "| {} | {one:.0} | {all:.0} | {} | {} | {} / {} | {rep:.3} / {} | {inl} / {} |",
+            "| {} | {one:.0} | {all:.0} | {} | {} | {cpu:.0} / {} | {} | {} / {} | {rep:.3} / {} | {inl} / {} |",
             det.name,
             show(|c, _| format!("{:.0}", c.ms)),
-            show(|c, one| format!("{:.2}", one / c.ms)),
+            show(|c, t| format!("{:.2}", t[0] / c.ms)),
+            show(|c, _| format!("{:.0}", c.cpu_ms)),
+            show(|c, t| format!("{:.2}", t[1] / c.cpu_ms)),
             detected.a.len(),
             show(|c, _| c.keypoints.to_string()),
             show(|c, _| format!("{:.3}", c.repeatability)),
