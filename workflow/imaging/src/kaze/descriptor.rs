@@ -86,3 +86,29 @@ pub(crate) fn msurf(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> 
     }
     desc
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::image::GrayImage;
+
+    #[test]
+    fn a_uniform_gradient_gives_the_known_descriptor_in_any_orientation() {
+        // A gradient of unit length along the keypoint's own x axis: u = 1 and v = 0 at every sample, so
+        // subregion (cy, cx) holds (S, 0, S, 0)·outer(cy, cx) with S the sum of the inner weights.
+        let want: Vec<f32> = (0..16).flat_map(|i| [outer(i / 4, i % 4), 0.0, outer(i / 4, i % 4), 0.0]).collect();
+        let norm = want.iter().map(|v| v * v).sum::<f32>().sqrt();
+        for angle in [0.0f64, 0.7, -2.0, 3.0] {
+            let (gx, gy) = (angle.cos() as f32, angle.sin() as f32);
+            let d = Derivatives {
+                lx: GrayImage::filled(80, 80, gx),
+                ly: GrayImage::filled(80, 80, gy),
+                det: GrayImage::filled(80, 80, 0.0),
+                step: 1,
+            };
+            let desc = msurf(&d, 40.3, 39.8, 2.0, angle);
+            let worst = desc.iter().zip(&want).map(|(a, b)| (a - b / norm).abs()).fold(0.0f32, f32::max);
+            assert!(worst < 1e-5, "angle {angle}: {worst}");
+        }
+    }
+}

@@ -9,8 +9,8 @@ use crate::akaze::detector::{Candidate, Derivatives, level_maxima};
 use crate::image::GrayImage;
 
 /// Candidates on levels 1..N−1: above `threshold`, strictly above their 8 neighbours on the level and not
-/// below any of the 9 on the levels beneath and above; refined by `refine`. `sigma(level, offset)` gives
-/// the scale in input pixels of a fractional level.
+/// below any of the 9 on the levels beneath and above (the authors' test); refined by `refine`. `sigma`
+/// maps a fractional level index to its scale in input pixels.
 pub(crate) fn candidates(ders: &[Derivatives], threshold: f32, sigma: impl Fn(f64) -> f64 + Sync) -> Vec<Candidate> {
     let n = ders.len();
     (1..n.saturating_sub(1))
@@ -20,10 +20,8 @@ pub(crate) fn candidates(ders: &[Derivatives], threshold: f32, sigma: impl Fn(f6
             let sigma = &sigma;
             level_maxima(here, threshold).into_iter().filter_map(move |(c, r)| {
                 let x = here.get(c, r);
-                let ok = [below, above]
-                    .iter()
-                    .all(|d| (r - 1..=r + 1).all(|rr| (c - 1..=c + 1).all(|cc| d.get(cc, rr) <= x)));
-                if !ok {
+                let peak = |d: &GrayImage| (r - 1..=r + 1).all(|rr| d.row(rr)[c - 1..=c + 1].iter().all(|&y| y <= x));
+                if !(peak(below) && peak(above)) {
                     return None;
                 }
                 let (dx, dy, ds) = refine([below, here, above], c, r)?;
