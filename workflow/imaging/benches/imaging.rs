@@ -1,5 +1,6 @@
-//! Per-primitive timings and AKAZE keypoints / repeatability / inliers on a 1 MP synthetic pair.
-//! Run: `cargo bench -p plumbline-imaging` (medians of repeated runs; compare with opencv_akaze.py).
+//! Per-primitive timings, and KAZE/AKAZE time, keypoints, repeatability and inliers on a 1 MP synthetic pair
+//! beside OpenCV's. Run: `cargo bench -p plumbline-imaging [-- features]` (medians of repeated runs);
+//! `benches/compare_opencv.sh` runs OpenCV (opencv_akaze.py) and ours interleaved and fills the OpenCV columns.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 #[path = "common/scene.rs"]
@@ -12,7 +13,7 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::{Attitude, MapFromBody, Point3};
 use plumbline_imaging::GrayImage;
-use plumbline_imaging::akaze::{AkazeConfig, Features, akaze, match_descriptors};
+use plumbline_imaging::akaze::{AkazeConfig, Features, Keypoint, akaze, match_descriptors};
 use plumbline_imaging::corners::{Foerstner, Harris};
 use plumbline_imaging::filter::{Wallis, gaussian_blur};
 use plumbline_imaging::integral::IntegralImage;
@@ -31,6 +32,30 @@ fn time<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
             let start = Instant::now();
             std::hint::black_box(f());
             start.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    t.sort_by(f64::total_cmp);
+    t[t.len() / 2]
+}
+
+/// CPU time of this process so far, all threads alive, nanoseconds: the first field of every
+/// /proc/self/task/*/schedstat (Linux). A shared machine inflates wall time; CPU time much less.
+fn cpu_ns() -> Option<u64> {
+    let mut total = 0;
+    for task in std::fs::read_dir("/proc/self/task").ok()? {
+        let stat = std::fs::read_to_string(task.ok()?.path().join("schedstat")).ok()?;
+        total += stat.split_whitespace().next()?.parse::<u64>().ok()?;
+    }
+    Some(total)
+}
+
+/// Median CPU time of `runs` calls, milliseconds (0 where /proc is unavailable).
+fn cpu_time<T>(runs: usize, mut f: impl FnMut() -> T) -> f64 {
+    let mut t: Vec<f64> = (0..runs)
+        .map(|_| {
+            let start = cpu_ns().unwrap_or(0);
+            std::hint::black_box(f());
+            cpu_ns().unwrap_or(0).saturating_sub(start) as f64 * 1e-6
         })
         .collect();
     t.sort_by(f64::total_cmp);
@@ -111,84 +136,148 @@ fn ortho_bench() -> f64 {
     time(5, || ortho_project(&pano, None, &exposure, &grid, |_, _| 0.0).unwrap())
 }
 
-/// (repeatability, inliers, matches) of A → B under the known similarity.
-fn quality(fa: &Features, fb: &Features, truth: &Matrix3<f64>, size: f64) -> (f64, usize, usize) {
-    let inside: Vec<(f64, f64)> = fa
-        .keypoints
-        .iter()
-        .filter_map(|k| apply_h(truth, k.u, k.v))
-        .filter(|(u, v)| *u > 16.0 && *v > 16.0 && *u < size - 16.0 && *v < size - 16.0)
-        .collect();
-    let hits = inside.iter().filter(|(u, v)| fb.keypoints.iter().any(|k| (k.u - u).hypot(k.v - v) < 2.5)).count();
-    let m = match_descriptors(&fa.descriptors, &fb.descriptors, 0.8, true);
-    let pairs: Vec<Correspondence> = m
-        .iter()
-        .map(|m| Correspondence {
-            a: [fa.keypoints[m.a].u, fa.keypoints[m.a].v],
-            b: [fb.keypoints[m.b].u, fb.keypoints[m.b].v],
-        })
-        .collect();
-    let inliers = ransac(Model::Similarity, &pairs, &RansacConfig { threshold: 2.5, ..RansacConfig::default() })
+/// Keypoint positions of A and B, and the correspondences of their mutual ratio-test matches.
+struct Detected {
+    a: Vec<(f64, f64)>,
+    b: Vec<(f64, f64)>,
+    pairs: Vec<Correspondence>,
+}
+
+/// Detection and matching on an image pair.
+type PairRun = Box<dyn Fn(&GrayImage, &GrayImage) -> Detected>;
+
+/// OpenCV's figures for one detector: wall and CPU ms (1 thread), keypoints A, repeatability, inliers.
+#[derive(Clone, Copy)]
+struct OpenCv {
+    ms: f64,
+    cpu_ms: f64,
+    keypoints: usize,
+    repeatability: f64,
+    inliers: usize,
+}
+
+/// One detector of the table: its name and how to detect and match on an image pair.
+struct Detector {
+    name: &'static str,
+    run: Box<dyn Fn(&GrayImage) -> usize + Sync>,
+    pair: PairRun,
+}
+
+fn akaze_detector(name: &'static str, upright: bool) -> Detector {
+    let cfg = AkazeConfig { upright, ..AkazeConfig::default() };
+    Detector {
+        name,
+        run: Box::new(move |img| akaze(img, &cfg).unwrap().keypoints.len()),
+        pair: Box::new(move |a, b| {
+            let (fa, fb): (Features, Features) = (akaze(a, &cfg).unwrap(), akaze(b, &cfg).unwrap());
+            let m = match_descriptors(&fa.descriptors, &fb.descriptors, 0.8, true);
+            let pairs = m.iter().map(|m| corr(&fa.keypoints[m.a], &fb.keypoints[m.b])).collect();
+            Detected { a: positions(&fa.keypoints), b: positions(&fb.keypoints), pairs }
+        }),
+    }
+}
+
+fn kaze_detector() -> Detector {
+    let cfg = KazeConfig::default();
+    Detector {
+        name: "KAZE",
+        run: Box::new(move |img| kaze(img, &cfg).unwrap().keypoints.len()),
+        pair: Box::new(move |a, b| {
+            let (fa, fb): (KazeFeatures, KazeFeatures) = (kaze(a, &cfg).unwrap(), kaze(b, &cfg).unwrap());
+            let m = match_surf(&fa.descriptors, &fb.descriptors, 0.8, true);
+            let pairs = m.iter().map(|&(i, j, _)| corr(&fa.keypoints[i], &fb.keypoints[j])).collect();
+            Detected { a: positions(&fa.keypoints), b: positions(&fb.keypoints), pairs }
+        }),
+    }
+}
+
+fn positions(kps: &[Keypoint]) -> Vec<(f64, f64)> {
+    kps.iter().map(|k| (k.u, k.v)).collect()
+}
+
+fn corr(a: &Keypoint, b: &Keypoint) -> Correspondence {
+    Correspondence { a: [a.u, a.v], b: [b.u, b.v] }
+}
+
+/// (repeatability, inliers) of A → B under the known similarity: the share of A's keypoints projected
+/// inside B (16 px margin) with a B keypoint within 2.5 px; RANSAC similarity inliers at 2.5 px.
+fn quality(d: &Detected, truth: &Matrix3<f64>, size: f64) -> (f64, usize) {
+    let inside: Vec<(f64, f64)> =
+        d.a.iter()
+            .filter_map(|&(u, v)| apply_h(truth, u, v))
+            .filter(|(u, v)| *u > 16.0 && *v > 16.0 && *u < size - 16.0 && *v < size - 16.0)
+            .collect();
+    let hits = inside.iter().filter(|(u, v)| d.b.iter().any(|k| (k.0 - u).hypot(k.1 - v) < 2.5)).count();
+    let inliers = ransac(Model::Similarity, &d.pairs, &RansacConfig { threshold: 2.5, ..RansacConfig::default() })
         .map_or(0, |f| f.inlier_count());
-    (hits as f64 / inside.len().max(1) as f64, inliers, pairs.len())
+    (hits as f64 / inside.len().max(1) as f64, inliers)
+}
+
+/// OpenCV's row for a detector from the file `OPENCV_RESULTS` names (written by `opencv_akaze.py --tsv`).
+fn opencv_row(name: &str) -> Option<OpenCv> {
+    let text = std::fs::read_to_string(std::env::var("OPENCV_RESULTS").ok()?).ok()?;
+    let line = text.lines().find(|l| l.split('\t').next() == Some(name))?;
+    let f: Vec<&str> = line.split('\t').collect();
+    Some(OpenCv {
+        ms: f.get(1)?.parse().ok()?,
+        cpu_ms: f.get(8)?.parse().ok()?,
+        keypoints: f.get(3)?.parse().ok()?,
+        repeatability: f.get(5)?.parse().ok()?,
+        inliers: f.get(7)?.parse().ok()?,
+    })
 }
 
 fn features(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
     println!(
-        "\n| AKAZE, 1024² pair (0.2 rad, ×0.8, gain 0.7) | ms (1 thread) | ms (all cores) | keypoints A / B | repeatability | matches | inliers |\n|---|---|---|---|---|---|---|"
+        "\n| 1024² pair (0.2 rad, ×0.8, gain 0.7) | ours ms (1 thread) | ours ms (all threads) | OpenCV ms (1 thread) | ratio ours/OpenCV | CPU ms 1 thread (ours / OpenCV) | CPU ratio | keypoints A (ours / OpenCV) | repeatability (ours / OpenCV) | inliers (ours / OpenCV) |\n|---|---|---|---|---|---|---|---|---|---|"
     );
-    for (name, upright) in [("AKAZE", false), ("AKAZE upright", true)] {
-        let cfg = AkazeConfig { upright, ..AkazeConfig::default() };
-        let one = single(|| time(3, || akaze(a, &cfg).unwrap()));
-        let all = time(3, || akaze(a, &cfg).unwrap());
-        let (fa, fb) = (akaze(a, &cfg).unwrap(), akaze(b, &cfg).unwrap());
-        let (rep, inl, m) = quality(&fa, &fb, truth, 1024.0);
+    for det in [akaze_detector("AKAZE", false), akaze_detector("AKAZE upright", true), kaze_detector()] {
+        let one = single(|| time(5, || (det.run)(a)));
+        let cpu = single(|| cpu_time(5, || (det.run)(a)));
+        let all = time(5, || (det.run)(a));
+        let detected = (det.pair)(a, b);
+        let (rep, inl) = quality(&detected, truth, 1024.0);
+        let cv = opencv_row(det.name);
+        let show = |f: fn(OpenCv, [f64; 2]) -> String| cv.map_or("–".to_string(), |c| f(c, [one, cpu]));
         println!(
-            "| {name} | {one:.0} | {all:.0} | {} / {} | {rep:.3} | {m} | {inl} |",
-            fa.keypoints.len(),
-            fb.keypoints.len()
+            "| {} | {one:.0} | {all:.0} | {} | {} | {cpu:.0} / {} | {} | {} / {} | {rep:.3} / {} | {inl} / {} |",
+            det.name,
+            show(|c, _| format!("{:.0}", c.ms)),
+            show(|c, t| format!("{:.2}", t[0] / c.ms)),
+            show(|c, _| format!("{:.0}", c.cpu_ms)),
+            show(|c, t| format!("{:.2}", t[1] / c.cpu_ms)),
+            detected.a.len(),
+            show(|c, _| c.keypoints.to_string()),
+            show(|c, _| format!("{:.3}", c.repeatability)),
+            show(|c, _| c.inliers.to_string()),
         );
     }
 }
 
-/// KAZE's row of the table, with M-SURF matching.
-fn kaze_row(a: &GrayImage, b: &GrayImage, truth: &Matrix3<f64>) {
-    let cfg = KazeConfig::default();
-    let one = single(|| time(3, || kaze(a, &cfg).unwrap()));
-    let all = time(3, || kaze(a, &cfg).unwrap());
-    let (fa, fb): (KazeFeatures, KazeFeatures) = (kaze(a, &cfg).unwrap(), kaze(b, &cfg).unwrap());
-    let inside: Vec<(f64, f64)> = fa
-        .keypoints
-        .iter()
-        .filter_map(|k| apply_h(truth, k.u, k.v))
-        .filter(|(u, v)| *u > 16.0 && *v > 16.0 && *u < 1008.0 && *v < 1008.0)
-        .collect();
-    let hits = inside.iter().filter(|(u, v)| fb.keypoints.iter().any(|k| (k.u - u).hypot(k.v - v) < 2.5)).count();
-    let pairs: Vec<Correspondence> = match_surf(&fa.descriptors, &fb.descriptors, 0.8, true)
-        .iter()
-        .map(|&(i, j, _)| Correspondence {
-            a: [fa.keypoints[i].u, fa.keypoints[i].v],
-            b: [fb.keypoints[j].u, fb.keypoints[j].v],
-        })
-        .collect();
-    let cfg_r = RansacConfig { threshold: 2.5, ..RansacConfig::default() };
-    let inl = ransac(Model::Similarity, &pairs, &cfg_r).map_or(0, |f| f.inlier_count());
-    let rep = hits as f64 / inside.len().max(1) as f64;
-    println!(
-        "| KAZE | {one:.0} | {all:.0} | {} / {} | {rep:.3} | {} | {inl} |",
-        fa.keypoints.len(),
-        fb.keypoints.len(),
-        pairs.len()
-    );
+/// `imaging profile akaze|akaze-upright|kaze`: one detection on image A, nothing else, inside a one-thread
+/// pool so that callgrind's `--toggle-collect='*akaze::akaze*'` (or `'*kaze::kaze*'`) sees all its work.
+fn profile(which: &str, a: &GrayImage) {
+    let n = single(|| match which {
+        "akaze" => akaze(a, &AkazeConfig::default()).unwrap().keypoints.len(),
+        "akaze-upright" => akaze(a, &AkazeConfig { upright: true, ..AkazeConfig::default() }).unwrap().keypoints.len(),
+        "kaze" => kaze(a, &KazeConfig::default()).unwrap().keypoints.len(),
+        other => panic!("unknown detector {other}"),
+    });
+    println!("{which}: {n} keypoints");
 }
 
 fn main() {
     let blobs = scene::blobs(42, 3000, 1024.0);
     let truth = scene::truth(1024.0);
     let a = scene::render(1024, &blobs, &Matrix3::identity(), 1.0, 1.0, 128.0);
+    let args: Vec<String> = std::env::args().collect();
+    if let Some(i) = args.iter().position(|x| x == "profile") {
+        return profile(args.get(i + 1).map_or("akaze", String::as_str), &a);
+    }
     let b = scene::render(1024, &blobs, &truth, 0.8, 0.7, 0.7 * 128.0 + 25.0);
     println!("threads: {}", rayon::current_num_threads());
-    primitives(&a, &b);
+    if !args.iter().any(|x| x == "features") {
+        primitives(&a, &b);
+    }
     features(&a, &b, &truth);
-    kaze_row(&a, &b, &truth);
 }

@@ -2,8 +2,12 @@
 identical synthetic 1024² pair (common/scene.rs: SplitMix64 blobs, ±4σ stamps, floor(x + 0.5) quantisation).
 
 Run by hand: python3 -m venv /tmp/cv && /tmp/cv/bin/pip install "opencv-python-headless<5" &&
-/tmp/cv/bin/python workflow/imaging/benches/opencv_akaze.py
+/tmp/cv/bin/python workflow/imaging/benches/opencv_akaze.py [--tsv PATH]
+With --tsv it also writes one line per detector (name, ms 1 thread, ms all threads, keypoints A, keypoints B,
+repeatability, matches, inliers, CPU ms 1 thread; tab-separated) for `OPENCV_RESULTS=PATH cargo bench -p plumbline-imaging`.
+benches/compare_opencv.sh runs both interleaved.
 """
+import argparse
 import math
 import time
 
@@ -56,12 +60,12 @@ def render(size, bl, t, scale, gain, background):
     return np.floor(np.clip(acc, 0, 255) + 0.5).astype(np.uint8)
 
 
-def median_ms(f, runs=3):
+def median_ms(f, runs=5, clock=time.perf_counter):
     t = []
     for _ in range(runs):
-        s = time.perf_counter()
+        s = clock()
         f()
-        t.append((time.perf_counter() - s) * 1e3)
+        t.append((clock() - s) * 1e3)
     return sorted(t)[len(t) // 2]
 
 
@@ -83,6 +87,10 @@ def quality(ka, da, kb, db, t, size):
 
 
 def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--tsv", help="also write the rows, tab-separated, to this file")
+    args = parser.parse_args()
+    rows = []
     size = 1024
     bl, t = blobs(42, 3000, size), truth(size)
     a = render(size, bl, np.eye(3), 1.0, 1.0, 128.0)
@@ -94,12 +102,17 @@ def main():
         det = make()
         cv2.setNumThreads(1)
         one = median_ms(lambda: det.detectAndCompute(a, None))
+        cpu = median_ms(lambda: det.detectAndCompute(a, None), clock=time.process_time)
         cv2.setNumThreads(-1)
         allc = median_ms(lambda: det.detectAndCompute(a, None))
         ka, da = det.detectAndCompute(a, None)
         kb, db = det.detectAndCompute(b, None)
         rep, inl, m = quality(ka, da, kb, db, t, size)
         print(f"| {name} | {one:.0f} | {allc:.0f} | {len(ka)} / {len(kb)} | {rep:.3f} | {m} | {inl} |")
+        rows.append(f"{name}\t{one:.1f}\t{allc:.1f}\t{len(ka)}\t{len(kb)}\t{rep:.4f}\t{m}\t{inl}\t{cpu:.1f}\n")
+    if args.tsv:
+        with open(args.tsv, "w") as out:
+            out.writelines(rows)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ pub mod ncc;
 mod nearest;
 pub mod ortho;
 pub mod ransac;
+mod stencil;
 pub mod warp;
 
 pub use error::ImagingError;

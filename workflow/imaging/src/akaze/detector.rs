@@ -4,8 +4,9 @@
 use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
 
-use super::scale_space::{Level, scharr};
+use super::scale_space::Level;
 use crate::image::GrayImage;
+use crate::stencil::{hessian_det, scharr_pair};
 
 /// Derivatives of one level, kept for the descriptor.
 #[derive(Clone, Debug)]
@@ -25,17 +26,19 @@ pub(crate) fn derivatives(levels: &[Level], factor: f64) -> Vec<Derivatives> {
         .par_iter()
         .map(|lv| {
             let s = ((lv.sigma * factor / lv.ratio()).round() as usize).max(1);
-            let (lx, ly) = (scharr(&lv.image, s, true), scharr(&lv.image, s, false));
-            let (lxx, lxy, lyy) = (scharr(&lx, s, true), scharr(&lx, s, false), scharr(&ly, s, false));
-            let s2 = (s * s) as f32;
-            let det = GrayImage::from_fn(lv.image.width(), lv.image.height(), |c, r| {
-                // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
-                (lxx.get(c, r) * lyy.get(c, r) - lxy.get(c, r).powi(2)) * s2 * s2
-            });
-            let sf = s as f32;
-            Derivatives { lx: lx.map(|x| x * sf), ly: ly.map(|x| x * sf), det, step: s }
+            level_derivatives(&lv.image, s)
         })
         .collect()
+}
+
+/// First derivatives and Hessian determinant of `image` at spacing `s`, all scale-normalised.
+pub(crate) fn level_derivatives(image: &GrayImage, s: usize) -> Derivatives {
+    let (mut lx, mut ly) = scharr_pair(image, s);
+    // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
+    let det = hessian_det(&lx, &ly, s);
+    let sf = s as f32;
+    lx.data_mut().iter_mut().chain(ly.data_mut().iter_mut()).for_each(|x| *x *= sf);
+    Derivatives { lx, ly, det, step: s }
 }
 
 /// A detected point before description.
@@ -50,6 +53,8 @@ pub(crate) struct Candidate {
     pub level: usize,
     /// Suppression radius in input pixels.
     pub radius: f64,
+    /// Scale σ in input pixels (the level's, or refined between levels).
+    pub sigma: f64,
 }
 
 /// 3×3 maxima above `threshold` on every level, refined to subpixel.
@@ -68,24 +73,31 @@ pub(crate) fn candidates(levels: &[Level], ders: &[Derivatives], threshold: f32)
                     response: d.det.get(c, r),
                     level: i,
                     radius: d.step as f64 * ratio,
+                    sigma: lv.sigma,
                 })
             })
         })
         .collect()
 }
 
-/// Strict 3×3 maxima above the threshold, at least 2 pixels inside the level.
-fn level_maxima(det: &GrayImage, threshold: f32) -> Vec<(usize, usize)> {
+/// Strict 3×3 maxima above the threshold, at least 2 pixels inside the level. The threshold test runs over
+/// row slices first; only the few pixels above it look at their neighbours.
+pub(crate) fn level_maxima(det: &GrayImage, threshold: f32) -> Vec<(usize, usize)> {
     let (w, h) = (det.width(), det.height());
     let mut out = Vec::new();
-    for r in 2..h.saturating_sub(2) {
-        for c in 2..w.saturating_sub(2) {
-            let x = det.get(c, r);
+    if w < 5 || h < 5 {
+        return out;
+    }
+    for r in 2..h - 2 {
+        let (up, mid, down) = (det.row(r - 1), det.row(r), det.row(r + 1));
+        for (i, &x) in mid[2..w - 2].iter().enumerate() {
             if x <= threshold {
                 continue;
             }
-            let is_max =
-                (r - 1..=r + 1).all(|rr| (c - 1..=c + 1).all(|cc| (cc == c && rr == r) || det.get(cc, rr) < x));
+            let c = i + 2;
+            let is_max = [up, down].iter().all(|line| line[c - 1..=c + 1].iter().all(|&y| y < x))
+                && mid[c - 1] < x
+                && mid[c + 1] < x;
             if is_max {
                 out.push((c, r));
             }
@@ -107,29 +119,36 @@ fn refine(det: &GrayImage, c: usize, r: usize) -> Option<(f64, f64)> {
     (d.x.abs() <= 1.0 && d.y.abs() <= 1.0).then_some((d.x, d.y))
 }
 
-/// Keep the strongest of candidates closer than their radius on the same or a neighbouring level.
+/// Keep the strongest of candidates closer than their radius on the same or a neighbouring level
+/// (BMVC 2013 §4.2); a grid of 32-pixel cells finds the neighbours.
 pub(crate) fn suppress(mut cands: Vec<Candidate>) -> Vec<Candidate> {
-    cands.sort_by(|a, b| b.response.total_cmp(&a.response).then(a.level.cmp(&b.level)));
+    cands.sort_unstable_by(|a, b| b.response.total_cmp(&a.response).then(a.level.cmp(&b.level)));
     let cell = 32.0;
-    let mut grid: std::collections::HashMap<(i64, i64), Vec<usize>> = std::collections::HashMap::new();
+    let index = |x: f64| (x.max(0.0) / cell) as usize;
+    let cols = cands.iter().map(|c| index(c.u)).max().unwrap_or(0) + 1;
+    let rows = cands.iter().map(|c| index(c.v)).max().unwrap_or(0) + 1;
+    let mut grid: Vec<Vec<usize>> = vec![Vec::new(); cols * rows];
     let mut kept: Vec<Candidate> = Vec::new();
     for c in cands {
-        let reach = (c.radius * 2.0 / cell).ceil() as i64 + 1;
-        let (gx, gy) = ((c.u / cell) as i64, (c.v / cell) as i64);
-        let clash = (gx - reach..=gx + reach).any(|x| {
-            (gy - reach..=gy + reach).any(|y| {
-                grid.get(&(x, y)).is_some_and(|ids| {
-                    ids.iter().any(|&k| {
-                        let o = &kept[k];
-                        o.level.abs_diff(c.level) <= 1 && (o.u - c.u).hypot(o.v - c.v) < o.radius.max(c.radius)
-                    })
+        let reach = (c.radius * 2.0 / cell).ceil() as usize + 1;
+        let (gx, gy) = (index(c.u), index(c.v));
+        let clash = (gy.saturating_sub(reach)..(gy + reach + 1).min(rows)).any(|y| {
+            (gx.saturating_sub(reach)..(gx + reach + 1).min(cols)).any(|x| {
+                grid[y * cols + x].iter().any(|&k| {
+                    let o = &kept[k];
+                    o.level.abs_diff(c.level) <= 1
+                        && (o.u - c.u).powi(2) + (o.v - c.v).powi(2) < o.radius.max(c.radius).powi(2)
                 })
             })
         });
         if !clash {
-            grid.entry((gx, gy)).or_default().push(kept.len());
+            grid[gy * cols + gx].push(kept.len());
             kept.push(c);
         }
     }
+    // Describe in scan order (level, band of 32 rows, column): neighbouring patches then share cache lines,
+    // which matters more than any arithmetic in the descriptors.
+    let band = |c: &Candidate| (c.v / cell) as usize;
+    kept.sort_unstable_by(|a, b| a.level.cmp(&b.level).then(band(a).cmp(&band(b))).then(a.u.total_cmp(&b.u)));
     kept
 }
