@@ -112,7 +112,7 @@ impl Observations {
         None
     }
 
-    /// "file: poles[3] (id)" for an observation of the merged set.
+    /// `file: poles[3] (id)` for an observation of the merged set.
     pub fn describe(&self, item: &ObservationRef) -> String {
         let (kind, index, what, extra) = match item {
             ObservationRef::Pole { index, cadastre_id } => (1, *index, "poles", format!(" ({cadastre_id})")),
