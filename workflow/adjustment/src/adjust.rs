@@ -8,8 +8,9 @@ use serde::{Deserialize, Serialize};
 use crate::config::AdjustmentConfig;
 use crate::normal::{assemble, cost, node};
 use crate::observations::{ObservationError, ObservationRef, TiePointId};
-use crate::problem::{AdjustmentInput, Kind, Problem};
+use crate::problem::{AdjustmentInput, Item, Kind, Problem};
 use crate::solver::{Factorizer, SelectedInverse, SolverError, SolverTimings};
+use crate::standstill::Standstill;
 use crate::stats::{VarianceFactors, node_covariances, sigma0, variance_factors, w_tests};
 
 /// Failures of the adjustment as a whole (single bad observations are skipped and reported instead).
@@ -51,6 +52,22 @@ pub struct RejectedObservation {
     pub round: usize,
 }
 
+/// A detected standstill and the fate of its zero-velocity constraint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct StandstillOutcome {
+    /// The interval.
+    pub standstill: Standstill,
+    /// `Some((|w|, round))` when data snooping rejected the constraint (the vehicle was not at rest).
+    pub rejected: Option<(f64, usize)>,
+}
+
+impl StandstillOutcome {
+    /// Whether the constraint was kept.
+    pub fn accepted(&self) -> bool {
+        self.rejected.is_none()
+    }
+}
+
 /// The adjusted coordinates of a tie point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AdjustedPoint {
@@ -73,6 +90,8 @@ pub struct Adjustment {
     pub points: Vec<AdjustedPoint>,
     /// Observations rejected by data snooping.
     pub rejected: Vec<RejectedObservation>,
+    /// The detected standstills and whether their zero-velocity constraints survived snooping.
+    pub standstills: Vec<StandstillOutcome>,
     /// Observations not used because they are broken or outside the trajectory.
     pub skipped: Vec<ObservationError>,
     /// A-posteriori standard deviation of unit weight.
@@ -98,6 +117,8 @@ pub fn adjust(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) 
     let mut fac = Factorizer::new(&problem.pattern, par)?;
     let mut iterations = minimize(&problem, &mut x, &active, config.huber, &mut fac, config)?;
     let mut rejected = Vec::new();
+    let mut standstills: Vec<StandstillOutcome> =
+        problem.standstills.iter().map(|s| StandstillOutcome { standstill: *s, rejected: None }).collect();
     let selected = match config.snooping {
         Some(snoop) => {
             let mut round = 0;
@@ -110,15 +131,28 @@ pub fn adjust(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) 
                 }
                 for (i, w) in found {
                     active[i] = false;
-                    rejected.push(RejectedObservation { item: problem.obs[i].item.clone(), w, round });
-                    rejected.extend(drop_undetermined(&problem, i, &mut active, w, round));
+                    match &problem.obs[i].item {
+                        Item::Observation(item) => {
+                            rejected.push(RejectedObservation { item: item.clone(), w, round });
+                            rejected.extend(drop_undetermined(&problem, i, &mut active, w, round));
+                        }
+                        Item::Standstill(s) => {
+                            // Both parts (position and heading) go together.
+                            for (o, a) in problem.obs.iter().zip(active.iter_mut()) {
+                                *a &= o.item != problem.obs[i].item;
+                            }
+                            standstills[*s].rejected = Some((w, round));
+                        }
+                    }
                 }
                 round += 1;
             }
         }
         None => factor_at(&problem, &x, &active, config.huber, &mut fac)?,
     };
-    Ok(finish(problem, &x, &active, &selected, rejected, iterations, fac.timings))
+    let mut out = finish(problem, &x, &active, &selected, rejected, iterations, fac.timings);
+    out.standstills = standstills;
+    Ok(out)
 }
 
 /// After rejecting observation `i`: if it belonged to a tie point that is no longer determined (neither
@@ -144,7 +178,7 @@ fn drop_undetermined(p: &Problem, i: usize, active: &mut [bool], w: f64, round: 
         }
     }
     let index = match &p.obs[i].item {
-        ObservationRef::TieRay { index, .. } | ObservationRef::TieAerial { index, .. } => *index,
+        Item::Observation(ObservationRef::TieRay { index, .. } | ObservationRef::TieAerial { index, .. }) => *index,
         _ => return None,
     };
     Some(RejectedObservation { item: ObservationRef::Tie { index, point: p.points[point].clone() }, w, round })
@@ -278,6 +312,7 @@ fn finish(
         link_variances,
         points,
         rejected,
+        standstills: Vec::new(),
         skipped: p.skipped,
         sigma0,
         redundancy,

@@ -1,12 +1,23 @@
 //! Applying the node corrections to a full-rate trajectory: linear interpolation of [δp; δθ] between
 //! nodes (constant beyond the ends) and of their covariance (with the cross-covariance of the two nodes
-//! and the random walk's spread in between).
+//! and the random walk's spread in between), holding the pose over accepted standstills.
 
-use nalgebra::{Matrix3, Matrix6, Vector6};
+use nalgebra::{Matrix3, Matrix6, Rotation3, Vector6};
+use plumbline_geo::trajectory::PositionInterpolation;
 use plumbline_geo::{Attitude, PoseStd, Rotation, Trajectory, TrajectoryError, TrajectoryRecord, ValidationLimits};
 
 use crate::adjust::Adjustment;
 use crate::so3::exp;
+
+/// The pose a fraction `w` of the way from `start` to `end` (position linear, attitude along the geodesic),
+/// with the standard deviations of `record`.
+fn at_rest(record: &TrajectoryRecord, w: f64, start: &TrajectoryRecord, end: &TrajectoryRecord) -> TrajectoryRecord {
+    let (ra, rb) = (start.attitude.to_rotation().matrix(), end.attitude.to_rotation().matrix());
+    let turn = Rotation3::from_matrix_unchecked(rb * ra.transpose()).scaled_axis();
+    let attitude = Attitude::from_rotation(&Rotation::from_matrix(&(exp(&(turn * w)) * ra)));
+    let position = start.position + (end.position - start.position) * w;
+    TrajectoryRecord { position, attitude, ..*record }
+}
 
 impl Adjustment {
     /// The interpolated correction [δp; δθ] at `t` and its covariance; `None` without nodes.
@@ -39,8 +50,32 @@ impl Adjustment {
 
     /// The corrected trajectory: p' = p + δp, R' = Exp(δθ) R at every record, with the posterior standard
     /// deviations (attitude σ: roll/pitch from the body-frame tilt covariance, heading from the vertical).
+    /// Inside an accepted standstill the vehicle is at rest: the pose is the corrected pose at its start,
+    /// moved linearly (position; attitude along the geodesic) to the corrected pose at its end — equal to it
+    /// within the constraint's σ — so the DG's motion inside (a jump) does not reach the result.
     pub fn apply(&self, trajectory: &Trajectory) -> Result<Trajectory, TrajectoryError> {
-        let records = trajectory.records().iter().map(|r| self.correct(r)).collect();
+        let held: Vec<(f64, f64, TrajectoryRecord, TrajectoryRecord)> = self
+            .standstills
+            .iter()
+            .filter(|s| s.accepted())
+            .filter_map(|s| {
+                let at = |t| trajectory.interpolate(t, PositionInterpolation::Linear).ok().map(|r| self.correct(&r));
+                Some((s.standstill.start, s.standstill.end, at(s.standstill.start)?, at(s.standstill.end)?))
+            })
+            .collect();
+        let records = trajectory
+            .records()
+            .iter()
+            .map(|r| {
+                let corrected = self.correct(r);
+                // Sorted, disjoint intervals: the last one starting before r.time is the only candidate.
+                let k = held.partition_point(|(a, _, _, _)| *a < r.time);
+                match k.checked_sub(1).map(|k| &held[k]).filter(|(_, b, _, _)| r.time < *b) {
+                    Some((a, b, start, end)) => at_rest(&corrected, (r.time - a) / (b - a), start, end),
+                    None => corrected,
+                }
+            })
+            .collect();
         Trajectory::new(records, &ValidationLimits { max_speed: f64::INFINITY })
     }
 

@@ -1,7 +1,9 @@
 //! Settings of the adjustment: node spacing, the DG random-walk model, the weak prior, robust estimation and
-//! data snooping.
+//! data snooping, standstills.
 
 use serde::{Deserialize, Serialize};
+
+use crate::standstill::StandstillConfig;
 
 /// How the DG trajectory's relative accuracy enters as constraints between consecutive nodes.
 ///
@@ -69,6 +71,13 @@ pub struct AdjustmentConfig {
     /// Converged when no update component exceeds this (metres / radians), or the objective drops by less
     /// than 1e-10 of itself.
     pub tolerance: f64,
+    /// Standstill detection on the DG trajectory and zero-velocity constraints (`None`: off).
+    #[serde(default = "default_standstill")]
+    pub standstill: Option<StandstillConfig>,
+}
+
+fn default_standstill() -> Option<StandstillConfig> {
+    Some(StandstillConfig::default())
 }
 
 impl Default for AdjustmentConfig {
@@ -83,6 +92,7 @@ impl Default for AdjustmentConfig {
             snooping: Some(Snooping::default()),
             max_iterations: 20,
             tolerance: 1e-5,
+            standstill: default_standstill(),
         }
     }
 }

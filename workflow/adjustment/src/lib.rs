@@ -7,6 +7,10 @@
 //!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]), and a weak absolute prior per node.
 //! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
 //!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]) and aerial coordinates.
+//! - **Standstills** ([`detect_standstills`]): where the DG trajectory says the vehicle stands still, the
+//!   corrected pose at the end equals the one at the start (a zero-velocity constraint, robust-weighted and
+//!   snooped like any observation) instead of following the DG's relative motion, so a DG jump while
+//!   standing is absorbed into the correction; [`Adjustment::apply`] holds the pose over the accepted ones.
 //! - **Solver**: Levenberg–Marquardt with Huber IRLS; the normal matrix is assembled straight into
 //!   compressed-column form; faer's simplicial sparse Cholesky with AMD on the block graph, symbolic
 //!   factorisation once and reused. Then Baarda data snooping (w-test with redundancy numbers from Q_vv's
@@ -30,9 +34,12 @@ mod pattern;
 mod problem;
 mod so3;
 mod solver;
+mod standstill;
 mod stats;
 
-pub use adjust::{AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, adjust};
+pub use adjust::{
+    AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, StandstillOutcome, adjust,
+};
 pub use config::{AdjustmentConfig, RandomWalk, Snooping};
 pub use export::{ExportedNode, ExportedPole, ExportedProblem, export};
 pub use nodes::WeakLink;
@@ -42,4 +49,5 @@ pub use observations::{
 };
 pub use problem::AdjustmentInput;
 pub use solver::{SolverError, SolverTimings};
+pub use standstill::{Standstill, StandstillConfig, detect_standstills};
 pub use stats::VarianceFactors;

@@ -127,6 +127,24 @@ pub(crate) fn ray(
     out
 }
 
+/// Zero-velocity constraint over a standstill [s, e] (paper 002 §4.2.3: standstills are where the DG breaks):
+/// with Δ = δ_e − δ_s (the node difference, built by interpolation weights −1 and +1), position
+/// p_e + δp_e = p_s + δp_s, i.e. Δp + (p_e − p_s) = 0 (`offset` = p_e − p_s, 3 rows); or heading:
+/// Exp(δθ_e) R_e = Exp(δθ_s) R_s about the vertical, to first order Δθ_up + Log(R_e R_sᵀ)_up = 0 (1 row;
+/// roll and pitch are left free: the body settles on its suspension after braking). Residuals over σ.
+pub(crate) fn standstill(delta: &Vector6<f64>, offset: &Vector3<f64>, sigma: f64, heading: bool) -> Linearized {
+    if heading {
+        let mut out = Linearized::new(1);
+        out.e[0] = (delta[5] + offset.z) / sigma;
+        out.j_pose[(0, 5)] = 1.0 / sigma;
+        return out;
+    }
+    let mut out = Linearized::new(3);
+    out.e = (delta.fixed_rows::<3>(0) + offset) / sigma;
+    out.j_pose.fixed_view_mut::<3, 3>(0, 0).copy_from(&(Matrix3::identity() / sigma));
+    out
+}
+
 /// Aerial-triangulated coordinates of a tie point: S (X − z) with Sᵀ S = C⁻¹.
 pub(crate) fn aerial(point: &Vector3<f64>, measured: &Vector3<f64>, whitening: &Matrix3<f64>) -> Linearized {
     let mut out = Linearized::new(3);
@@ -183,6 +201,10 @@ mod tests {
         check(|d, x| ray(&dg(), d, &mount, x, &dir, 1e-3), delta(), Vector3::new(1010.0, 2008.0, 48.0));
         let w = Matrix3::new(10.0, 0.0, 0.0, 2.0, 12.0, 0.0, -1.0, 3.0, 20.0);
         check(|_, x| aerial(x, &Vector3::new(1.0, 2.0, 3.0), &w), delta(), Vector3::new(1.2, 1.9, 3.3));
+        let offset = Vector3::new(0.1, -0.5, 0.02);
+        for heading in [false, true] {
+            check(|d, _| standstill(d, &offset, 0.005, heading), delta(), Vector3::zeros());
+        }
     }
 
     #[test]

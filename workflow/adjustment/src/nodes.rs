@@ -51,6 +51,16 @@ impl Nodes {
         self.times.len()
     }
 
+    /// The node at `t` (within the merge gap), if any.
+    pub fn index_of(&self, t: f64) -> Option<usize> {
+        let k = self.times.partition_point(|x| *x < t);
+        [k.checked_sub(1), Some(k)]
+            .into_iter()
+            .flatten()
+            .filter(|&i| i < self.times.len())
+            .min_by(|&i, &j| (self.times[i] - t).abs().total_cmp(&(self.times[j] - t).abs()))
+    }
+
     /// The nodes bracketing `t` with their linear-interpolation weights (zero weights dropped); constant
     /// beyond the ends.
     pub fn bracket(&self, t: f64) -> Vec<(usize, f64)> {

@@ -37,6 +37,7 @@ pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
         Kind::Gnss { lever, measured, sigma } => model::gnss(&o.dg, &delta, lever, measured, sigma),
         Kind::Ray { point: i, direction, sigma } => model::ray(&o.dg, &delta, &p.mount, &point(*i), direction, *sigma),
         Kind::Aerial { point: i, measured, whitening } => model::aerial(&point(*i), measured, whitening),
+        Kind::Standstill { offset, sigma, heading } => model::standstill(&delta, offset, *sigma, *heading),
     }
 }
 

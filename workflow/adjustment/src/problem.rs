@@ -3,7 +3,7 @@
 //! unusable observations are set aside with an error naming them; the rest go on.
 
 use faer::Par;
-use nalgebra::{Matrix3, Vector2, Vector3, Vector6};
+use nalgebra::{Matrix3, Rotation3, Vector2, Vector3, Vector6};
 use plumbline_geo::Trajectory;
 use plumbline_geo::dg::CameraMount;
 use plumbline_geo::trajectory::PositionInterpolation;
@@ -13,6 +13,7 @@ use crate::model::DgPose;
 use crate::nodes::{Nodes, WeakLink, dg_std, link_factor, relative_sigma};
 use crate::observations::{ObservationError, ObservationRef, ObservationSetV1, TiePoint, TiePointId, aerial_whitening};
 use crate::pattern::Pattern;
+use crate::standstill::{Standstill, StandstillConfig, detect_standstills};
 
 /// What the adjustment works on.
 #[derive(Clone, Copy, Debug)]
@@ -27,20 +28,33 @@ pub struct AdjustmentInput<'a> {
     pub weak_links: &'a [WeakLink],
 }
 
-/// The observation-specific part of an internal observation.
+/// The observation-specific part of an internal observation. `Standstill`: zero velocity over a standstill,
+/// position (or heading) at its end node = at its start node.
 #[derive(Clone, Debug)]
 pub(crate) enum Kind {
     Pole { observed: Vector3<f64>, cadastre: Vector2<f64>, sigma: f64 },
     Gnss { lever: Vector3<f64>, measured: Vector3<f64>, sigma: Vector3<f64> },
     Ray { point: usize, direction: Vector3<f64>, sigma: f64 },
     Aerial { point: usize, measured: Vector3<f64>, whitening: Matrix3<f64> },
+    Standstill { offset: Vector3<f64>, sigma: f64, heading: bool },
+}
+
+/// What an internal observation is, for reporting.
+#[derive(Clone, Debug, PartialEq)]
+pub(crate) enum Item {
+    /// An observation of the input set.
+    Observation(ObservationRef),
+    /// The zero-velocity constraint of a detected standstill (position or heading part).
+    Standstill(usize),
 }
 
 /// One observation ready to linearise.
 #[derive(Clone, Debug)]
 pub(crate) struct Obs {
-    pub item: ObservationRef,
+    pub item: Item,
     pub time: f64,
+    /// End of the time span the observation constrains (`time` but for standstills).
+    pub until: f64,
     pub dg: DgPose,
     /// Nodes and interpolation weights (empty for aerial coordinates).
     pub parts: Vec<(usize, f64)>,
@@ -59,6 +73,8 @@ pub(crate) struct Problem {
     pub pattern: Pattern,
     pub mount: CameraMount,
     pub skipped: Vec<ObservationError>,
+    /// The detected standstills.
+    pub standstills: Vec<Standstill>,
     /// Parallelism for the per-observation work.
     pub par: Par,
 }
@@ -80,16 +96,27 @@ impl Problem {
         b.gnss();
         b.ties();
         let span = input.trajectory.span();
-        // Weak-link boundaries are nodes too, so a flagged jump is resolved where it happens.
-        let links = input.weak_links.iter().flat_map(|l| [l.start, l.end]);
-        let nodes = Nodes::new(b.raw.iter().map(|o| o.time).chain(links).collect(), span, config);
+        let standstills = config.standstill.map(|c| detect_standstills(input.trajectory, &c)).unwrap_or_default();
+        // Inside a standstill the zero-velocity constraint replaces the DG's relative motion.
+        let mut links = match &config.standstill {
+            Some(c) => unexplained(input.weak_links, &standstills, input.trajectory, c),
+            None => input.weak_links.to_vec(),
+        };
+        let factor = config.standstill.map_or(1.0, |c| c.chain_factor);
+        links.extend(standstills.iter().map(|s| WeakLink { start: s.start, end: s.end, factor }));
+        // Weak-link and standstill boundaries are nodes too, so a jump is resolved where it happens.
+        let bounds = links.iter().flat_map(|l| [l.start, l.end]);
+        let nodes = Nodes::new(b.raw.iter().map(|o| o.time).chain(bounds).collect(), span, config);
         let mut obs = b.raw;
         for o in &mut obs {
             if !matches!(o.kind, Kind::Aerial { .. }) {
                 o.parts = nodes.bracket(o.time);
             }
         }
-        let (relative_sigma, prior_sigma) = chain(&nodes, input, config, par);
+        if let Some(c) = &config.standstill {
+            obs.extend(standstill_obs(input.trajectory, &nodes, &standstills, c));
+        }
+        let (relative_sigma, prior_sigma) = chain(&nodes, input.trajectory, &links, config, par);
         let pattern = Pattern::new(nodes.len(), b.points.len(), pairs(&obs, nodes.len()));
         Self {
             nodes,
@@ -101,6 +128,7 @@ impl Problem {
             pattern,
             mount: *input.mount,
             skipped: b.skipped,
+            standstills,
             par,
         }
     }
@@ -111,19 +139,60 @@ impl Problem {
     }
 }
 
+/// The weak links not explained by a standstill: a flagged interval (DG motion inconsistent with the image
+/// motion) that contains a standstill over which the DG moves more than `c.explained_above` is taken to be
+/// caused by that jump while standing, which the zero-velocity constraint absorbs; weakening the chain
+/// around the standstill as well would leave it held only by the weak prior.
+fn unexplained(links: &[WeakLink], still: &[Standstill], t: &Trajectory, c: &StandstillConfig) -> Vec<WeakLink> {
+    let moved: Vec<(Standstill, f64)> =
+        still.iter().filter_map(|s| Some((*s, (dg_pose(t, s.end)?.p - dg_pose(t, s.start)?.p).norm()))).collect();
+    let explains =
+        |l: &WeakLink| moved.iter().any(|(s, d)| s.start >= l.start && s.end <= l.end && *d > c.explained_above);
+    links.iter().filter(|l| !explains(l)).copied().collect()
+}
+
+/// The zero-velocity constraints (position and heading) of each standstill, between the nodes at its ends
+/// (interpolation weights −1 and +1 give δ_e − δ_s; model::standstill).
+fn standstill_obs<'a>(
+    trajectory: &'a Trajectory,
+    nodes: &'a Nodes,
+    standstills: &'a [Standstill],
+    c: &'a StandstillConfig,
+) -> impl Iterator<Item = Obs> + 'a {
+    standstills
+        .iter()
+        .enumerate()
+        .filter_map(move |(index, s)| {
+            let (a, b) = (dg_pose(trajectory, s.start)?, dg_pose(trajectory, s.end)?);
+            let (ka, kb) = (nodes.index_of(s.start)?, nodes.index_of(s.end)?);
+            let rotation = Rotation3::from_matrix_unchecked(b.r * a.r.transpose()).scaled_axis();
+            let make = move |offset, sigma, heading| Obs {
+                item: Item::Standstill(index),
+                time: s.start,
+                until: s.end,
+                dg: a,
+                parts: vec![(ka, -1.0), (kb, 1.0)],
+                kind: Kind::Standstill { offset, sigma, heading },
+            };
+            (ka != kb).then(|| [make(b.p - a.p, c.position_sigma, false), make(rotation, c.heading_sigma, true)])
+        })
+        .flatten()
+}
+
 fn chain(
     nodes: &Nodes,
-    input: &AdjustmentInput<'_>,
+    trajectory: &Trajectory,
+    links: &[WeakLink],
     config: &AdjustmentConfig,
     par: Par,
 ) -> (Vec<Vector6<f64>>, Vec<Vector6<f64>>) {
-    let stds = crate::parallel::map(par, nodes.len(), |k| dg_std(input.trajectory, nodes.times[k], config));
+    let stds = crate::parallel::map(par, nodes.len(), |k| dg_std(trajectory, nodes.times[k], config));
     let relative = nodes
         .times
         .windows(2)
         .zip(stds.windows(2))
         .map(|(t, s)| {
-            let factor = link_factor(input.weak_links, t[0], t[1]);
+            let factor = link_factor(links, t[0], t[1]);
             relative_sigma(t[1] - t[0], &s[0], &s[1], config, factor)
         })
         .collect();
@@ -157,7 +226,9 @@ struct Builder<'a, 'b> {
 impl Builder<'_, '_> {
     fn push(&mut self, item: ObservationRef, time: f64, kind: Kind) {
         match dg_pose(self.input.trajectory, time) {
-            Some(dg) => self.raw.push(Obs { item, time, dg, parts: Vec::new(), kind }),
+            Some(dg) => {
+                self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts: Vec::new(), kind })
+            }
             None => self.skipped.push(outside(item, "time")),
         }
     }
@@ -222,7 +293,7 @@ impl Builder<'_, '_> {
             let dg = DgPose { p: Vector3::zeros(), r: Matrix3::identity() };
             let time = tie.rays.first().map_or(0.0, |r| r.time);
             let kind = Kind::Aerial { point, measured: Vector3::from(a.position), whitening };
-            self.raw.push(Obs { item, time, dg, parts: Vec::new(), kind });
+            self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts: Vec::new(), kind });
         }
     }
 

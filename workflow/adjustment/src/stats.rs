@@ -14,7 +14,8 @@ use crate::normal::{blocks, linearize, node};
 use crate::problem::{Kind, Problem};
 use crate::solver::SelectedInverse;
 
-/// Observations to reject this round: (index, |w|), the largest first, at most one per time window.
+/// Observations to reject this round: (index, |w|), the largest first, at most one per time window (spans
+/// closer than the window to a chosen one's span are left for the next round).
 pub(crate) fn w_tests(
     p: &Problem,
     x: &[f64],
@@ -31,8 +32,9 @@ pub(crate) fn w_tests(
     candidates.sort_by(|a, b| b.1.total_cmp(&a.1));
     let mut chosen: Vec<(usize, f64)> = Vec::new();
     for (i, w) in candidates {
-        let t = p.obs[i].time;
-        if chosen.iter().all(|(j, _)| (p.obs[*j].time - t).abs() > snoop.window) {
+        // Distance between the time spans (a standstill spans its whole interval).
+        let (a, b) = (&p.obs[i], |j: usize| &p.obs[j]);
+        if chosen.iter().all(|(j, _)| (b(*j).time - a.until).max(a.time - b(*j).until) > snoop.window) {
             chosen.push((i, w));
         }
     }
@@ -88,6 +90,7 @@ pub(crate) fn variance_factors(p: &Problem, x: &[f64], active: &[bool], sel: &Se
             Kind::Gnss { .. } => 1,
             Kind::Ray { .. } => 2,
             Kind::Aerial { .. } => 3,
+            Kind::Standstill { .. } => continue,
         };
         for (e, r) in rows {
             sums[kind][0] += e * e;
