@@ -2,7 +2,7 @@
 //! ground, per slice a polar range profile around the sensor in which a pole is a narrow dip in front of its
 //! background, slices stacked into vertical structures, then per structure the shaft's points, a verticality
 //! test, the diameter from the angular width and the centre with its covariance from the range error model
-//! (paper 002 §3.1.2). Facades and cars are wide, kerbs low: none of them is a narrow dip over ≥ 3 slices.
+//! (paper 002 §3.1.2). Facades and cars are wide, kerbs low: none of them is a narrow dip over ≥ 4 slices.
 
 mod ground;
 mod profile;
@@ -20,11 +20,13 @@ use crate::points::FramePoints;
 pub struct DetectConfig {
     /// Thickness of a height slice, metres.
     pub slice_m: f64,
-    /// Heights above the local ground searched for shafts: [from, to], metres (above kerbs; up to 3.1 m so
-    /// that a shaft seen only above a parked car still spans three slices).
+    /// Heights above the local ground searched for shafts: [from, to], metres (above kerbs; up to 4.1 m so
+    /// that a shaft seen only above a parked car, ~1.5 m, still spans enough slices; not higher, where
+    /// leaning trunks move away from their base and crowns begin).
     pub band_m: [f64; 2],
-    /// Slices a structure must span (with `slice_m` = 0.4: 1.2 m of shaft). The centre uses only these
-    /// slices' points (below them a car or wall may stand in front of the shaft).
+    /// Slices a structure must span (with `slice_m` = 0.2: 0.8 m of shaft in front of its background; thin
+    /// slices let a shaft seen over ~1 m between a car roof and its top fill whole slices). The centre uses
+    /// only these slices' points (below them a car or wall may stand in front of the shaft).
     pub min_slices: usize,
     /// Widest object taken for a pole, metres.
     pub max_diameter_m: f64,
@@ -38,7 +40,8 @@ pub struct DetectConfig {
     pub max_lean: f64,
     /// Fewest shaft points of a detection.
     pub min_points: usize,
-    /// Farthest horizontal range searched, metres.
+    /// Farthest horizontal range searched, metres; a detection whose centre lies beyond it is dropped (only
+    /// the near tail of its range noise was kept, so its centre is biased towards the sensor).
     pub max_range_m: f64,
     /// Standard deviation added to each centre coordinate for unmodelled effects, metres.
     pub floor_sigma_m: f64,
@@ -47,9 +50,9 @@ pub struct DetectConfig {
 impl Default for DetectConfig {
     fn default() -> Self {
         Self {
-            slice_m: 0.4,
-            band_m: [0.3, 3.1],
-            min_slices: 3,
+            slice_m: 0.2,
+            band_m: [0.3, 4.1],
+            min_slices: 4,
             max_diameter_m: 0.8,
             min_gap_m: 0.6,
             gap_sigmas: 3.0,

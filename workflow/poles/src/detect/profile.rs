@@ -174,14 +174,16 @@ fn candidate(p: &SliceProfile, i: usize, polar: &Polar, c: &DetectConfig) -> boo
         return false;
     }
     let reach = ((c.max_diameter_m / r).min(MAX_REACH_RAD) / polar.step).ceil() as usize;
-    // The background at a pole's width on each side that lies in the view (at least one side must).
-    let left = i.checked_sub(reach + k).filter(|&a| a >= first).map(|a| median(&p.low[a..a + k]));
-    let right = Some(i + reach + k).filter(|&b| b <= last).map(|b| median(&p.low[b + 1 - k..=b]));
-    let background = match (left, right) {
-        (None, None) => return false,
-        (l, rt) => l.unwrap_or(f64::INFINITY).min(rt.unwrap_or(f64::INFINITY)),
-    };
-    r + gap(p, i, c) < background
+    // The background on each side that lies in the view (at least one side must), at a pole's width or at
+    // half of it, whichever lies farther: a shaft 0.4–0.8 m beside another object is still in front of its
+    // background, while inside a facade both lie on the facade.
+    let left = |reach: usize| i.checked_sub(reach + k).filter(|&a| a >= first).map(|a| median(&p.low[a..a + k]));
+    let right = |reach: usize| Some(i + reach + k).filter(|&b| b <= last).map(|b| median(&p.low[b + 1 - k..=b]));
+    let half = reach.div_ceil(2);
+    let farther = |a: Option<f64>, b: Option<f64>| a.zip(b).map(|(a, b)| a.max(b)).or(a).or(b);
+    let sides = [farther(left(reach), left(half)), farther(right(reach), right(half))];
+    let gap = gap(p, i, c);
+    sides.iter().any(Option::is_some) && sides.into_iter().flatten().all(|background| r + gap < background)
 }
 
 fn run(p: &SliceProfile, slice: usize, (a, b): (usize, usize), polar: &Polar, c: &DetectConfig) -> Option<Run> {

@@ -58,12 +58,15 @@ pub(super) fn refine(
     if band.len() < c.min_points {
         return None;
     }
-    let lean = lean(&band)?;
-    if lean.0 - 3.0 * lean.1 > c.max_lean {
+    let lean = lean(&band, Vector2::new(polar.origin[0], polar.origin[1]))?;
+    if lean.1 > c.max_lean {
         return None;
     }
     let extent = tube.iter().fold([f64::INFINITY, f64::NEG_INFINITY], |[a, b], s| [a.min(s.h), b.max(s.h)]);
-    Some(estimate(&band, polar, frame, ground, stack.slices(), lean.0, extent, c))
+    let detection = estimate(&band, polar, frame, ground, stack.slices(), lean.0, extent, c);
+    // A centre beyond the range searched: a structure outside it, of which only the near tail of the range
+    // noise was kept (its centre is biased towards the sensor).
+    (detection.range_m <= c.max_range_m).then_some(detection)
 }
 
 /// The points in the bearing bins within 3σ (+ slack) of `range`, at any height above −0.5 m.
@@ -89,19 +92,26 @@ fn collect(frame: &FramePoints, polar: &Polar, ground: f64, (lo, hi): (usize, us
     out
 }
 
-/// Lean (metres per metre) and its standard deviation from a straight-line fit of position against height.
-fn lean(band: &[Shaft]) -> Option<(f64, f64)> {
+/// Lean (metres per metre) from a straight-line fit of position against height, and the part of it that is
+/// significant: per axis (along the mean ray, where the range noise lies, and across it) the slope minus 3σ
+/// of that axis' own residuals, combined. A single pooled σ would understate the noise along the ray.
+fn lean(band: &[Shaft], origin: Vector2<f64>) -> Option<(f64, f64)> {
     let n = band.len() as f64;
     let h_mean = band.iter().map(|s| s.h).sum::<f64>() / n;
     let xy_mean = band.iter().map(|s| s.xy).sum::<Vector2<f64>>() / n;
     let shh: f64 = band.iter().map(|s| (s.h - h_mean).powi(2)).sum();
+    let along = (xy_mean - origin).try_normalize(1e-9)?;
     if shh < 1e-6 || band.len() < 4 {
         return None;
     }
-    let slope = band.iter().map(|s| (s.xy - xy_mean) * (s.h - h_mean)).sum::<Vector2<f64>>() / shh;
-    let residual: f64 = band.iter().map(|s| (s.xy - xy_mean - slope * (s.h - h_mean)).norm_squared()).sum();
-    let var = residual / (2.0 * (n - 2.0)) / shh;
-    Some((slope.norm(), var.sqrt()))
+    let axis = |e: Vector2<f64>| {
+        let slope = band.iter().map(|s| (s.xy - xy_mean).dot(&e) * (s.h - h_mean)).sum::<f64>() / shh;
+        let residual: f64 = band.iter().map(|s| ((s.xy - xy_mean).dot(&e) - slope * (s.h - h_mean)).powi(2)).sum();
+        (slope, (residual / (n - 2.0) / shh).sqrt())
+    };
+    let (a, b) = (axis(along), axis(Vector2::new(-along.y, along.x)));
+    let excess = |(slope, sigma): (f64, f64)| (slope.abs() - 3.0 * sigma).max(0.0);
+    Some((a.0.hypot(b.0), excess(a).hypot(excess(b))))
 }
 
 #[allow(clippy::too_many_arguments)]

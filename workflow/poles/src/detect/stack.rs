@@ -8,8 +8,8 @@ use super::profile::Run;
 const BEARING_SLACK: usize = 1;
 /// Range slack added to the combined noise, metres.
 const RANGE_SLACK_M: f64 = 0.3;
-/// Slices a structure may skip (occluded by a sign plate, or a noisy slice).
-const MAX_SKIP: usize = 1;
+/// Height a structure may skip (occluded by a sign plate, or a noisy slice), metres.
+const MAX_SKIP_M: f64 = 0.4;
 
 /// A vertical structure: runs of distinct slices.
 #[derive(Clone, Debug, PartialEq)]
@@ -22,12 +22,12 @@ impl Stack {
     fn top(&self) -> &Run {
         &self.runs[self.runs.len() - 1]
     }
-    fn accepts(&self, r: &Run) -> Option<f64> {
+    fn accepts(&self, r: &Run, max_skip: usize) -> Option<f64> {
         let t = self.top();
         let overlap = r.bins.0 <= t.bins.1 + BEARING_SLACK && t.bins.0 <= r.bins.1 + BEARING_SLACK;
         let dr = (r.range - t.range).abs();
         let ok = r.slice > t.slice
-            && r.slice <= t.slice + 1 + MAX_SKIP
+            && r.slice <= t.slice + 1 + max_skip
             && overlap
             && dr <= 3.0 * r.sigma.hypot(t.sigma) + RANGE_SLACK_M;
         ok.then_some(dr)
@@ -47,12 +47,13 @@ impl Stack {
 /// The structures spanning at least `min_slices` slices.
 pub(super) fn stack(mut runs: Vec<Run>, c: &DetectConfig) -> Vec<Stack> {
     runs.sort_by(|a, b| a.slice.cmp(&b.slice).then(a.bins.0.cmp(&b.bins.0)));
+    let max_skip = (MAX_SKIP_M / c.slice_m).round() as usize;
     let mut stacks: Vec<Stack> = Vec::new();
     for r in runs {
         let best = stacks
             .iter()
             .enumerate()
-            .filter_map(|(i, s)| s.accepts(&r).map(|d| (i, d)))
+            .filter_map(|(i, s)| s.accepts(&r, max_skip).map(|d| (i, d)))
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .map(|(i, _)| i);
         match best {

@@ -103,9 +103,14 @@ impl Scenario {
                         let shot = &self.shots[i];
                         let err = (shot.dg.position.p - shot.truth.position.p).xy().norm();
                         println!(
-                            "wrong: frame {} det {:?} truth {:?} cadastre {:?} ({:?}) defect {:?} support {} offset {:?} dg err {err:.2} σ {:?}",
+                            "wrong: frame {} det {:?} (range {:.2} reliable {} diameter {:.2} slices {} extent {:?}) truth {:?} cadastre {:?} ({:?}) defect {:?} support {} offset {:?} dg err {err:.2} σ {:?}",
                             r.frame,
                             r.detections[m.detection].centre,
+                            r.detections[m.detection].range_m,
+                            r.detections[m.detection].reliable,
+                            r.detections[m.detection].diameter_m,
+                            r.detections[m.detection].slices,
+                            r.detections[m.detection].height_extent_m,
                             truth_of[m.detection],
                             listed.world_id,
                             listed.class,

@@ -109,8 +109,8 @@ impl Scenario {
 
     /// World poles observable in frame `i` (the denominator of recall): within `max_range` of the true camera
     /// centre horizontally, at depth < 10 m, inside the frustum (2° margin), and with at least 1.2 m of shaft
-    /// (the detector's documented minimum: 3 slices of 0.4 m) unoccluded between 0.3 and 3.1 m above ground
-    /// (the search band),
+    /// unoccluded between 0.3 and 3.1 m above ground (the detector needs 0.8 m of it in front of a background:
+    /// 4 slices of 0.2 m; the margin covers the slices cut by a car roof or the shaft's top),
     /// checked by ray casting against the world every 0.1 m of height.
     pub fn visible(&self, i: usize, max_range: f64) -> Vec<u32> {
         let pose = self.mount.camera_pose(&self.shots[i].truth.pose());
