@@ -7,10 +7,11 @@
 //!
 //! Stages, each in its own module: `prepare` (§3.6 resampling, rotation, blur; §3.7 Wallis), `view`
 //! (projection into the block, local orientation and windows), `initial` (§3.7 KAZE + RANSAC and the
-//! plausibility check) with `correlate` (a whole-patch NCC fallback when KAZE finds no transformation),
-//! `correspond` (§3.8 NCC + LSM, RANSAC, cross-image consistency), `triangulate` (§3.9), `points` (§3.9 over
-//! a patch, or the orthophoto + terrain lookup), `image` (steps 5–7 for one aerial image) and `register`
-//! (the driver: overlapping images, one prepared MM patch per aerial orientation, images in parallel).
+//! plausibility check; `guided`: descriptor matching within the DG bound) with `correlate` (a whole-patch
+//! NCC fallback when KAZE finds no transformation), `correspond` (§3.8 NCC + LSM, RANSAC, cross-image
+//! consistency), `triangulate` (§3.9), `points` (§3.9 over a patch, or the orthophoto + terrain lookup),
+//! `image` (steps 5–7 for one aerial image) and `register` (the driver: overlapping images, one prepared MM
+//! patch per aerial orientation, images in parallel).
 //!
 //! Architecture invariant: I/O-free and deterministic (seeded RANSAC, no clocks); one broken aerial image
 //! or patch is reported in the outcome, never a panic or an error that sinks the tile.
@@ -19,6 +20,7 @@ mod config;
 mod correlate;
 mod correspond;
 mod diagnostics;
+mod guided;
 mod image;
 mod initial;
 mod points;

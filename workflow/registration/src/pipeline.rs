@@ -1,6 +1,6 @@
 //! The per-tile driver of paper 000 §3: panoramas in time order, each paired with a neighbour closer than a
 //! bound; per pair steps 1–4 (`crate::mm`), then steps 5–8 (`crate::aerial::register_patch`); the tie
-//! points and per-image diagnostics go into a versioned [`TileResult`](crate::output::TileResult).
+//! points and per-image diagnostics go into a versioned [`TileResult`].
 //!
 //! Ortho-images and KAZE features are computed once per panorama; pairs run in parallel (rayon).
 

@@ -13,6 +13,11 @@ pub struct Plausibility {
     pub sigma_factor: f64,
     /// Allowed ground offset added to `sigma_factor · σ` (covers AT and matching errors), metres.
     pub floor_m: f64,
+    /// Smallest DG position σ the bound uses, metres: a GNSS/INS solution's reported σ is blind to multipath
+    /// jumps (paper 001 §1.2: shifts of tens of cm and more that the quality figures do not show), while MM
+    /// poses are wrong "in the low-metre range at most" (paper 000 §3.1). 0.5 m makes the bound 2 m, the 99 %
+    /// horizontal DG error in deep canyons (synth DG: 0.9–2.0 m) against a reported σ of 2.5 cm.
+    pub min_position_sigma: f64,
     /// Largest rotation between the rotated MM patch and the aerial patch, radians.
     pub max_rotation: f64,
     /// Largest relative scale difference.
@@ -21,14 +26,21 @@ pub struct Plausibility {
 
 impl Default for Plausibility {
     fn default() -> Self {
-        Self { sigma_factor: 3.0, floor_m: 0.5, max_rotation: 4f64.to_radians(), max_scale_error: 0.04 }
+        Self {
+            sigma_factor: 3.0,
+            floor_m: 0.5,
+            min_position_sigma: 0.5,
+            max_rotation: 4f64.to_radians(),
+            max_scale_error: 0.04,
+        }
     }
 }
 
 impl Plausibility {
-    /// The largest ground offset (m) the check accepts for a DG position σ.
+    /// The largest ground offset (m) the check accepts for a reported DG position σ (paper 000 §3.7):
+    /// `sigma_factor · max(σ, min_position_sigma) + floor_m`.
     pub fn bound_m(&self, position_sigma: f64) -> f64 {
-        self.sigma_factor * position_sigma.max(0.0) + self.floor_m
+        self.sigma_factor * position_sigma.max(self.min_position_sigma).max(0.0) + self.floor_m
     }
 }
 
@@ -44,6 +56,9 @@ pub struct AerialConfig {
     pub kaze: KazeConfig,
     /// Distance-ratio test of the KAZE descriptor matching.
     pub match_ratio: f32,
+    /// Match KAZE descriptors only among pairs the DG georeferencing allows (within the plausibility bound;
+    /// paper 000 §3.1), instead of over the whole window.
+    pub guided_matching: bool,
     /// RANSAC of the initial (similarity) transformation; threshold in aerial pixels.
     pub initial_ransac: RansacConfig,
     /// Fewest KAZE inliers for an initial transformation.
@@ -100,6 +115,7 @@ impl Default for AerialConfig {
             wallis: Wallis { half_window: 12, target_mean: 127.0, target_std: 50.0, contrast: 0.9, brightness: 0.9 },
             kaze: KazeConfig { octaves: 2, sublevels: 4, threshold: 0.0005, upright: true, ..KazeConfig::default() },
             match_ratio: 0.85,
+            guided_matching: true,
             initial_ransac: RansacConfig { threshold: 1.5, ..RansacConfig::default() },
             min_initial_inliers: 6,
             correlation_fallback: true,

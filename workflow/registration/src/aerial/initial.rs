@@ -12,7 +12,11 @@ use plumbline_imaging::{GrayImage, ImagingError};
 use super::config::{AerialConfig, Plausibility};
 use super::correlate::correlate;
 use super::diagnostics::ImageRejection;
+use super::guided::{Prior, guided_matches};
 use super::prepare::Prepared;
+
+/// Pixels added to the plausibility bound for the guided matching's search radius (keypoint localisation).
+const GUIDE_SLACK_PX: f64 = 3.0;
 
 /// The outcome of a plausibility check on an initial transformation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -68,7 +72,8 @@ pub(crate) struct Initial {
     pub offset_m: Option<f64>,
 }
 
-/// KAZE on both Wallis-filtered patches, descriptor matching, RANSAC similarity (or, failing that, the
+/// KAZE on both Wallis-filtered patches, descriptor matching (guided by the DG georeferencing: pairs within
+/// the plausibility bound, module `guided`), RANSAC similarity (or, failing that, the
 /// whole-patch correlation), then the plausibility check. `predicted` is the aerial-window pixel of the
 /// patch centre under the DG georeferencing.
 pub(crate) fn initial_transform(
@@ -95,7 +100,10 @@ pub(crate) fn initial_transform(
         };
         Initial { transform, inliers, fallback_ncc, offset_m: Some(check.offset_m) }
     };
-    let failure = match kaze_transform(mm, window, config) {
+    let shift = [predicted[0] - prepared.grid.width as f64 / 2.0, predicted[1] - prepared.grid.height as f64 / 2.0];
+    // paper 000 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
+    let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd + GUIDE_SLACK_PX;
+    let failure = match kaze_transform(mm, window, &Prior { shift, radius }, config) {
         Ok((t, inliers)) => return judge(t, inliers, None),
         Err(failure) => failure,
     };
@@ -117,6 +125,7 @@ pub(crate) fn initial_transform(
 fn kaze_transform(
     mm: &KazeFeatures,
     window: &GrayImage,
+    prior: &Prior,
     config: &AerialConfig,
 ) -> Result<(Matrix3<f64>, usize), ImageRejection> {
     let aerial = kaze(window, &config.kaze).map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
@@ -124,13 +133,17 @@ fn kaze_transform(
     if n_mm < config.min_initial_inliers || n_aerial < config.min_initial_inliers {
         return Err(ImageRejection::FewFeatures { mm: n_mm, aerial: n_aerial });
     }
-    let pairs: Vec<Correspondence> = match_surf(&mm.descriptors, &aerial.descriptors, config.match_ratio, true)
-        .into_iter()
-        .map(|(i, j, _)| {
-            let (a, b) = (&mm.keypoints[i], &aerial.keypoints[j]);
-            Correspondence { a: [a.u, a.v], b: [b.u, b.v] }
-        })
-        .collect();
+    let pairs: Vec<Correspondence> = if config.guided_matching {
+        guided_matches(mm, &aerial, prior, config.match_ratio)
+    } else {
+        match_surf(&mm.descriptors, &aerial.descriptors, config.match_ratio, true)
+            .into_iter()
+            .map(|(i, j, _)| {
+                let (a, b) = (&mm.keypoints[i], &aerial.keypoints[j]);
+                Correspondence { a: [a.u, a.v], b: [b.u, b.v] }
+            })
+            .collect()
+    };
     let no_transform = |inliers| ImageRejection::NoTransform { matches: pairs.len(), inliers };
     let fit = ransac(Model::Similarity, &pairs, &config.initial_ransac).map_err(|_| no_transform(0))?;
     let inliers = fit.inlier_count();
@@ -172,6 +185,14 @@ mod tests {
         let loose =
             check_plausibility(&similarity(0.0, 1.0, [40.0, -28.0]), [50.0, 50.0], [60.0, 40.0], 0.12, 2.0, &bounds);
         assert!(loose.passed, "{loose:?}");
+        // A reported σ of 2.5 cm (blind to multipath) is raised to the 0.5 m floor: bound 2.0 m, so a 1.4 m
+        // DG error passes and a 2.2 m offset does not.
+        let floor = |d: [f64; 2]| {
+            check_plausibility(&similarity(0.0, 1.0, d), [50.0, 50.0], [60.0, 40.0], 0.12, 0.025, &bounds)
+        };
+        let jump = floor([10.0, -10.0 + 1.4 / 0.12]);
+        assert!(jump.passed && (jump.bound_m - 2.0).abs() < 1e-12, "{jump:?}");
+        assert!(!floor([10.0, -10.0 + 2.2 / 0.12]).passed);
         // Rotation and scale far from identity fail even with no offset.
         let turned =
             check_plausibility(&similarity(0.2, 1.0, [10.0, -10.0]), [50.0, 50.0], [60.0, 40.0], 0.12, 1.0, &bounds);

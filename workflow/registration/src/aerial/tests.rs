@@ -238,16 +238,23 @@ fn a_frame_turned_about_its_axis_is_rotated_into_and_still_registered() {
 
 #[test]
 fn a_dg_offset_beyond_the_plausibility_bound_discards_the_patch() {
-    // The patch claims 5 cm DG precision: the 0.8 m offset exceeds 3 · 0.05 + 0.5 m in every frame.
+    // The patch claims 5 cm DG precision and the σ floor is off: the 0.8 m offset exceeds 3 · 0.05 + 0.5 m
+    // in every frame.
     let f = fixture();
-    let outcome =
-        register_patch(&f.patch_with_sigma(0.05), &AerialReference::Frames(f.frames.clone()), &AerialConfig::default());
+    let trusting = Plausibility { min_position_sigma: 0.0, ..Plausibility::default() };
+    let config = AerialConfig { plausibility: trusting, ..AerialConfig::default() };
+    let outcome = register_patch(&f.patch_with_sigma(0.05), &AerialReference::Frames(f.frames.clone()), &config);
     assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }));
     assert!(outcome.points.is_empty());
     for d in &outcome.images {
         let Some(ImageRejection::Implausible { offset_m, bound_m, .. }) = d.rejection else { panic!("{d:?}") };
         assert!((offset_m - 0.8).abs() < 0.15 && (bound_m - 0.65).abs() < 1e-12, "{d:?}");
     }
+    // With the default floor (σ ≥ 0.5 m: a reported σ is blind to multipath jumps) the same patch registers.
+    let floored =
+        register_patch(&f.patch_with_sigma(0.05), &AerialReference::Frames(f.frames.clone()), &AerialConfig::default());
+    f.check_matched(&floored, f.points.len() / 3, AT_TOLERANCE);
+    assert!(floored.images.iter().all(|d| d.passed && d.offset_m.is_some_and(|o| (o - 0.8).abs() < 0.15)));
 }
 
 #[test]

@@ -4,6 +4,8 @@
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
+pub mod markings;
+
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
@@ -60,6 +62,8 @@ pub struct Campaign {
     pub ground_height: f64,
     /// Horizontal DG error per panorama, metres.
     pub dg_error: Vec<f64>,
+    /// The synthetic world (ground truth for the markings census).
+    pub world: World,
 }
 
 fn luma(rgb: &[u8]) -> f32 {
@@ -138,7 +142,19 @@ impl Campaign {
             .iter()
             .map(|s| (s.dg.position.x() - s.truth.position.x()).hypot(s.dg.position.y() - s.truth.position.y()))
             .collect();
-        Campaign { panoramas, rig, reference, truth, ground_height: world.config.ground_height, dg_error }
+        Campaign { panoramas, rig, reference, truth, ground_height: world.config.ground_height, dg_error, world }
+    }
+
+    /// Road paint visible at both epochs (m²) in the square of half-size `half` around each panorama's TRUE
+    /// position, in panorama order ([`markings::paint_area`]).
+    pub fn paint_areas(&self, half: f64) -> Vec<f64> {
+        self.truth
+            .iter()
+            .map(|(_, pose)| {
+                let p = pose.translation;
+                markings::paint_area(&self.world, [p.x(), p.y()], half)
+            })
+            .collect()
     }
 
     /// For each tie with aerial coordinates: its aerial position minus the true ground point of its first
