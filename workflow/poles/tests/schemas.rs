@@ -1,37 +1,19 @@
 //! Keeps `schemas/pole-frames.v1.schema.json` equal to the schema the frame-report types generate, and the
 //! golden example parsing.
 
-use std::path::{Path, PathBuf};
-
 use plumbline_poles::FrameReport;
 
-const UPDATE_ENV: &str = "PLUMBLINE_UPDATE_SCHEMAS";
 const SCHEMA_FILE: &str = "pole-frames.v1.schema.json";
-
-fn schemas_dir() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas")
-}
 
 #[test]
 fn frame_report_schema_is_current() {
     let schema = serde_json::to_value(schemars::schema_for!(FrameReport)).expect("schema serialises");
-    let generated = plumbline_campaign::canonical_json(&schema);
-    let path = schemas_dir().join(SCHEMA_FILE);
-    if std::env::var(UPDATE_ENV).is_ok_and(|v| v == "1") {
-        std::fs::write(&path, &generated).expect("write schema");
-        return;
-    }
-    let checked_in = std::fs::read_to_string(&path).unwrap_or_default();
-    assert!(
-        checked_in == generated,
-        "schemas/{SCHEMA_FILE} is stale or missing; regenerate it with\n\n    \
-         {UPDATE_ENV}=1 cargo test -p plumbline-poles --test schemas\n\nand commit the result"
-    );
+    plumbline_testkit::schemas::assert_current(SCHEMA_FILE, &schema, "plumbline-poles");
 }
 
 #[test]
 fn golden_example_parses_and_keeps_its_version() {
-    let text = std::fs::read_to_string(schemas_dir().join("examples/pole-frames.v1.example.json")).expect("example");
+    let text = plumbline_testkit::schemas::example("pole-frames.v1.example.json");
     let reports: Vec<FrameReport> = serde_json::from_str(&text).expect("example parses");
     assert_eq!(reports.len(), 2);
     let FrameReport::V1(ok) = &reports[0];

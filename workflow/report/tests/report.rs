@@ -1,14 +1,10 @@
 //! The report's JSON round trip and schema, and the HTML page being self-contained and showing the figures.
 
-use std::path::{Path, PathBuf};
-
 use plumbline_geo::metrics::Stats;
 use plumbline_report::{
     Accuracy, CampaignInfo, CorrectionSeries, Figures, MapData, MapMark, MarkState, Report, ReportDoc, Residuals,
     SkippedItem, Summary, TrackPoint, html,
 };
-
-const UPDATE_ENV: &str = "PLUMBLINE_UPDATE_SCHEMAS";
 
 fn stats(median: f64) -> Stats {
     Stats { count: 100, median, p95: 2.0 * median, p99: 3.0 * median, max: 4.0 * median, rms: 1.5 * median }
@@ -89,17 +85,6 @@ fn html_is_self_contained_and_shows_the_figures() {
 
 #[test]
 fn report_schema_is_current() {
-    let generated = plumbline_campaign::canonical_json(&plumbline_report::report_schema());
-    let path: PathBuf =
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("../../schemas").join(plumbline_report::REPORT_SCHEMA_FILE);
-    if std::env::var(UPDATE_ENV).is_ok_and(|v| v == "1") {
-        std::fs::write(&path, &generated).unwrap();
-        return;
-    }
-    let checked_in = std::fs::read_to_string(&path).unwrap_or_default();
-    assert!(
-        checked_in == generated,
-        "schemas/{} is stale or missing; regenerate it with\n\n    {UPDATE_ENV}=1 cargo test -p plumbline-report --test report\n\nand commit the result",
-        plumbline_report::REPORT_SCHEMA_FILE
-    );
+    let schema = plumbline_report::report_schema();
+    plumbline_testkit::schemas::assert_current(plumbline_report::REPORT_SCHEMA_FILE, &schema, "plumbline-report");
 }
