@@ -58,9 +58,7 @@ fn after_an_imu_bias_step_the_filter_recovers_instead_of_flagging_forever() {
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis
-    for r in s.imu.iter_mut().filter(|r| r.time > step_at) {
-        r.delta_v.v.x += step * r.dt;
-    }
+    common::add_bias_step(&mut s.imu, step_at, step);
     let plain = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     let adaptive = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &Adaptation::default()).unwrap();
     let reopened = |i: &&plumbline_navigation::Innovation| {
@@ -110,9 +108,7 @@ fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
     assert!(gnss as f64 > 0.7 * jump.len() as f64, "{gnss} of {} blame GNSS", jump.len());
     let step_at = t0 + 100.0;
     let mut stepped = clean;
-    for r in stepped.imu.iter_mut().filter(|r| r.time > step_at) {
-        r.delta_v.v.x += 0.003 * r.dt;
-    }
+    common::add_bias_step(&mut stepped.imu, step_at, 0.003);
     let flags = flags_of(&stepped);
     let imu = |f: &&Flag| f.sensor == Sensor::Imu;
     let first = flags.iter().filter(|f| f.time > step_at).find(imu).unwrap();

@@ -76,9 +76,7 @@ fn accelerometer_bias_step_is_flagged() {
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis
-    for r in s.imu.iter_mut().filter(|r| r.time > step_at) {
-        r.delta_v.v.x += step * r.dt;
-    }
+    common::add_bias_step(&mut s.imu, step_at, step);
     let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     let flags = test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap();
     let after: Vec<&Flag> = flags.iter().filter(|f| f.time > step_at).collect();

@@ -47,3 +47,13 @@ pub struct Route {
     /// Vertices in driving order; consecutive vertices are joined by straight segments.
     pub waypoints: Vec<Waypoint>,
 }
+
+impl Route {
+    /// The route with every waypoint's canyon replaced by `canyon` (one GNSS environment everywhere).
+    pub fn with_canyon(mut self, canyon: Canyon) -> Self {
+        for w in &mut self.waypoints {
+            w.canyon = canyon;
+        }
+        self
+    }
+}

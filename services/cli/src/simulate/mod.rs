@@ -193,17 +193,13 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
 }
 
 /// The route with every street's canyon replaced by the profile's (`mixed`: unchanged).
-fn with_profile(mut route: Route, profile: Profile) -> Route {
-    let canyon = match profile {
-        Profile::Open => Canyon::OPEN,
-        Profile::Urban => URBAN_STREET,
-        Profile::Canyon => DEEP_CANYON,
-        Profile::Mixed => return route,
-    };
-    for w in &mut route.waypoints {
-        w.canyon = canyon;
+fn with_profile(route: Route, profile: Profile) -> Route {
+    match profile {
+        Profile::Open => route.with_canyon(Canyon::OPEN),
+        Profile::Urban => route.with_canyon(URBAN_STREET),
+        Profile::Canyon => route.with_canyon(DEEP_CANYON),
+        Profile::Mixed => route,
     }
-    route
 }
 
 fn name(preset: Preset) -> &'static str {

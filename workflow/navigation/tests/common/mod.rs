@@ -106,3 +106,10 @@ fn initial_state(drive: &Drive, rng: &mut ChaCha8Rng) -> InitialState {
         attitude_std: att_std,
     }
 }
+
+/// Add an accelerometer bias step of `step` m/s² on the forward axis to every IMU record after `at`.
+pub fn add_bias_step(imu: &mut [ImuSample], at: f64, step: f64) {
+    for r in imu.iter_mut().filter(|r| r.time > at) {
+        r.delta_v.v.x += step * r.dt;
+    }
+}

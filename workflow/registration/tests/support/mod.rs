@@ -70,15 +70,13 @@ fn luma(rgb: &[u8]) -> f32 {
     0.299 * f32::from(rgb[0]) + 0.587 * f32::from(rgb[1]) + 0.114 * f32::from(rgb[2])
 }
 
-fn with_profile(mut route: Route, profile: Profile) -> Route {
-    let canyon = match profile {
-        Profile::Open => Canyon::OPEN,
-        Profile::Urban => URBAN_STREET,
-        Profile::Canyon => DEEP_CANYON,
-        Profile::Mixed => return route,
-    };
-    route.waypoints.iter_mut().for_each(|w| w.canyon = canyon);
-    route
+fn with_profile(route: Route, profile: Profile) -> Route {
+    match profile {
+        Profile::Open => route.with_canyon(Canyon::OPEN),
+        Profile::Urban => route.with_canyon(URBAN_STREET),
+        Profile::Canyon => route.with_canyon(DEEP_CANYON),
+        Profile::Mixed => route,
+    }
 }
 
 /// `window` consecutive shots centred on the shot nearest to a junction of the route.
