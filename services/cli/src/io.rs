@@ -5,14 +5,15 @@ use std::path::Path;
 
 use anyhow::Context as _;
 use bytes::Bytes;
-use plumbline_runtime::{RuntimeConfig, S3Options, StoreErrorKind};
+pub use plumbline_runtime::file_name;
+use plumbline_runtime::{Files, RuntimeConfig};
 
 use crate::exit::invalid;
 
 /// What every command needs from the runtime: how to reach object stores.
 #[derive(Debug)]
 pub struct Context {
-    s3: S3Options,
+    files: Files,
 }
 
 impl Context {
@@ -28,32 +29,26 @@ impl Context {
         })?;
         plumbline_runtime::init_tracing(&config.log, env.get("RUST_LOG").map(String::as_str))
             .map_err(|e| invalid(format!("logging: {e}")))?;
-        Ok(Self { s3: config.store.s3 })
+        Ok(Self { files: Files::new(config.store.s3) })
+    }
+
+    /// The file access the services' libraries take.
+    pub fn files(&self) -> &Files {
+        &self.files
     }
 
     /// Read a whole file named by path or URL. A missing file is invalid input.
     pub async fn read(&self, url: &str) -> anyhow::Result<Bytes> {
-        plumbline_runtime::read_url(url, &self.s3).await.map_err(|e| {
-            if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
-        })
+        self.files.read(url).await
     }
 
     /// Whether the object a path or URL names exists.
     pub async fn exists(&self, url: &str) -> anyhow::Result<bool> {
-        match plumbline_runtime::head_url(url, &self.s3).await {
-            Ok(()) => Ok(true),
-            Err(e) if e.kind() == StoreErrorKind::NotFound => Ok(false),
-            Err(e) => Err(e.into()),
-        }
+        self.files.exists(url).await
     }
 
     /// Write a whole file named by path or URL, replacing it.
     pub async fn write(&self, url: &str, bytes: Vec<u8>) -> anyhow::Result<()> {
-        plumbline_runtime::write_url(url, &self.s3, Bytes::from(bytes)).await.with_context(|| format!("writing {url}"))
+        self.files.write(url, bytes).await
     }
-}
-
-/// The last path segment of a path or URL, for messages.
-pub fn file_name(url: &str) -> &str {
-    url.rsplit(['/', '\\']).next().filter(|s| !s.is_empty()).unwrap_or(url)
 }

@@ -19,8 +19,6 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 
-use crate::exit::InvalidInput;
-
 /// Corrects mobile-mapping trajectories in cities with aerial images and pole cadastres.
 #[derive(Debug, Parser)]
 #[command(name = "plumbline", version, about, long_about = None)]
@@ -86,5 +84,5 @@ fn report(e: &anyhow::Error) -> ExitCode {
     for cause in e.chain().skip(1) {
         eprintln!("  caused by: {cause}");
     }
-    if e.chain().any(|c| c.is::<InvalidInput>()) { ExitCode::from(exit::INVALID) } else { ExitCode::FAILURE }
+    if plumbline_runtime::is_invalid(e) { ExitCode::from(exit::INVALID) } else { ExitCode::FAILURE }
 }

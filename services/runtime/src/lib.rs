@@ -10,20 +10,27 @@
 //!   [`read_url`] / [`write_url`] for one object named by URL.
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
 //! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding.
+//! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`InvalidInput`] (exit code 2).
+//! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
 //! - [`logging`] — [`init_tracing`]; [`progress`] — bars, log lines or JSON lines for long work.
 
 pub mod cadastre;
 pub mod config;
 pub mod crs;
+pub mod errors;
+pub mod files;
 pub mod gdal_read;
 pub mod gdal_write;
 pub mod logging;
 pub mod progress;
 pub mod secret;
 pub mod store;
+pub mod trajectory;
 
 pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
 pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, is_projected, meridian_convergence};
+pub use errors::{InvalidInput, OrInvalid, invalid, is_invalid};
+pub use files::{Files, file_name};
 pub use logging::{TracingError, init_tracing};
 pub use secret::Secret;
 pub use store::{

@@ -2,77 +2,30 @@
 //! (merged, each observation remembering its file and index there), and optional weak links.
 
 use plumbline_adjustment::{ObservationRef, ObservationSet, ObservationSetV1, WeakLink};
-use plumbline_geo::Trajectory;
-use plumbline_geo::formats::{self, AttitudeConvention, Horizontal, RawTrajectory};
+use plumbline_geo::formats::AttitudeConvention;
+use plumbline_runtime::trajectory::{TrajectoryFormat, TrajectoryInput, load_trajectory};
 
 use super::Args;
 use crate::exit::{OrInvalid, invalid};
 use crate::io::{Context, file_name};
-use crate::trajectory::{Format, crs};
 
-/// The DG trajectory in the campaign CRS, with what is needed to write it back the way it came.
-#[derive(Debug)]
-pub struct LoadedTrajectory {
-    /// Validated records in the campaign CRS.
-    pub trajectory: Trajectory,
-    /// The file's format.
-    pub format: Format,
-    /// The file's horizontal coordinates.
-    pub horizontal: Horizontal,
-    /// EPSG code of the campaign CRS (None: a projected CSV of unstated CRS, kept as it is).
-    pub epsg: Option<u32>,
-    /// File name, for messages.
-    pub name: String,
-}
-
-fn format_of(url: &str, explicit: Option<Format>) -> Format {
-    explicit.unwrap_or_else(|| {
-        let lower = url.to_ascii_lowercase();
-        if lower.ends_with(".sbet") || lower.ends_with(".out") { Format::Sbet } else { Format::Csv }
-    })
-}
+pub use plumbline_runtime::trajectory::LoadedTrajectory;
 
 /// Read and project the trajectory `args` names; every defect is invalid input naming file, record, field.
 pub async fn trajectory(ctx: &Context, args: &Args) -> anyhow::Result<LoadedTrajectory> {
-    let name = file_name(&args.trajectory).to_owned();
-    let bytes = ctx.read(&args.trajectory).await?;
-    let format = format_of(&args.trajectory, args.format);
-    let raw: RawTrajectory = match format {
-        Format::Csv => {
-            let parsed = formats::parse_csv(&bytes, &name, AttitudeConvention::Applanix).or_invalid("")?;
-            for w in &parsed.warnings {
-                tracing::warn!(file = %name, warning = %w, "csv input");
-            }
-            parsed.trajectory
-        }
-        Format::Sbet => {
-            let records = formats::parse_sbet(&bytes, &name).or_invalid("")?;
-            let std = match &args.smrmsg {
-                Some(u) => Some(formats::parse_smrmsg(&ctx.read(u).await?, file_name(u)).or_invalid("")?),
-                None => None,
-            };
-            formats::sbet_to_raw(&records, std.as_deref())
-        }
+    let input = TrajectoryInput {
+        url: args.trajectory.clone(),
+        format: args.format.map_or_else(|| TrajectoryFormat::of(&args.trajectory), TrajectoryFormat::from),
+        smrmsg: args.smrmsg.clone(),
+        attitude: AttitudeConvention::Applanix,
+        epsg: None,
     };
-    let horizontal = raw.horizontal;
-    let (source, target) = match horizontal {
-        Horizontal::Projected => (args.epsg, args.epsg),
-        Horizontal::Geographic => {
-            let Some(epsg) = args.epsg else {
-                return Err(invalid(format!(
-                    "{name}: geographic coordinates; give the observations' projected CRS with --epsg"
-                )));
-            };
-            (Some(4326), Some(epsg))
-        }
-    };
-    if let Some(e) = target
-        && !crs::is_projected(e).or_invalid("--epsg")?
+    if let Some(e) = args.epsg
+        && !plumbline_runtime::is_projected(e).or_invalid("--epsg")?
     {
         return Err(invalid(format!("--epsg {e}: not a projected CRS")));
     }
-    let trajectory = crs::into_projected(raw, source, target).or_invalid(&name)?;
-    Ok(LoadedTrajectory { trajectory, format, horizontal, epsg: target, name })
+    load_trajectory(ctx.files(), &input, args.epsg).await
 }
 
 /// How many observations of each kind one file contributed.

@@ -5,13 +5,10 @@ use std::fmt::Write as _;
 
 use plumbline_adjustment::{Adjustment, WeakLink};
 use plumbline_geo::Trajectory;
-use plumbline_geo::formats::{self, Horizontal, RawTrajectory};
 use serde_json::{Value, json};
 
 use super::input::{LoadedTrajectory, Observations};
-use crate::exit::OrInvalid;
 use crate::io::Context;
-use crate::trajectory::{Format, crs};
 
 /// Write the corrected trajectory as the input came (format and CRS); returns the files written.
 pub async fn trajectory(
@@ -20,24 +17,7 @@ pub async fn trajectory(
     input: &LoadedTrajectory,
     corrected: &Trajectory,
 ) -> anyhow::Result<Vec<String>> {
-    let raw = match (input.horizontal, input.epsg) {
-        (Horizontal::Geographic, Some(epsg)) => crs::express(corrected, epsg, 4326).or_invalid("output CRS")?,
-        _ => RawTrajectory::from_map_projected(corrected.records()),
-    };
-    match input.format {
-        Format::Csv => {
-            let url = format!("{prefix}trajectory.csv");
-            ctx.write(&url, formats::write_csv(&raw)).await?;
-            Ok(vec![url])
-        }
-        Format::Sbet => {
-            let records = formats::raw_to_sbet(&raw).or_invalid("corrected trajectory as SBET")?;
-            let (sbet, smrmsg) = (format!("{prefix}trajectory.sbet"), format!("{prefix}trajectory.smrmsg"));
-            ctx.write(&sbet, formats::write_sbet(&records)).await?;
-            ctx.write(&smrmsg, formats::write_smrmsg(&formats::raw_to_smrmsg(&raw))).await?;
-            Ok(vec![sbet, smrmsg])
-        }
-    }
+    plumbline_runtime::trajectory::write_like_input(ctx.files(), prefix, "trajectory", input, corrected).await
 }
 
 /// Header of `corrections.csv`.

@@ -4,8 +4,8 @@
 use anyhow::Context as _;
 use image::GrayImage;
 use plumbline_geo::camera::{Equirectangular, Pinhole};
-use plumbline_synth::motion::Drive;
 use plumbline_synth::motion::dg::DgSolution;
+use plumbline_synth::motion::{Drive, DriveConfig};
 use plumbline_synth::render::{
     DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray, encode_png_gray16, render_depth, render_panorama,
 };
@@ -36,7 +36,7 @@ impl Sizes {
     /// The preset's sizes with the command line's overrides.
     pub(crate) fn of(args: &Args) -> anyhow::Result<Self> {
         let (width, spacing, depth, rate) = match args.preset {
-            Preset::Tiny => (1024, 10.0, (320, 180), 1.0),
+            Preset::Tiny => (1024, 5.0, (320, 180), 1.0),
             Preset::District => (4096, 5.0, (1280, 720), 5.0),
         };
         let panorama_spacing = args.panorama_spacing.unwrap_or(spacing);
@@ -60,11 +60,14 @@ impl Sizes {
 pub(crate) fn panoramas(
     world: &World,
     drive: &Drive,
+    drive_config: &DriveConfig,
     dg: &DgSolution,
     sizes: &Sizes,
     sink: &Sink,
 ) -> anyhow::Result<String> {
     let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
+    // The IMU rides `imu_height` above the road; the lever arm's z points down.
+    let camera_height = drive_config.imu_height - Mount::PANORAMA.lever_arm_m[2];
     let cam = Equirectangular::new(w, h).context("panorama camera")?;
     let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
     let shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory)?;
@@ -87,7 +90,7 @@ pub(crate) fn panoramas(
     sink.put("truth/images.csv", sensors::truth_csv(&shots))?;
     Ok(format!(
         "[panoramas]\nindex = \"panoramas/index.csv\"\nimages = \"panoramas/\"\nwidth_px = {w}\nheight_px = {h}\n\
-         vehicle_mask = \"panoramas/vehicle_mask.png\"\n{}",
+         vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{}",
         mount("panoramas", &Mount::PANORAMA)
     ))
 }

@@ -160,7 +160,8 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         Grade::Tactical => (ImuErrors::TACTICAL, 0.15),
         Grade::Consumer => (ImuErrors::CONSUMER, 1.5),
     };
-    let drive = Drive::simulate(&route, &DriveConfig::default(), seed).or_invalid("simulated drive")?;
+    let drive_config = DriveConfig::default();
+    let drive = Drive::simulate(&route, &drive_config, seed).or_invalid("simulated drive")?;
     let dg_config = DgConfig { outage_growth, ..DgConfig::default() };
     let dg = dg::simulate(&drive, &dg_config, seed).or_invalid("DG error process")?;
     let fixes = gnss::simulate(&drive, &dg, &dg_config, &gnss::GnssConfig::default(), seed).or_invalid("GNSS")?;
@@ -180,7 +181,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     let mut sections = manifest::Sections::default();
     if !args.navigation_only {
         let sizes = imagery::Sizes::of(args)?;
-        sections.panoramas = Some(imagery::panoramas(&world, &drive, &dg, &sizes, sink)?);
+        sections.panoramas = Some(imagery::panoramas(&world, &drive, &drive_config, &dg, &sizes, sink)?);
         sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
         sections.cadastre = Some(cadastre::write(&world, crs, seed, sink)?);
         let (section, footprints) = aerial::write(&world, args.aerial_gsd, seed, sink)?;

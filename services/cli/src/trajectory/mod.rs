@@ -10,7 +10,7 @@ use plumbline_geo::metrics;
 use crate::exit::{OrInvalid, invalid};
 use crate::io::{Context, file_name};
 
-pub(crate) mod crs;
+pub(crate) use plumbline_runtime::trajectory::crs;
 
 /// Trajectory subcommands.
 #[derive(Debug, Subcommand)]
@@ -29,6 +29,15 @@ pub enum Format {
     Csv,
     /// Applanix SBET (WGS84 geographic, binary).
     Sbet,
+}
+
+impl From<Format> for plumbline_runtime::trajectory::TrajectoryFormat {
+    fn from(f: Format) -> Self {
+        match f {
+            Format::Csv => Self::Csv,
+            Format::Sbet => Self::Sbet,
+        }
+    }
 }
 
 /// Attitude conventions of CSV input.

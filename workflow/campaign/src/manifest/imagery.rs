@@ -36,6 +36,10 @@ pub struct Panoramas {
     pub mount: CameraMount,
     /// Mask image hiding the vehicle (non-zero = vehicle), same size as the panoramas.
     pub vehicle_mask: Option<Location>,
+    /// Height of the camera centre above the road surface, metres: the ground plane the panoramas are
+    /// ortho-projected onto (paper 000 §3.2). Required for aerial registration unless a terrain model
+    /// is given.
+    pub camera_height_m: Option<f64>,
 }
 
 /// A depth (range) camera taking 16-bit PNG depth images along the trajectory.
@@ -126,6 +130,9 @@ impl Panoramas {
             c.report(&at.field("width_px"), found, "an equirectangular size: width_px = 2 × height_px");
         }
         self.mount.check(&at.field("mount"), c);
+        if let Some(height) = self.camera_height_m {
+            c.in_range(&at.field("camera_height_m"), height, 0.5, 10.0, " m");
+        }
     }
 }
 

@@ -3,9 +3,9 @@
 //! Grid heading = true heading − γ, where γ is the meridian convergence of the projected CRS at the point.
 //! A projected → projected change goes through geographic coordinates: ψ_b = ψ_a + γ_a − γ_b.
 
+use crate::crs::{CrsError, CrsTransform, MeridianConvergence};
 use plumbline_geo::formats::{Horizontal, MapPoint, RawTrajectory};
 use plumbline_geo::{Trajectory, TrajectoryRecord, ValidationLimits};
-use plumbline_runtime::{CrsError, CrsTransform, MeridianConvergence};
 
 /// A projected CRS and the geographic CRS its inputs/outputs use, with transforms both ways.
 pub struct Projection {
@@ -49,7 +49,7 @@ impl Projection {
 
 /// True when the EPSG code names a projected CRS (an unknown code is an error naming it).
 pub fn is_projected(epsg: u32) -> Result<bool, CrsError> {
-    plumbline_runtime::is_projected(epsg)
+    crate::crs::is_projected(epsg)
 }
 
 /// The WGS84 UTM zone (EPSG 326xx north, 327xx south) of the first record of a geographic trajectory.

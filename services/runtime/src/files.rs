@@ -1,0 +1,51 @@
+//! Whole files named by path or object-store URL, with the store credentials of the runtime config.
+
+use anyhow::Context as _;
+use bytes::Bytes;
+
+use crate::errors::invalid;
+use crate::store::{S3Options, StoreErrorKind, head_url, read_url, write_url};
+
+/// Reads and writes files by path or URL (`file://`, `s3://`, plain paths).
+#[derive(Clone, Debug, Default)]
+pub struct Files {
+    s3: S3Options,
+}
+
+impl Files {
+    /// Files reached with these S3 settings.
+    pub fn new(s3: S3Options) -> Self {
+        Self { s3 }
+    }
+
+    /// The S3 settings.
+    pub fn s3(&self) -> &S3Options {
+        &self.s3
+    }
+
+    /// Read a whole file. A missing file is invalid input naming it.
+    pub async fn read(&self, url: &str) -> anyhow::Result<Bytes> {
+        read_url(url, &self.s3).await.map_err(|e| {
+            if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
+        })
+    }
+
+    /// Whether the file exists.
+    pub async fn exists(&self, url: &str) -> anyhow::Result<bool> {
+        match head_url(url, &self.s3).await {
+            Ok(()) => Ok(true),
+            Err(e) if e.kind() == StoreErrorKind::NotFound => Ok(false),
+            Err(e) => Err(e.into()),
+        }
+    }
+
+    /// Write a whole file, replacing it.
+    pub async fn write(&self, url: &str, bytes: Vec<u8>) -> anyhow::Result<()> {
+        write_url(url, &self.s3, Bytes::from(bytes)).await.with_context(|| format!("writing {url}"))
+    }
+}
+
+/// The last path segment of a path or URL, for messages.
+pub fn file_name(url: &str) -> &str {
+    url.rsplit(['/', '\\']).next().filter(|s| !s.is_empty()).unwrap_or(url)
+}

@@ -1,0 +1,11 @@
+//! The scheduler's logic, shared by `plumbline run` (all in one process) and the scheduler service:
+//! read and validate a campaign manifest, load its trajectory and image indexes, and plan its tiles.
+//!
+//! Everything a campaign cannot work without is checked here, before any tile is processed: a campaign
+//! whose inputs are unusable as a whole (no trajectory, a CRS PROJ does not know, no panorama index) stops
+//! with an [`plumbline_runtime::InvalidInput`] error naming the file and field. Single bad rows are skipped
+//! and listed in [`Campaign::skipped`].
+
+mod load;
+
+pub use load::{Campaign, SkippedInput, load_campaign, manifest_base};

@@ -1,0 +1,238 @@
+//! Loading a campaign: the manifest (parsed, validated, its CRS checked against PROJ), the DG trajectory
+//! in the campaign CRS, the optional reference trajectory, the image indexes and aerial orientations, and
+//! the tile plan.
+
+use plumbline_campaign::manifest::{CsvTrajectory, SbetTrajectory, TrajectorySource};
+use plumbline_campaign::plan::{CampaignPlan, plan_campaign};
+use plumbline_campaign::tables::{ExteriorRow, IndexRow, RowProblem, Table, read_exterior, read_index};
+use plumbline_campaign::{Location, Manifest, ManifestV1, Problem};
+use plumbline_geo::Trajectory;
+use plumbline_geo::formats::AttitudeConvention;
+use plumbline_geo::tiling::TilingParams;
+use plumbline_runtime::errors::{OrInvalid, invalid};
+use plumbline_runtime::trajectory::{LoadedTrajectory, TrajectoryFormat, TrajectoryInput, load_trajectory};
+use plumbline_runtime::{Files, file_name};
+use serde::{Deserialize, Serialize};
+
+/// An input item left out while loading or processing, and why (the report lists them).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct SkippedInput {
+    /// The stage that skipped it (`load`, `registration`, `poles`, `cadastre`, …).
+    pub stage: String,
+    /// The item: file, record or feature.
+    pub item: String,
+    /// Short reason class, for counting.
+    pub reason: String,
+    /// The full message, naming file, record and field.
+    pub detail: String,
+}
+
+impl SkippedInput {
+    /// A skipped table row.
+    pub fn row(stage: &str, problem: &RowProblem) -> Self {
+        Self {
+            stage: stage.to_owned(),
+            item: format!("{} line {}", problem.file, problem.line),
+            reason: problem.field.as_ref().map_or_else(|| "row".to_owned(), |f| format!("bad {f}")),
+            detail: problem.to_string(),
+        }
+    }
+}
+
+/// A campaign ready to process.
+#[derive(Clone, Debug)]
+pub struct Campaign {
+    /// The manifest's absolute URL: relative locations resolve against it.
+    pub base: String,
+    /// The manifest.
+    pub manifest: ManifestV1,
+    /// The output prefix (absolute, ending in `/`).
+    pub output: String,
+    /// The DG trajectory in the campaign CRS, with how to write it back.
+    pub trajectory: LoadedTrajectory,
+    /// The reference trajectory in the campaign CRS, when the manifest names one that could be read.
+    pub reference: Option<Trajectory>,
+    /// Aerial exterior orientations (frame block), in table order.
+    pub aerial_frames: Vec<ExteriorRow>,
+    /// The tile plan.
+    pub plan: CampaignPlan,
+    /// What was skipped while loading.
+    pub skipped: Vec<SkippedInput>,
+}
+
+impl Campaign {
+    /// The absolute path or URL of a manifest location.
+    pub fn url(&self, location: &Location) -> anyhow::Result<String> {
+        plumbline_campaign::resolve(&self.base, location.as_str()).or_invalid(location.as_str())
+    }
+
+    /// The URL of a file named by an index row, under the manifest's `images` prefix.
+    pub fn file_url(&self, prefix: &Location, file: &str) -> anyhow::Result<String> {
+        let mut dir = self.url(prefix)?;
+        if !dir.ends_with('/') {
+            dir.push('/');
+        }
+        plumbline_campaign::resolve(&dir, file).or_invalid(file)
+    }
+
+    /// The campaign CRS.
+    pub fn epsg(&self) -> u32 {
+        self.manifest.crs.0
+    }
+}
+
+/// The absolute URL a manifest's relative locations resolve against (plain paths become `file://` URLs).
+pub fn manifest_base(manifest_url: &str) -> String {
+    if manifest_url.contains("://") {
+        return manifest_url.to_owned();
+    }
+    let absolute = std::path::absolute(manifest_url).unwrap_or_else(|_| manifest_url.into());
+    format!("file://{}", absolute.display())
+}
+
+/// Read, validate and plan the campaign `manifest_url` names. Every problem that makes the campaign
+/// unusable as a whole is an invalid-input error; single bad rows are skipped and listed.
+pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<Campaign> {
+    let name = file_name(manifest_url).to_owned();
+    let bytes = files.read(manifest_url).await?;
+    let text = std::str::from_utf8(&bytes).or_invalid(&format!("{name}: not UTF-8 text"))?;
+    let manifest = if name.to_ascii_lowercase().ends_with(".json") {
+        Manifest::from_json_str(text)
+    } else {
+        Manifest::from_toml_str(text)
+    }
+    .or_invalid(&name)?;
+    if let Err(problems) = manifest.validate() {
+        let list: Vec<String> = problems.iter().map(Problem::to_string).collect();
+        return Err(invalid(format!("{name}: {} problem(s):\n  {}", list.len(), list.join("\n  "))));
+    }
+    let manifest = manifest.into_latest();
+    let epsg = manifest.crs.0;
+    match plumbline_runtime::is_projected(epsg) {
+        Ok(true) => {}
+        Ok(false) => return Err(invalid(format!("{name}: crs: EPSG:{epsg} is not a projected CRS (metres)"))),
+        Err(e) => return Err(invalid(format!("{name}: crs: {e}"))),
+    }
+    let base = manifest_base(manifest_url);
+    let resolve = |l: &Location| plumbline_campaign::resolve(&base, l.as_str()).or_invalid(&name);
+    let mut output = resolve(&manifest.output)?;
+    if !output.ends_with('/') {
+        output.push('/');
+    }
+    let mut skipped = Vec::new();
+
+    let [source] = manifest.trajectory.as_slice() else {
+        return Err(invalid(format!(
+            "{name}: trajectory: {} sources; one campaign run takes exactly one trajectory (split multi-day \
+             campaigns into one manifest per drive)",
+            manifest.trajectory.len()
+        )));
+    };
+    let trajectory = load_trajectory(files, &trajectory_input(source, &resolve)?, Some(epsg)).await?;
+    tracing::info!(file = %trajectory.name, records = trajectory.trajectory.len(), "trajectory loaded");
+    let reference = match source.reference() {
+        Some(location) => {
+            let url = resolve(location)?;
+            let input = TrajectoryInput {
+                url: url.clone(),
+                format: TrajectoryFormat::of(&url),
+                smrmsg: None,
+                attitude: AttitudeConvention::Applanix,
+                epsg: None,
+            };
+            match load_trajectory(files, &input, Some(epsg)).await {
+                Ok(r) => Some(r.trajectory),
+                Err(e) => {
+                    tracing::warn!(file = %url, error = %e, "reference trajectory skipped");
+                    skipped.push(SkippedInput {
+                        stage: "load".into(),
+                        item: url.clone(),
+                        reason: "reference".into(),
+                        detail: format!("reference trajectory {url}: {e:#}"),
+                    });
+                    None
+                }
+            }
+        }
+        None => None,
+    };
+
+    let Some(panoramas) = &manifest.panoramas else {
+        return Err(invalid(format!(
+            "{name}: panoramas: missing; `run` tiles the campaign by its panoramas (a depth-only campaign is \
+             not supported yet)"
+        )));
+    };
+    let pano_rows = index(files, &resolve(&panoramas.index)?, "load", &mut skipped).await?;
+    if pano_rows.is_empty() {
+        return Err(invalid(format!("{}: no usable panorama rows", resolve(&panoramas.index)?)));
+    }
+    let mut depth_rows = Vec::new();
+    for camera in &manifest.depth {
+        depth_rows.push(index(files, &resolve(&camera.index)?, "load", &mut skipped).await?);
+    }
+    let aerial_frames = match manifest.aerial.as_ref().and_then(|a| a.frames.as_ref()) {
+        Some(block) => {
+            let url = resolve(&block.index)?;
+            let bytes = files.read(&url).await?;
+            let table: Table<ExteriorRow> = read_exterior(&url, &bytes).or_invalid("")?;
+            skipped.extend(table.skipped.iter().map(|p| SkippedInput::row("load", p)));
+            table.rows
+        }
+        None => Vec::new(),
+    };
+
+    let params = TilingParams::new(manifest.tiling.tile_size_m, manifest.tiling.overlap_m);
+    let plan = plan_campaign(&pano_rows, &depth_rows, &trajectory.trajectory, &params).or_invalid(&name)?;
+    for u in &plan.unplanned {
+        skipped.push(SkippedInput {
+            stage: "plan".into(),
+            item: format!("{} {}", u.source, u.image_id),
+            reason: "outside_trajectory".into(),
+            detail: format!("{} image {}: {}", u.source, u.image_id, u.reason),
+        });
+    }
+    if plan.panoramas.is_empty() {
+        return Err(invalid(format!("{name}: no panorama lies within the trajectory's time span")));
+    }
+    Ok(Campaign { base, manifest: manifest.clone(), output, trajectory, reference, aerial_frames, plan, skipped })
+}
+
+/// The DG trajectory's input description, locations resolved.
+fn trajectory_input(
+    source: &TrajectorySource,
+    resolve: &impl Fn(&Location) -> anyhow::Result<String>,
+) -> anyhow::Result<TrajectoryInput> {
+    Ok(match source {
+        TrajectorySource::Csv(CsvTrajectory { url, epsg, attitude, .. }) => TrajectoryInput {
+            url: resolve(url)?,
+            format: TrajectoryFormat::Csv,
+            smrmsg: None,
+            attitude: match attitude {
+                plumbline_campaign::manifest::AttitudeConvention::Applanix => AttitudeConvention::Applanix,
+                plumbline_campaign::manifest::AttitudeConvention::Novatel => AttitudeConvention::Novatel,
+            },
+            epsg: epsg.map(|e| e.0),
+        },
+        TrajectorySource::Sbet(SbetTrajectory { url, smrmsg, .. }) => TrajectoryInput {
+            url: resolve(url)?,
+            format: TrajectoryFormat::Sbet,
+            smrmsg: smrmsg.as_ref().map(resolve).transpose()?,
+            attitude: AttitudeConvention::Applanix,
+            epsg: None,
+        },
+    })
+}
+
+/// Read an image index; bad rows are skipped and listed, an unreadable table is invalid input.
+async fn index(
+    files: &Files,
+    url: &str,
+    stage: &str,
+    skipped: &mut Vec<SkippedInput>,
+) -> anyhow::Result<Vec<IndexRow>> {
+    let bytes = files.read(url).await?;
+    let table = read_index(url, &bytes).or_invalid("")?;
+    skipped.extend(table.skipped.iter().map(|p| SkippedInput::row(stage, p)));
+    Ok(table.rows)
+}

@@ -1,0 +1,51 @@
+//! The versioned result of one tile (`tiles/{col}_{row}.json`, schema `schemas/tile-output.v1.schema.json`).
+
+use plumbline_adjustment::PoleUpdate;
+use plumbline_geo::tiling::TileId;
+use plumbline_poles::FrameReport;
+use plumbline_registration::TileResultV1;
+use plumbline_scheduler::SkippedInput;
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// One tile's result, versioned on the wire (`"version": "1"`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "version")]
+pub enum TileOutput {
+    /// Version 1.
+    #[serde(rename = "1")]
+    V1(TileOutputV1),
+}
+
+impl TileOutput {
+    /// The newest version's content.
+    pub fn into_latest(self) -> TileOutputV1 {
+        match self {
+            Self::V1(v) => v,
+        }
+    }
+}
+
+/// Version 1 of a tile's result.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TileOutputV1 {
+    /// The tile.
+    pub tile: TileId,
+    /// Registration of the tile's own panoramas (ties and one diagnostic per owned panorama); None when the
+    /// campaign has no aerial reference.
+    pub registration: Option<TileResultV1>,
+    /// Pole coordinate updates from the tile's depth images.
+    pub poles: Vec<PoleUpdate>,
+    /// One report per depth frame of the tile.
+    pub pole_frames: Vec<FrameReport>,
+    /// Inputs skipped in this tile (decode errors, missing files, bad cadastre features).
+    pub skipped: Vec<SkippedInput>,
+    /// Seconds spent per stage (thread-seconds for parallel stages), by stage name.
+    pub seconds: Vec<(String, f64)>,
+}
+
+/// The object key of a tile's output under the campaign's output prefix.
+pub fn tile_key(tile: &TileId) -> String {
+    format!("tiles/{}_{}.json", tile.col, tile.row)
+}
