@@ -4,12 +4,15 @@
 //!
 //! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
 //! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
-//! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`).
+//! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`),
+//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
 #[path = "diagnosis/mod.rs"]
 mod diagnosis;
+#[path = "motion/mod.rs"]
+mod motion;
 #[path = "../tests/support/mod.rs"]
 mod support;
 
@@ -21,7 +24,7 @@ use plumbline_geo::tiling::TileId;
 use plumbline_registration::mm::TransformSource;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
 use plumbline_synth::world;
-use support::{AERIAL_GSD, Campaign, Profile, Spec};
+use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
@@ -53,6 +56,10 @@ struct Row {
     split: Split,
     /// Correspondences and correct ones of the panoramas with markings.
     marked_correspondences: (usize, usize),
+    /// Image-derived motions scored against the truth.
+    motions: Vec<MotionCheck>,
+    /// Per motion: flagged by the consistency check.
+    flagged: Vec<bool>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -78,6 +85,9 @@ fn run(name: &str, spec: &Spec) -> Row {
     let dg_error: BTreeMap<String, f64> = ids.zip(campaign.dg_error.iter().copied()).collect();
     let split = Split::of(&result, &paint, &dg_error);
     let errors = campaign.aerial_errors(&result);
+    let motions = campaign.motion_checks(&result);
+    let image_motions: Vec<_> = result.images.iter().filter_map(|d| d.motion).collect();
+    let flagged = motion::flags(&campaign.panoramas, &image_motions);
     let horizontal: Vec<f64> = errors.iter().map(|(e, _)| e[0].hypot(e[1])).collect();
     let marked = |id: &str| paint.get(id).is_some_and(|&a| a >= MARKINGS_MIN_M2);
     let marked_errors: Vec<f64> = result
@@ -105,6 +115,8 @@ fn run(name: &str, spec: &Spec) -> Row {
         build_s,
         split,
         marked_correspondences,
+        motions,
+        flagged,
     }
 }
 
@@ -130,6 +142,12 @@ fn print_tables(rows: &[Row]) {
         );
     }
     print_split(rows);
+    let motion_rows: Vec<_> =
+        rows.iter().map(|r| (r.name.as_str(), r.images, r.motions.as_slice(), r.flagged.as_slice())).collect();
+    motion::print_table(&motion_rows);
+    if std::env::var_os("MM_BENCH_MOTION_PAIRS").is_some() {
+        rows.iter().for_each(|r| motion::print_pairs(&r.name, &r.motions));
+    }
     println!("\n| profile | why images failed (count) |\n|---|---|");
     for r in rows {
         let reasons: Vec<String> = r.reasons.iter().map(|(k, v)| format!("{k}: {v}")).collect();

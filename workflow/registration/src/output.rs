@@ -7,6 +7,7 @@ use std::fmt;
 
 use plumbline_adjustment::TiePoint;
 use plumbline_geo::tiling::TileId;
+use plumbline_navigation::ImageMotion;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
@@ -57,6 +58,11 @@ pub struct ImageDiagnostic {
     pub neighbour: Option<String>,
     /// The MM↔MM transformation used and why (KAZE or the orientation-based fallback).
     pub transform: Option<TransformSource>,
+    /// The vehicle's motion between this panorama and its neighbour (in time order) measured by the KAZE
+    /// similarity, also when it disagreed with the DG poses (paper 000 §3.3, paper 001 §4.1); None when
+    /// KAZE + RANSAC found no similarity with enough inliers and unit scale.
+    #[serde(default)]
+    pub motion: Option<ImageMotion>,
     /// Corner counts through steps 3–4.
     pub corners: CornerCounts,
     /// One entry per aerial image overlapping the recording location (paper 000 §3.7–§3.8).

@@ -1,6 +1,6 @@
 //! The whole pipeline on a junction of the synthetic `tiny` world: panoramas rendered with the true poses,
-//! processed with the DG poses, registered against aerial frames (AT-reported orientations); tie points
-//! scored against the truth.
+//! processed with the DG poses, registered against aerial frames (AT-reported orientations); tie points and
+//! the image-derived motion between neighbours scored against the truth.
 
 #![allow(clippy::unwrap_used)]
 
@@ -51,6 +51,22 @@ fn tiny_junction_registers_with_correct_ties() {
     assert!(correct * 100 >= errors.len() * 99, "{correct} of {} correct: {errors:?}", errors.len());
     let consistent = errors.iter().filter(|(e, s)| e[2].abs() <= 3.0 * s[2]).count();
     assert!(consistent * 100 >= errors.len() * 99, "{consistent} of {} heights within 3σ", errors.len());
+    // Image-derived motion (paper 000 §3.3, paper 001 §4.1): most pairs have one; it agrees with the TRUE
+    // motion within 3σ for ≥ 90 % of them, with σ of centimetres and milliradians, whatever the DG motion's
+    // own error (printed beside it).
+    let motions = campaign.motion_checks(&result);
+    for m in &motions {
+        eprintln!("motion error {:?} σ {:?}; DG motion error {:?}", m.error, m.std, m.dg_error);
+    }
+    assert!(
+        motions.len() * 10 >= result.images.len() * 7,
+        "{} of {} with a motion",
+        motions.len(),
+        result.images.len()
+    );
+    let within = motions.iter().filter(|m| m.within(3.0)).count();
+    assert!(within * 10 >= motions.len() * 9, "{within} of {} within 3σ", motions.len());
+    assert!(motions.iter().all(|m| m.std[0].max(m.std[1]) <= 0.05 && m.std[2] <= 5e-3), "σ too large");
     // The result survives its wire format, and every tie passes the adjustment's checks.
     let json = serde_json::to_string(&run.result).unwrap();
     assert!(json.starts_with(r#"{"version":"1""#));

@@ -130,6 +130,7 @@ mod tests {
         let fallback = PairTransform {
             matrix: orientation_transform(&pa, &pb),
             source: TransformSource::Orientation(FallbackReason::TooFewMatches { matches: 0 }),
+            fit: None,
         };
         for t in [kaze, fallback] {
             let found = match_corners(&pa, &pb, &t, "a", &config).unwrap();

@@ -62,6 +62,18 @@ pub struct PairTransform {
     pub matrix: Matrix3<f64>,
     /// Where it came from.
     pub source: TransformSource,
+    /// The feature-based similarity when RANSAC found one with enough inliers and unit scale, whether or not
+    /// it passed the verification (a DG jump is what makes it disagree): it measures the vehicle's motion.
+    pub fit: Option<FeatureFit>,
+}
+
+/// A KAZE + RANSAC similarity between two ortho-images and the correspondences that support it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FeatureFit {
+    /// 3×3 similarity from A pixels to B pixels (least squares on the inliers).
+    pub matrix: Matrix3<f64>,
+    /// The RANSAC inliers, A and B ortho pixels.
+    pub inliers: Vec<Correspondence>,
 }
 
 /// Upright KAZE features of an ortho-image (paper 000 §3.3), without those whose blob reaches an invalid
@@ -96,7 +108,7 @@ pub fn pair_transform(
     config: &MmConfig,
 ) -> PairTransform {
     let oriented = orientation_transform(a, b);
-    let fallback = |reason| PairTransform { matrix: oriented, source: TransformSource::Orientation(reason) };
+    let fallback = |reason| PairTransform { matrix: oriented, source: TransformSource::Orientation(reason), fit: None };
     let pairs = guided_matches(fa, fb, &oriented, config.guide_radius / a.grid.gsd, config.kaze_ratio);
     if pairs.len() < config.min_kaze_inliers {
         return fallback(FallbackReason::TooFewMatches { matches: pairs.len() });
@@ -112,13 +124,16 @@ pub fn pair_transform(
     if (scale - 1.0).abs() > config.max_scale_deviation {
         return fallback(FallbackReason::Scale { scale });
     }
+    let inliers = pairs.iter().zip(&fit.inliers).filter(|&(_, &keep)| keep).map(|(c, _)| *c).collect();
+    let measured = Some(FeatureFit { matrix: h, inliers });
     // paper 000 §3.3: project A's centre with both transformations and compare metric distances.
     let disagreement_m = centre_disagreement(a, &h, &oriented) * a.grid.gsd;
     if disagreement_m > config.max_disagreement {
-        return fallback(FallbackReason::Disagrees { disagreement_m });
+        let source = TransformSource::Orientation(FallbackReason::Disagrees { disagreement_m });
+        return PairTransform { matrix: oriented, source, fit: measured };
     }
     let source = TransformSource::Kaze { matches: pairs.len(), inliers: fit.inlier_count(), disagreement_m };
-    PairTransform { matrix: h, source }
+    PairTransform { matrix: h, source, fit: measured }
 }
 
 /// Descriptor matches constrained by the DG relative orientation (paper 000 §3.1: the MM orientation may
@@ -238,9 +253,15 @@ mod tests {
             other => panic!("expected a disagreement, got {other:?}"),
         }
         assert_eq!(t.matrix, orientation_transform(&a, &b));
+        // The disagreeing similarity is kept: it measures the motion across the DG jump.
+        let fit = t.fit.expect("the feature fit of a disagreeing pair");
+        let (u, v) = apply_h(&fit.matrix, 200.0, 200.0).unwrap();
+        let want = true_in_b(&a, &b, [0.45, 0.0], 200.0, 200.0);
+        assert!((u - want[0]).hypot(v - want[1]) < 0.5 && fit.inliers.len() >= config.min_kaze_inliers);
         let (a, b, config) = pair([0.0; 3], true);
         let (fa, fb) = (features(&a, "a", &config).unwrap(), features(&b, "b", &config).unwrap());
         let t = pair_transform(&a, &fa, &b, &fb, &config);
         assert!(matches!(t.source, TransformSource::Orientation(FallbackReason::TooFewMatches { .. })), "{t:?}");
+        assert_eq!(t.fit, None);
     }
 }

@@ -7,7 +7,7 @@ use plumbline_adjustment::TiePoint;
 
 use super::{PipelineConfig, Prepared, StageTimings, ties};
 use crate::aerial::{AerialReference, MmPatch, PatchPoint, register_patch};
-use crate::mm::{MmPoint, Panorama, PanoramaRig, match_corners, pair_transform, triangulate};
+use crate::mm::{MmPoint, Panorama, PanoramaRig, image_motion, match_corners, pair_transform, triangulate};
 use crate::output::{CornerCounts, DiscardReason, ImageDiagnostic};
 
 /// Horizontal distance between the DG camera centres of two panoramas, metres.
@@ -57,6 +57,7 @@ pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> (ImageDiagnostic, Vec<
         time: pano.time,
         neighbour: None,
         transform: None,
+        motion: None,
         corners: CornerCounts::default(),
         aerial_images: Vec::new(),
         aerial_points: 0,
@@ -92,6 +93,9 @@ fn run(
     let t0 = Instant::now();
     let transform = pair_transform(patch, fa, patch_b, fb, mm);
     diag.transform = Some(transform.source.clone());
+    // paper 001 §4.1: the motion whenever KAZE measured it, also when it disagreed with the DG poses.
+    let measure = |fit| image_motion((pano, patch), (order[j], patch_b), fit, rig.camera_height, mm);
+    diag.motion = transform.fit.as_ref().and_then(measure);
     let corners = match_corners(patch, patch_b, &transform, &pano.id, mm);
     timings.matching += t0.elapsed();
     let corners = corners.map_err(|e| (failed("corner matching", e.to_string()), vec![]))?;

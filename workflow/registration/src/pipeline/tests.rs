@@ -1,13 +1,14 @@
 //! The driver on an analytic scene: pairing, per-image diagnostics for bad input, and tie rays that meet
-//! at the true ground point when cast from the true poses.
+//! at the true ground point when cast from the true poses; the image-derived motion across a DG jump.
 
-use plumbline_geo::Vec3;
 use plumbline_geo::dg::intersect_height;
+use plumbline_geo::{Attitude, Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
 use plumbline_imaging::GrayImage;
+use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};
 
 use super::*;
-use crate::mm::MmConfig;
 use crate::mm::testing::{Ground, rig, scene_panorama, true_pose};
+use crate::mm::{FallbackReason, MmConfig, TransformSource};
 use crate::output::DiscardReason;
 
 #[test]
@@ -72,4 +73,65 @@ fn pairs_neighbours_reports_bad_and_lonely_images_and_writes_ties_consistent_wit
         within += usize::from(angle <= 3.0 * t.rays[1].sigma);
     }
     assert!(within * 10 >= ties.len() * 9, "{within} of {} within 3σ", ties.len());
+}
+
+/// A DG jump between two panoramas: the feature transformation disagrees with the DG poses (and the
+/// orientation fallback serves the corners), yet the image-derived motion reports the TRUE displacement,
+/// and the consistency check of paper 001 §4.1 flags exactly the pairs across the jump.
+#[test]
+fn a_dg_jump_leaves_the_image_motion_true_and_the_consistency_check_flags_it() {
+    let ground = Ground::markings(23, [5.0, 0.0], 14.0);
+    let rig = rig(true);
+    let common = [0.9, -0.6, 0.05];
+    let jumped = [0.9, -0.6 + 0.8, 0.05];
+    let places = [([0.0, 0.0], 1.55), ([5.0, 0.1], 1.55), ([10.0, 0.2], 1.57)];
+    let panoramas: Vec<Panorama> = places
+        .iter()
+        .enumerate()
+        .map(|(i, (at, heading))| {
+            let mut p =
+                scene_panorama(&format!("p{i}"), &ground, &rig, *at, *heading, if i < 2 { common } else { jumped });
+            p.time = 100.0 + i as f64;
+            p
+        })
+        .collect();
+    let config =
+        PipelineConfig { mm: MmConfig { half_extent: 7.5, ..MmConfig::default() }, ..PipelineConfig::default() };
+    let run = register_tile(TileId { col: 0, row: 0 }, &panoramas, &rig, &AerialReference::Frames(Vec::new()), &config);
+    let result = run.result.into_latest();
+    assert!(matches!(result.images[0].transform, Some(TransformSource::Kaze { .. })), "{:?}", result.images[0]);
+    let jump = &result.images[1];
+    assert!(
+        matches!(jump.transform, Some(TransformSource::Orientation(FallbackReason::Disagrees { disagreement_m }))
+            if (disagreement_m - 0.8).abs() < 0.05),
+        "{:?}",
+        jump.transform
+    );
+    let motions: Vec<ImageMotion> = result.images.iter().map(|d| d.motion.unwrap()).collect();
+    // p2 pairs backwards with p1: the same pair, reported in time order.
+    let truth = [[5.0, 0.1, 0.0], [5.0, 0.1, 0.02], [5.0, 0.1, 0.02]];
+    for (m, want) in motions.iter().zip(truth) {
+        let error = [m.displacement[0] - want[0], m.displacement[1] - want[1], m.heading_change - want[2]];
+        assert!((0..3).all(|k| error[k].abs() <= 3.0 * m.std[k]), "{m:?}: error {error:?}");
+        assert!(m.std[0] <= 0.03 && m.std[2] <= 3e-3, "{m:?}");
+    }
+    assert_eq!([motions[1].start, motions[1].end, motions[2].start, motions[2].end], [101.0, 102.0, 101.0, 102.0]);
+    // The DG trajectory through the panoramas' poses: the check flags the pairs across the jump only.
+    let records = panoramas
+        .iter()
+        .map(|p| TrajectoryRecord {
+            time: p.time,
+            position: p.pose.translation,
+            attitude: Attitude::from_rotation(&p.pose.rotation),
+            std: None,
+        })
+        .collect();
+    let dg = Trajectory::new(records, &ValidationLimits::default()).unwrap();
+    let report = check_consistency(&dg, &motions, &ConsistencyConfig::default()).unwrap();
+    assert!(report.skipped.is_empty(), "{:?}", report.skipped);
+    let flagged: Vec<usize> = report.flags.iter().map(|f| f.pair).collect();
+    assert_eq!(flagged, [1, 2]);
+    // Image − DG: the jump, reversed (DG moved 0.8 m north too far).
+    let d = report.flags[0].discrepancy;
+    assert!(d[0].abs() < 0.03 && (d[1] + 0.8).abs() < 0.03, "{d:?}");
 }

@@ -178,6 +178,66 @@ impl Campaign {
     }
 }
 
+/// One pair's image-derived motion scored against the truth.
+#[derive(Clone, Copy, Debug)]
+pub struct MotionCheck {
+    /// Image − true motion: east, north (m), heading change (rad).
+    pub error: [f64; 3],
+    /// The reported σ of each.
+    pub std: [f64; 3],
+    /// DG − true motion of the same pair.
+    pub dg_error: [f64; 3],
+    /// The true motion: east, north (m), heading change (rad).
+    pub truth: [f64; 3],
+}
+
+impl MotionCheck {
+    /// True when every component lies within `k` σ.
+    pub fn within(&self, k: f64) -> bool {
+        (0..3).all(|i| self.error[i].abs() <= k * self.std[i])
+    }
+}
+
+fn wrap(a: f64) -> f64 {
+    let t = a.rem_euclid(std::f64::consts::TAU);
+    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
+}
+
+/// Body-origin displacement (east, north) and heading change from pose `a` to pose `b`.
+fn motion_between(a: &MapFromBody, b: &MapFromBody) -> [f64; 3] {
+    let heading = |p: &MapFromBody| plumbline_geo::Attitude::from_rotation(&p.rotation).heading;
+    let (ta, tb) = (a.translation, b.translation);
+    [tb.x() - ta.x(), tb.y() - ta.y(), wrap(heading(b) - heading(a))]
+}
+
+impl Campaign {
+    /// For each panorama with an image-derived motion, in image order: its error against the true motion between the TRUE
+    /// poses of the pair, its σ, and the DG motion's error.
+    pub fn motion_checks(&self, result: &TileResultV1) -> Vec<MotionCheck> {
+        let truth = |id: &str| self.truth.iter().find(|(i, _)| i == id).map(|(_, p)| p);
+        let dg = |id: &str| self.panoramas.iter().find(|p| p.id == id).map(|p| &p.pose);
+        result
+            .images
+            .iter()
+            .filter_map(|d| {
+                let m = d.motion?;
+                let other = d.neighbour.as_deref().expect("a motion has a neighbour");
+                let (first, second) =
+                    if m.start == d.time { (d.image.as_str(), other) } else { (other, d.image.as_str()) };
+                let want = motion_between(truth(first).expect("truth"), truth(second).expect("truth"));
+                let dg_motion = motion_between(dg(first).expect("DG pose"), dg(second).expect("DG pose"));
+                let got = [m.displacement[0], m.displacement[1], m.heading_change];
+                Some(MotionCheck {
+                    error: [got[0] - want[0], got[1] - want[1], wrap(got[2] - want[2])],
+                    std: m.std,
+                    dg_error: [dg_motion[0] - want[0], dg_motion[1] - want[1], wrap(dg_motion[2] - want[2])],
+                    truth: want,
+                })
+            })
+            .collect()
+    }
+}
+
 /// The frames of the standard block whose image contains a panorama's ground point, rendered with their
 /// true orientation; the reference carries the AT-reported one.
 fn aerial_frames(world: &World, seed: u64, shots: &[Shot]) -> AerialReference {
