@@ -5,12 +5,16 @@
 //! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
 //! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
 //! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`),
-//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error).
+//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error); for experiments on the
+//! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
+//! `MM_BENCH_DG_SEARCH` (`true`/`false`) override the defaults.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
 #[path = "diagnosis/mod.rs"]
 mod diagnosis;
+#[path = "heights/mod.rs"]
+mod heights;
 #[path = "motion/mod.rs"]
 mod motion;
 #[path = "../tests/support/mod.rs"]
@@ -28,6 +32,16 @@ use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
+}
+
+/// The default pipeline with the experiment overrides of the module docs.
+fn config() -> PipelineConfig {
+    let mut c = PipelineConfig::default();
+    c.aerial.min_ncc = env("MM_BENCH_MIN_NCC", c.aerial.min_ncc);
+    c.aerial.template_half = env("MM_BENCH_TEMPLATE_HALF", c.aerial.template_half);
+    c.aerial.search_radius = env("MM_BENCH_SEARCH_RADIUS", c.aerial.search_radius);
+    c.aerial.dg_search = env("MM_BENCH_DG_SEARCH", c.aerial.dg_search);
+    c
 }
 
 fn profile(name: &str) -> Option<Profile> {
@@ -60,6 +74,8 @@ struct Row {
     motions: Vec<MotionCheck>,
     /// Per motion: flagged by the consistency check.
     flagged: Vec<bool>,
+    /// Per aerial point: panorama id, height error against the truth, reported σ_H (m).
+    heights: Vec<heights::HeightError>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -71,13 +87,8 @@ fn run(name: &str, spec: &Spec) -> Row {
     let t0 = Instant::now();
     let campaign = Campaign::build(spec);
     let build_s = t0.elapsed().as_secs_f64();
-    let run = register_tile(
-        TileId { col: 0, row: 0 },
-        &campaign.panoramas,
-        &campaign.rig,
-        &campaign.reference,
-        &PipelineConfig::default(),
-    );
+    let run =
+        register_tile(TileId { col: 0, row: 0 }, &campaign.panoramas, &campaign.rig, &campaign.reference, &config());
     let result = run.result.into_latest();
     let half = PipelineConfig::default().mm.half_extent;
     let ids = campaign.truth.iter().map(|(id, _)| id.clone());
@@ -98,6 +109,13 @@ fn run(name: &str, spec: &Spec) -> Row {
         .filter(|(t, _)| t.id.0.split(':').next().is_some_and(marked))
         .map(|(_, e)| *e)
         .collect();
+    let heights = result
+        .ties
+        .iter()
+        .filter(|t| t.aerial.is_some())
+        .zip(&errors)
+        .map(|(t, (e, s))| (t.id.0.split(':').next().unwrap_or("").to_owned(), e[2], s[2]))
+        .collect();
     let marked_correspondences =
         (marked_errors.len(), marked_errors.iter().filter(|&&e| e <= 2.0 * AERIAL_GSD).count());
     let kaze_pairs = result.images.iter().filter(|d| matches!(d.transform, Some(TransformSource::Kaze { .. }))).count();
@@ -117,6 +135,7 @@ fn run(name: &str, spec: &Spec) -> Row {
         marked_correspondences,
         motions,
         flagged,
+        heights,
     }
 }
 
@@ -142,6 +161,8 @@ fn print_tables(rows: &[Row]) {
         );
     }
     print_split(rows);
+    let height_rows: Vec<_> = rows.iter().map(|r| (r.name.as_str(), r.heights.as_slice())).collect();
+    heights::print_table(&height_rows);
     let motion_rows: Vec<_> =
         rows.iter().map(|r| (r.name.as_str(), r.images, r.motions.as_slice(), r.flagged.as_slice())).collect();
     motion::print_table(&motion_rows);

@@ -10,8 +10,9 @@
 //! plausibility check; `guided`: descriptor matching within the DG bound) with `correlate` (a whole-patch
 //! NCC fallback when KAZE finds no transformation), `correspond` (§3.8 NCC + LSM, RANSAC, cross-image
 //! consistency), `triangulate` (§3.9), `points` (§3.9 over a patch, or the orthophoto + terrain lookup),
-//! `image` (steps 5–7 for one aerial image) and `register` (the driver: overlapping images, one prepared MM
-//! patch per aerial orientation, images in parallel).
+//! `image` (steps 5–7 for one aerial image; a DG-bounded corner search when no initial transformation
+//! passes) and `register` (the driver: overlapping images, one prepared MM patch per aerial orientation,
+//! images in parallel).
 //!
 //! Architecture invariant: I/O-free and deterministic (seeded RANSAC, no clocks); one broken aerial image
 //! or patch is reported in the outcome, never a panic or an error that sinks the tile.

@@ -70,6 +70,12 @@ pub struct AerialConfig {
     pub min_correlation: f64,
     /// The fallback's coarse peak must exceed the best placement a coarse pixel pair away by this much.
     pub min_correlation_margin: f64,
+    /// When neither KAZE nor the whole-patch correlation finds a plausible initial transformation (none, or a
+    /// wrong one the plausibility check rejected), search every corner over the whole plausibility bound
+    /// around its DG transfer (paper 000 §3.1: the DG pose bounds the search; the prepared patch already has
+    /// the aerial orientation and GSD, §3.6) and let the per-image RANSAC (§3.8) find the common
+    /// transformation, which must pass the same plausibility check (§3.7).
+    pub dg_search: bool,
     /// Plausibility bounds of the initial transformation.
     pub plausibility: Plausibility,
     /// The patch centre must project at least this far inside an aerial frame, pixels.
@@ -121,6 +127,7 @@ impl Default for AerialConfig {
             correlation_fallback: true,
             min_correlation: 0.5,
             min_correlation_margin: 0.1,
+            dg_search: true,
             plausibility: Plausibility::default(),
             frame_margin_px: 10.0,
             min_images: 2,

@@ -36,16 +36,18 @@ pub(crate) struct CornerMatches {
 }
 
 /// Match the corners (`corners[slot]` in prepared pixels) into the Wallis-filtered aerial `window` around
-/// their transfer by `transform` (paper 000 §3.8: template in the MM patch, search window in the aerial one).
+/// their transfer by `transform` within `radius` pixels (paper 000 §3.8: template in the MM patch, search
+/// window in the aerial one).
 pub(crate) fn match_corners(
     prepared: &Prepared,
     corners: &[[f64; 2]],
     window: &GrayImage,
     transform: &Matrix3<f64>,
+    radius: usize,
     config: &AerialConfig,
 ) -> CornerMatches {
     let searcher = NccSearcher::new(window);
-    let reach = (config.search_radius + config.template_half) as f64;
+    let reach = (radius + config.template_half) as f64;
     let (w, h) = (window.width() as f64, window.height() as f64);
     let candidates: Vec<(usize, [f64; 2], (f64, f64))> = corners
         .iter()
@@ -58,7 +60,7 @@ pub(crate) fn match_corners(
         .iter()
         .filter_map(|&(slot, q, (u, v))| {
             let template = prepared.template(q, config.template_half);
-            let m = search(&searcher, &template, [u, v], config.search_radius)?;
+            let m = search(&searcher, &template, [u, v], radius)?;
             if m.score < config.min_ncc {
                 return None;
             }
@@ -73,12 +75,12 @@ pub(crate) fn match_corners(
     CornerMatches { candidates: candidates.len(), matches }
 }
 
-/// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers if at least
-/// `config.min_correspondences` remain.
+/// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers and the similarity (prepared →
+/// window pixels) if at least `config.min_correspondences` remain.
 pub(crate) fn remove_outliers(
     matches: Vec<PointMatch>,
     config: &AerialConfig,
-) -> Result<Vec<PointMatch>, ImageRejection> {
+) -> Result<(Vec<PointMatch>, Matrix3<f64>), ImageRejection> {
     let needed = config.min_correspondences;
     let too_few = |found| ImageRejection::TooFewCorrespondences { found, needed };
     if matches.len() < needed.max(Model::Similarity.min_samples()) {
@@ -88,7 +90,7 @@ pub(crate) fn remove_outliers(
     let fit = ransac(Model::Similarity, &pairs, &config.match_ransac)
         .map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
     let kept: Vec<PointMatch> = matches.into_iter().zip(&fit.inliers).filter(|p| *p.1).map(|p| p.0).collect();
-    if kept.len() < needed { Err(too_few(kept.len())) } else { Ok(kept) }
+    if kept.len() < needed { Err(too_few(kept.len())) } else { Ok((kept, fit.transform)) }
 }
 
 /// Paper 000 §3.8 consistency across aerial images: `grounds[k]` is where observation k of one point meets

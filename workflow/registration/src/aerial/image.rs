@@ -1,13 +1,20 @@
 //! Steps 5–7 of paper 000 (§3.6–3.8) for one aerial image: its window, the initial transformation from the
 //! MM side prepared for its orientation, the corner matching and the RANSAC outlier removal.
+//!
+//! When KAZE and the whole-patch correlation find no plausible initial transformation, the corners are searched over
+//! the whole DG bound instead (`AerialConfig::dg_search`); such an image reads `passed` with
+//! `initial_inliers` 0 and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept
+//! matches, which passes the same plausibility check (paper 000 §3.7) as a KAZE transformation.
 
+use nalgebra::Matrix3;
+use plumbline_imaging::GrayImage;
 use plumbline_imaging::kaze::KazeFeatures;
 
 use super::MmPatch;
 use super::config::AerialConfig;
-use super::correspond::{match_corners, remove_outliers};
+use super::correspond::{PointMatch, match_corners, remove_outliers};
 use super::diagnostics::{AerialImageDiagnostic, ImageRejection};
-use super::initial::initial_transform;
+use super::initial::{check_plausibility, initial_transform};
 use super::prepare::Prepared;
 use super::view::{LocalGeometry, View};
 
@@ -74,22 +81,84 @@ pub(super) fn register_image(
     diagnostic.initial_inliers = initial.inliers;
     diagnostic.offset_m = initial.offset_m;
     diagnostic.fallback_ncc = initial.fallback_ncc;
+    let corners: Vec<[f64; 2]> = patch.points.iter().map(|p| prepared.pixel_of_mm(patch.grid, p.pixel)).collect();
     let transform = match initial.transform {
         Ok(t) => t,
+        Err(
+            why @ (ImageRejection::NoTransform { .. }
+            | ImageRejection::FewFeatures { .. }
+            | ImageRejection::Implausible { .. }),
+        ) if config.dg_search => {
+            let aerial = AerialSide { image: &aerial, predicted, origin: window.origin };
+            return dg_bounded(prepared, &corners, &aerial, patch.position_sigma, config, diagnostic, why);
+        }
         Err(r) => return fail(&mut diagnostic, r),
     };
     diagnostic.passed = true;
-    let corners: Vec<[f64; 2]> = patch.points.iter().map(|p| prepared.pixel_of_mm(patch.grid, p.pixel)).collect();
-    let found = match_corners(prepared, &corners, &aerial, &transform, config);
+    let found = match_corners(prepared, &corners, &aerial, &transform, config.search_radius, config);
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
     match remove_outliers(found.matches, config) {
-        Ok(kept) => {
-            diagnostic.correspondences = kept.len();
-            let o = window.origin;
-            let matches = kept.iter().map(|m| (m.slot, [m.window[0] + o[0], m.window[1] + o[1]])).collect();
-            ImageResult { diagnostic, matches }
-        }
+        Ok((kept, _)) => finish(diagnostic, &kept, window.origin),
         Err(r) => fail(&mut diagnostic, r),
     }
+}
+
+/// The Wallis-filtered aerial window, where the DG georeferencing puts the patch centre in it, and its place
+/// in the full image.
+struct AerialSide<'a> {
+    image: &'a GrayImage,
+    predicted: [f64; 2],
+    origin: [f64; 2],
+}
+
+/// Steps 6–7 without an initial transformation: every corner searched over the whole plausibility bound
+/// around its DG transfer (paper 000 §3.1: the DG pose bounds the search), §3.8's RANSAC for the common
+/// transformation, which must pass §3.7's plausibility check like a KAZE one. `why` is kept as the rejection
+/// when too few corners agree.
+fn dg_bounded(
+    prepared: &Prepared,
+    corners: &[[f64; 2]],
+    aerial: &AerialSide<'_>,
+    position_sigma: f64,
+    config: &AerialConfig,
+    mut diagnostic: AerialImageDiagnostic,
+    why: ImageRejection,
+) -> ImageResult {
+    let (gsd, bounds) = (prepared.grid.gsd, &config.plausibility);
+    let radius = (bounds.bound_m(position_sigma) / gsd).ceil() as usize;
+    let t = dg_transform(prepared, aerial.predicted);
+    let found = match_corners(prepared, corners, aerial.image, &t, radius, config);
+    diagnostic.candidates = found.candidates;
+    diagnostic.matched = found.matches.len();
+    let (kept, t) = match remove_outliers(found.matches, config) {
+        Ok(k) => k,
+        Err(_) => {
+            diagnostic.rejection = Some(why);
+            return ImageResult { diagnostic, matches: Vec::new() };
+        }
+    };
+    let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
+    let check = check_plausibility(&t, centre, aerial.predicted, gsd, position_sigma, bounds);
+    diagnostic.offset_m = Some(check.offset_m);
+    if !check.passed {
+        diagnostic.rejection = Some(check.rejection());
+        return ImageResult { diagnostic, matches: Vec::new() };
+    }
+    diagnostic.passed = true;
+    finish(diagnostic, &kept, aerial.origin)
+}
+
+/// The image's result from its kept correspondences (window pixels; `origin` = the window's place).
+fn finish(mut diagnostic: AerialImageDiagnostic, kept: &[PointMatch], origin: [f64; 2]) -> ImageResult {
+    diagnostic.correspondences = kept.len();
+    let matches = kept.iter().map(|m| (m.slot, [m.window[0] + origin[0], m.window[1] + origin[1]])).collect();
+    ImageResult { diagnostic, matches }
+}
+
+/// The translation the DG georeferencing implies: prepared pixels → window pixels, the patch centre to
+/// `predicted` (the prepared patch has the aerial orientation and GSD, paper 000 §3.6).
+pub(super) fn dg_transform(prepared: &Prepared, predicted: [f64; 2]) -> Matrix3<f64> {
+    let (cu, cv) = (prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0);
+    Matrix3::new(1.0, 0.0, predicted[0] - cu, 0.0, 1.0, predicted[1] - cv, 0.0, 0.0, 1.0)
 }

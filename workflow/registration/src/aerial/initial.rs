@@ -59,6 +59,18 @@ pub fn check_plausibility(
     PlausibilityCheck { offset_m, bound_m, rotation, scale, passed }
 }
 
+impl PlausibilityCheck {
+    /// The rejection of a transformation that failed this check.
+    pub(crate) fn rejection(&self) -> ImageRejection {
+        ImageRejection::Implausible {
+            offset_m: self.offset_m,
+            bound_m: self.bound_m,
+            rotation_deg: self.rotation.to_degrees(),
+            scale: self.scale,
+        }
+    }
+}
+
 /// An initial transformation that passed, or why there is none; with the KAZE inliers and the offset.
 #[derive(Clone, Debug)]
 pub(crate) struct Initial {
@@ -88,16 +100,7 @@ pub(crate) fn initial_transform(
         let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
         let (gsd, bounds) = (prepared.grid.gsd, &config.plausibility);
         let check = check_plausibility(&t, centre, predicted, gsd, position_sigma, bounds);
-        let transform = if check.passed {
-            Ok(t)
-        } else {
-            Err(ImageRejection::Implausible {
-                offset_m: check.offset_m,
-                bound_m: check.bound_m,
-                rotation_deg: check.rotation.to_degrees(),
-                scale: check.scale,
-            })
-        };
+        let transform = if check.passed { Ok(t) } else { Err(check.rejection()) };
         Initial { transform, inliers, fallback_ncc, offset_m: Some(check.offset_m) }
     };
     let shift = [predicted[0] - prepared.grid.width as f64 / 2.0, predicted[1] - prepared.grid.height as f64 / 2.0];

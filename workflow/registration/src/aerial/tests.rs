@@ -363,8 +363,35 @@ fn without_kaze_features_the_whole_patch_correlation_finds_the_translation() {
         assert!(d.passed && d.initial_inliers == 0 && ncc >= config.min_correlation, "{d:?}");
         assert!((d.offset_m.unwrap() - DG_OFFSET[0].hypot(DG_OFFSET[1])).abs() < 0.15, "{d:?}");
     }
-    // Without the fallback the same images fail for want of features.
-    let off = register_patch(&f.patch(), &frames, &AerialConfig { correlation_fallback: false, ..config });
+    // Without the fallback (and without the DG-bounded search) the same images fail for want of features.
+    let off =
+        register_patch(&f.patch(), &frames, &AerialConfig { correlation_fallback: false, dg_search: false, ..config });
     assert_eq!(off.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }));
     assert!(off.images.iter().all(|d| matches!(d.rejection, Some(ImageRejection::FewFeatures { mm: 0, aerial: 0 }))));
+}
+
+#[test]
+fn without_an_initial_transformation_the_dg_bounded_search_finds_the_offset_and_no_more() {
+    // No KAZE features and no whole-patch correlation: every corner is searched over the whole DG bound
+    // (σ floor 0.5 m → 2.0 m) and the per-image RANSAC finds the common translation, the 0.8 m DG offset.
+    let f = fixture();
+    let kaze = plumbline_imaging::kaze::KazeConfig { threshold: 1e3, ..AerialConfig::default().kaze };
+    let config = AerialConfig { kaze, correlation_fallback: false, ..AerialConfig::default() };
+    let frames = AerialReference::Frames(f.frames.clone());
+    let outcome = register_patch(&f.patch(), &frames, &config);
+    // Fewer corners than with a transformation (a wide search finds look-alikes), all of them correct.
+    f.check_matched(&outcome, f.points.len() / 3, AT_TOLERANCE);
+    for d in &outcome.images {
+        assert!(d.passed && d.initial_inliers == 0 && d.fallback_ncc.is_none(), "{d:?}");
+        assert!((d.offset_m.unwrap() - DG_OFFSET[0].hypot(DG_OFFSET[1])).abs() < 0.15, "{d:?}");
+    }
+    // A bound smaller than the offset (σ 5 cm trusted: 0.65 m < 0.8 m): the square search window still
+    // reaches the true matches, but their transformation fails the plausibility check like a KAZE one would.
+    let trusting = Plausibility { min_position_sigma: 0.0, ..Plausibility::default() };
+    let short = register_patch(&f.patch_with_sigma(0.05), &frames, &AerialConfig { plausibility: trusting, ..config });
+    assert_eq!(short.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }), "{:?}", short.images);
+    for d in &short.images {
+        let Some(ImageRejection::Implausible { offset_m, bound_m, .. }) = d.rejection else { panic!("{d:?}") };
+        assert!((offset_m - 0.8).abs() < 0.15 && (bound_m - 0.65).abs() < 1e-12, "{d:?}");
+    }
 }
