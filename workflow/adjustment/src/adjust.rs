@@ -68,6 +68,19 @@ impl StandstillOutcome {
     }
 }
 
+/// A standstill whose zero-velocity constraint data snooping rejected: the DG said the vehicle stood still,
+/// the observations say it did not (or the DG jumped where the constraint could not absorb it). For the
+/// report's flagged epochs, beside [`Adjustment::rejected`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct RejectedStandstill {
+    /// The interval.
+    pub standstill: Standstill,
+    /// Its largest normalised residual |w| when rejected.
+    pub w: f64,
+    /// The snooping round (0-based) that rejected it.
+    pub round: usize,
+}
+
 /// The adjusted coordinates of a tie point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct AdjustedPoint {
@@ -104,6 +117,18 @@ pub struct Adjustment {
     pub iterations: usize,
     /// Time spent in the linear algebra.
     pub timings: SolverTimings,
+}
+
+impl Adjustment {
+    /// The standstills whose zero-velocity constraint data snooping rejected, in time order.
+    pub fn rejected_standstills(&self) -> Vec<RejectedStandstill> {
+        let rejected = |s: &StandstillOutcome| s.rejected.map(|(w, round)| (s.standstill, w, round));
+        self.standstills
+            .iter()
+            .filter_map(rejected)
+            .map(|(standstill, w, round)| RejectedStandstill { standstill, w, round })
+            .collect()
+    }
 }
 
 /// Adjust the trajectory (see the crate documentation): a Huber-robust solution first; then, with

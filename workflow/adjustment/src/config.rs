@@ -3,6 +3,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::faults::FaultPrior;
+use crate::localize::JumpLocalization;
 use crate::standstill::StandstillConfig;
 
 /// How the DG trajectory's relative accuracy enters as constraints between consecutive nodes.
@@ -59,6 +61,12 @@ pub struct AdjustmentConfig {
     pub random_walk: RandomWalk,
     /// Weak absolute prior at every node: σ = prior_scale · σ_DG.
     pub prior_scale: f64,
+    /// The weak prior counts once per this many seconds of trajectory instead of once per node: a node's prior
+    /// σ is scaled by √(prior_time / Δt), Δt the time the node stands for (half the span to its neighbours),
+    /// never below `prior_scale` · σ_DG. The DG error is correlated over seconds, so independent priors at dense
+    /// nodes would add up to a pull towards the DG that grows with the observation density. `None`: per node.
+    #[serde(default = "default_prior_time")]
+    pub prior_time: Option<f64>,
     /// DG standard deviations used where the trajectory has none: east, north, height (m), roll, pitch,
     /// heading (rad).
     pub default_std: [f64; 6],
@@ -71,9 +79,36 @@ pub struct AdjustmentConfig {
     /// Converged when no update component exceeds this (metres / radians), or the objective drops by less
     /// than 1e-10 of itself.
     pub tolerance: f64,
+    /// Floor on the weak prior's position σ between DG breaks close enough to be one jump (`None`: off).
+    #[serde(default = "default_fault_prior")]
+    pub fault_prior: Option<FaultPrior>,
+    /// Nodes inside flagged weak links and their weakening placed where the DG jumped (`None`: even).
+    #[serde(default = "default_localization")]
+    pub jump_localization: Option<JumpLocalization>,
+    /// One 2-D nuisance offset per cadastre object observed more than once (prior σ = its `sigma_pole`), the
+    /// updates then weighted with `sigma_camera` alone: they share the object's cadastre error, so they must
+    /// not pull like independent control (`false`: every update weighted with paper 002 eq. (1)).
+    #[serde(default = "default_true")]
+    pub pole_offsets: bool,
     /// Standstill detection on the DG trajectory and zero-velocity constraints (`None`: off).
     #[serde(default = "default_standstill")]
     pub standstill: Option<StandstillConfig>,
+}
+
+fn default_fault_prior() -> Option<FaultPrior> {
+    Some(FaultPrior::default())
+}
+
+fn default_localization() -> Option<JumpLocalization> {
+    Some(JumpLocalization::default())
+}
+
+fn default_true() -> bool {
+    true
+}
+
+fn default_prior_time() -> Option<f64> {
+    None
 }
 
 fn default_standstill() -> Option<StandstillConfig> {
@@ -87,12 +122,16 @@ impl Default for AdjustmentConfig {
             min_node_gap: 1e-3,
             random_walk: RandomWalk::default(),
             prior_scale: 10.0,
+            prior_time: default_prior_time(),
             default_std: [0.05, 0.05, 0.08, 3e-4, 3e-4, 8e-4],
             huber: Some(2.0),
             snooping: Some(Snooping::default()),
             max_iterations: 20,
             tolerance: 1e-5,
             standstill: default_standstill(),
+            pole_offsets: true,
+            fault_prior: default_fault_prior(),
+            jump_localization: default_localization(),
         }
     }
 }

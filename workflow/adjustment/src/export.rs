@@ -44,7 +44,8 @@ pub struct ExportedProblem {
 
 /// Export the chain and the pole CUPTs of the problem [`crate::adjust`] would solve.
 pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> ExportedProblem {
-    let p = Problem::build(input, config, faer::Par::Seq);
+    // The export has no nuisance offsets: every CUPT carries paper 002 eq. (1)'s σ.
+    let p = Problem::build(input, &AdjustmentConfig { pole_offsets: false, ..*config }, faer::Par::Seq);
     let nodes = p
         .nodes
         .times
@@ -57,7 +58,7 @@ pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> Exporte
         .obs
         .iter()
         .filter_map(|o| match &o.kind {
-            Kind::Pole { observed, cadastre, sigma } => Some(ExportedPole {
+            Kind::Pole { observed, cadastre, sigma, .. } => Some(ExportedPole {
                 parts: o.parts.clone(),
                 dg_position: o.dg.p.into(),
                 observed: (*observed).into(),

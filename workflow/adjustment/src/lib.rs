@@ -4,7 +4,12 @@
 //!   R' = Exp(δθ) R) at node epochs — the observation epochs, weak-link boundaries, the trajectory ends and
 //!   optional regular spacing — linearly interpolated in between; plus the coordinates of tie points.
 //! - **DG model**: random-walk constraints between consecutive nodes whose strength follows the DG σ
-//!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]), and a weak absolute prior per node.
+//!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]) — with nodes inside and the freedom put
+//!   where the DG's motion is anomalous, i.e. where it jumped ([`JumpLocalization`]) — and a weak absolute
+//!   prior per node, floored between DG breaks close enough to be one jump ([`FaultPrior`]): there the DG's
+//!   own σ says nothing about its offset.
+//! - **Cadastre objects**: the pole updates of one object share its cadastre error; an object seen more than
+//!   once gets a 2-D nuisance offset with prior σ_pole, its updates keep σ_cam (paper 002 eq. (1) split).
 //! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
 //!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]) and aerial coordinates.
 //! - **Standstills** ([`detect_standstills`]): where the DG trajectory says the vehicle stands still, the
@@ -17,18 +22,23 @@
 //!   diagonal) and posterior covariances, both from the selected inverse of the normal matrix (Takahashi
 //!   recurrences on the factor's pattern).
 //! - **Output** ([`Adjustment`]): node corrections with covariances, tie points, rejected and skipped
-//!   observations, variance factors, timings; [`Adjustment::apply`] corrects a full-rate trajectory.
+//!   observations, standstills with their fate ([`Adjustment::rejected_standstills`]), variance factors,
+//!   timings; [`Adjustment::apply`] corrects a full-rate trajectory.
 //!   A tie point that snooping leaves undetermined (no aerial coordinates, fewer than two rays) is rejected
 //!   whole. [`export`] writes the chain and pole CUPTs as plain data for the GTSAM comparison bench.
 
 mod adjust;
 mod apply;
+mod chain;
 mod config;
 mod export;
+mod faults;
+mod localize;
 mod model;
 mod nodes;
 mod normal;
 mod observations;
+mod offsets;
 mod parallel;
 mod pattern;
 mod problem;
@@ -38,10 +48,13 @@ mod standstill;
 mod stats;
 
 pub use adjust::{
-    AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, StandstillOutcome, adjust,
+    AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, RejectedStandstill,
+    StandstillOutcome, adjust,
 };
 pub use config::{AdjustmentConfig, RandomWalk, Snooping};
 pub use export::{ExportedNode, ExportedPole, ExportedProblem, export};
+pub use faults::FaultPrior;
+pub use localize::JumpLocalization;
 pub use nodes::WeakLink;
 pub use observations::{
     AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1, PoleUpdate,

@@ -33,7 +33,14 @@ pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
     let delta: Vector6<f64> = o.parts.iter().map(|(k, w)| node(x, *k) * *w).sum();
     let point = |i: usize| Vector3::from_column_slice(&x[p.point_offset(i)..p.point_offset(i) + 3]);
     match &o.kind {
-        Kind::Pole { observed, cadastre, sigma } => model::pole(&o.dg, &delta, observed, cadastre, *sigma),
+        Kind::Pole { observed, cadastre, sigma, offset } => {
+            let mut lin = model::pole(&o.dg, &delta, observed, &(cadastre + pole_offset(p, x, *offset)), *sigma);
+            if offset.is_some() {
+                // The true pole is the cadastre position plus the object's offset.
+                lin.j_point = nalgebra::Matrix3::from_diagonal(&Vector3::new(-1.0, -1.0, 0.0)) / *sigma;
+            }
+            lin
+        }
         Kind::Gnss { lever, measured, sigma } => model::gnss(&o.dg, &delta, lever, measured, sigma),
         Kind::Ray { point: i, direction, sigma } => model::ray(&o.dg, &delta, &p.mount, &point(*i), direction, *sigma),
         Kind::Aerial { point: i, measured, whitening } => model::aerial(&point(*i), measured, whitening),
@@ -41,13 +48,23 @@ pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
     }
 }
 
+/// The current offset of cadastre object `g` (zero without one).
+fn pole_offset(p: &Problem, x: &[f64], g: Option<usize>) -> nalgebra::Vector2<f64> {
+    g.map_or_else(nalgebra::Vector2::zeros, |g| nalgebra::Vector2::from_column_slice(&x[p.offset_param(g)..][..2]))
+}
+
 /// The Jacobian blocks of an observation: (block, J) with node blocks scaled by their interpolation weight.
 pub(crate) fn blocks(p: &Problem, o: &Obs, lin: &Linearized) -> Vec<(usize, Matrix3x6<f64>)> {
     let mut out: Vec<_> = o.parts.iter().map(|(k, w)| (*k, lin.j_pose * *w)).collect();
-    if let Kind::Ray { point, .. } | Kind::Aerial { point, .. } = o.kind {
+    let extra = match o.kind {
+        Kind::Ray { point, .. } | Kind::Aerial { point, .. } => Some(p.nodes.len() + point),
+        Kind::Pole { offset: Some(g), .. } => Some(p.offset_block(g)),
+        _ => None,
+    };
+    if let Some(block) = extra {
         let mut j = Matrix3x6::zeros();
         j.fixed_view_mut::<3, 3>(0, 0).copy_from(&lin.j_point);
-        out.push((p.nodes.len() + point, j));
+        out.push((block, j));
     }
     out
 }
@@ -122,6 +139,24 @@ fn assemble_chain(p: &Problem, x: &[f64], n: &mut Normal) {
         }
         p.pattern.add_diagonal(&mut n.values, k, k, &wgt);
     }
+    for (g, sigma) in p.offset_sigma.iter().enumerate() {
+        let off = p.offset_param(g);
+        for c in 0..2 {
+            let wgt = 1.0 / (sigma * sigma);
+            n.cost += 0.5 * x[off + c] * x[off + c] * wgt;
+            n.gradient[off + c] += x[off + c] * wgt;
+            n.values[p.pattern.diagonal(off + c)] += wgt;
+        }
+    }
+}
+
+/// ½ Σ (o_g / σ_g)² over the cadastre objects' offsets (their prior).
+pub(crate) fn offset_prior(p: &Problem, x: &[f64]) -> f64 {
+    let squared = |g: usize, s: f64| {
+        let off = p.offset_param(g);
+        (x[off] * x[off] + x[off + 1] * x[off + 1]) / (s * s)
+    };
+    0.5 * p.offset_sigma.iter().enumerate().map(|(g, s)| squared(g, *s)).sum::<f64>()
 }
 
 /// The objective at `x` (chain terms + Huber loss of the active observations).
@@ -134,5 +169,5 @@ pub(crate) fn cost(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) 
     let obs = parallel::sum(p.par, p.obs.len(), |i| {
         if active[i] { huber_loss(linearize(p, &p.obs[i], x).e.norm(), huber) } else { 0.0 }
     });
-    relative + prior + obs
+    relative + prior + obs + offset_prior(p, x)
 }

@@ -10,7 +10,7 @@ use plumbline_geo::trajectory::PositionInterpolation;
 
 use crate::config::AdjustmentConfig;
 use crate::model::DgPose;
-use crate::nodes::{Nodes, WeakLink, dg_std, link_factor, relative_sigma};
+use crate::nodes::{Nodes, WeakLink};
 use crate::observations::{ObservationError, ObservationRef, ObservationSetV1, TiePoint, TiePointId, aerial_whitening};
 use crate::pattern::Pattern;
 use crate::standstill::{Standstill, StandstillConfig, detect_standstills};
@@ -32,11 +32,33 @@ pub struct AdjustmentInput<'a> {
 /// position (or heading) at its end node = at its start node.
 #[derive(Clone, Debug)]
 pub(crate) enum Kind {
-    Pole { observed: Vector3<f64>, cadastre: Vector2<f64>, sigma: f64 },
-    Gnss { lever: Vector3<f64>, measured: Vector3<f64>, sigma: Vector3<f64> },
-    Ray { point: usize, direction: Vector3<f64>, sigma: f64 },
-    Aerial { point: usize, measured: Vector3<f64>, whitening: Matrix3<f64> },
-    Standstill { offset: Vector3<f64>, sigma: f64, heading: bool },
+    /// `offset`: the cadastre object's nuisance offset block (then `sigma` is the camera part only).
+    Pole {
+        observed: Vector3<f64>,
+        cadastre: Vector2<f64>,
+        sigma: f64,
+        offset: Option<usize>,
+    },
+    Gnss {
+        lever: Vector3<f64>,
+        measured: Vector3<f64>,
+        sigma: Vector3<f64>,
+    },
+    Ray {
+        point: usize,
+        direction: Vector3<f64>,
+        sigma: f64,
+    },
+    Aerial {
+        point: usize,
+        measured: Vector3<f64>,
+        whitening: Matrix3<f64>,
+    },
+    Standstill {
+        offset: Vector3<f64>,
+        sigma: f64,
+        heading: bool,
+    },
 }
 
 /// What an internal observation is, for reporting.
@@ -59,6 +81,8 @@ pub(crate) struct Obs {
     /// Nodes and interpolation weights (empty for aerial coordinates).
     pub parts: Vec<(usize, f64)>,
     pub kind: Kind,
+    /// Pole updates: (σ_camera, σ_pole) as given.
+    pub pole_sigmas: Option<(f64, f64)>,
 }
 
 /// The assembled problem.
@@ -68,6 +92,8 @@ pub(crate) struct Problem {
     pub obs: Vec<Obs>,
     pub points: Vec<TiePointId>,
     pub point_init: Vec<Vector3<f64>>,
+    /// Prior σ (the cadastre accuracy) of each cadastre object's 2-D offset.
+    pub offset_sigma: Vec<f64>,
     pub relative_sigma: Vec<Vector6<f64>>,
     pub prior_sigma: Vec<Vector6<f64>>,
     pub pattern: Pattern,
@@ -79,7 +105,7 @@ pub(crate) struct Problem {
     pub par: Par,
 }
 
-fn dg_pose(trajectory: &Trajectory, t: f64) -> Option<DgPose> {
+pub(crate) fn dg_pose(trajectory: &Trajectory, t: f64) -> Option<DgPose> {
     let rec = trajectory.interpolate(t, PositionInterpolation::Linear).ok()?;
     Some(DgPose { p: rec.position.p, r: rec.attitude.to_rotation().matrix() })
 }
@@ -93,6 +119,8 @@ impl Problem {
     pub fn build(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) -> Self {
         let mut b = Builder { input, raw: Vec::new(), skipped: Vec::new(), points: Vec::new(), point_init: Vec::new() };
         b.poles();
+        let offset_sigma =
+            if config.pole_offsets { crate::offsets::share_pole_offsets(&mut b.raw) } else { Vec::new() };
         b.gnss();
         b.ties();
         let span = input.trajectory.span();
@@ -102,11 +130,16 @@ impl Problem {
             Some(c) => unexplained(input.weak_links, &standstills, input.trajectory, c),
             None => input.weak_links.to_vec(),
         };
+        let flagged = config.jump_localization.map(|_| links.clone()).unwrap_or_default();
         let factor = config.standstill.map_or(1.0, |c| c.chain_factor);
-        links.extend(standstills.iter().map(|s| WeakLink { start: s.start, end: s.end, factor }));
+        let still: Vec<WeakLink> =
+            standstills.iter().map(|s| WeakLink { start: s.start, end: s.end, factor }).collect();
+        links.extend(still.iter().copied());
         // Weak-link and standstill boundaries are nodes too, so a jump is resolved where it happens.
         let bounds = links.iter().flat_map(|l| [l.start, l.end]);
-        let nodes = Nodes::new(b.raw.iter().map(|o| o.time).chain(bounds).collect(), span, config);
+        let inner = config.jump_localization.map(|c| crate::localize::sub_nodes(&flagged, &c)).unwrap_or_default();
+        let times = b.raw.iter().map(|o| o.time).chain(bounds).chain(inner).collect();
+        let nodes = Nodes::new(times, span, config);
         let mut obs = b.raw;
         for o in &mut obs {
             if !matches!(o.kind, Kind::Aerial { .. }) {
@@ -116,13 +149,17 @@ impl Problem {
         if let Some(c) = &config.standstill {
             obs.extend(standstill_obs(input.trajectory, &nodes, &standstills, c));
         }
-        let (relative_sigma, prior_sigma) = chain(&nodes, input.trajectory, &links, config, par);
-        let pattern = Pattern::new(nodes.len(), b.points.len(), pairs(&obs, nodes.len()));
+        let breaks = crate::chain::breaks(input, &standstills, config);
+        let links = crate::chain::Links { all: &links, flagged: &flagged, still: &still, standstills: &standstills };
+        let (relative_sigma, prior_sigma) = crate::chain::chain(&nodes, input.trajectory, &links, &breaks, config, par);
+        let pairs = pairs(&obs, nodes.len(), b.points.len());
+        let pattern = Pattern::new(nodes.len(), b.points.len(), offset_sigma.len(), pairs);
         Self {
             nodes,
             obs,
             points: b.points,
             point_init: b.point_init,
+            offset_sigma,
             relative_sigma,
             prior_sigma,
             pattern,
@@ -136,6 +173,16 @@ impl Problem {
     /// Parameter index of the first coordinate of point `p`.
     pub fn point_offset(&self, p: usize) -> usize {
         self.pattern.offsets[self.nodes.len() + p]
+    }
+
+    /// Block index of cadastre object `g`'s offset.
+    pub fn offset_block(&self, g: usize) -> usize {
+        self.nodes.len() + self.points.len() + g
+    }
+
+    /// Parameter index of the first coordinate of cadastre object `g`'s offset.
+    pub fn offset_param(&self, g: usize) -> usize {
+        self.pattern.offsets[self.offset_block(g)]
     }
 }
 
@@ -173,40 +220,22 @@ fn standstill_obs<'a>(
                 dg: a,
                 parts: vec![(ka, -1.0), (kb, 1.0)],
                 kind: Kind::Standstill { offset, sigma, heading },
+                pole_sigmas: None,
             };
             (ka != kb).then(|| [make(b.p - a.p, c.position_sigma, false), make(rotation, c.heading_sigma, true)])
         })
         .flatten()
 }
 
-fn chain(
-    nodes: &Nodes,
-    trajectory: &Trajectory,
-    links: &[WeakLink],
-    config: &AdjustmentConfig,
-    par: Par,
-) -> (Vec<Vector6<f64>>, Vec<Vector6<f64>>) {
-    let stds = crate::parallel::map(par, nodes.len(), |k| dg_std(trajectory, nodes.times[k], config));
-    let relative = nodes
-        .times
-        .windows(2)
-        .zip(stds.windows(2))
-        .map(|(t, s)| {
-            let factor = link_factor(links, t[0], t[1]);
-            relative_sigma(t[1] - t[0], &s[0], &s[1], config, factor)
-        })
-        .collect();
-    let prior = stds.iter().map(|s| s * config.prior_scale).collect();
-    (relative, prior)
-}
-
-/// Block pairs coupled by observations (node–node, node–point).
-fn pairs(obs: &[Obs], n_nodes: usize) -> Vec<(usize, usize)> {
+/// Block pairs coupled by observations (node–node, node–point, node–offset).
+fn pairs(obs: &[Obs], n_nodes: usize, n_points: usize) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     for o in obs {
         let mut blocks: Vec<usize> = o.parts.iter().map(|(k, _)| *k).collect();
-        if let Kind::Ray { point, .. } | Kind::Aerial { point, .. } = o.kind {
-            blocks.push(n_nodes + point);
+        match o.kind {
+            Kind::Ray { point, .. } | Kind::Aerial { point, .. } => blocks.push(n_nodes + point),
+            Kind::Pole { offset: Some(g), .. } => blocks.push(n_nodes + n_points + g),
+            _ => {}
         }
         for (i, a) in blocks.iter().enumerate() {
             out.extend(blocks[i + 1..].iter().map(|b| (*a, *b)));
@@ -226,9 +255,15 @@ struct Builder<'a, 'b> {
 impl Builder<'_, '_> {
     fn push(&mut self, item: ObservationRef, time: f64, kind: Kind) {
         match dg_pose(self.input.trajectory, time) {
-            Some(dg) => {
-                self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts: Vec::new(), kind })
-            }
+            Some(dg) => self.raw.push(Obs {
+                item: Item::Observation(item),
+                time,
+                until: time,
+                dg,
+                parts: Vec::new(),
+                kind,
+                pole_sigmas: None,
+            }),
             None => self.skipped.push(outside(item, "time")),
         }
     }
@@ -247,8 +282,12 @@ impl Builder<'_, '_> {
             };
             // The observed pole at the vehicle's height: the update is horizontal.
             let observed = Vector3::new(pole.observed[0], pole.observed[1], dg.p.z);
-            let kind = Kind::Pole { observed, cadastre: Vector2::from(pole.cadastre), sigma: pole.sigma() };
+            let kind =
+                Kind::Pole { observed, cadastre: Vector2::from(pole.cadastre), sigma: pole.sigma(), offset: None };
             self.push(item, pole.time, kind);
+            if let Some(o) = self.raw.last_mut() {
+                o.pole_sigmas = Some((pole.sigma_camera, pole.sigma_pole));
+            }
         }
     }
 
@@ -293,7 +332,8 @@ impl Builder<'_, '_> {
             let dg = DgPose { p: Vector3::zeros(), r: Matrix3::identity() };
             let time = tie.rays.first().map_or(0.0, |r| r.time);
             let kind = Kind::Aerial { point, measured: Vector3::from(a.position), whitening };
-            self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts: Vec::new(), kind });
+            let parts = Vec::new();
+            self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts, kind, pole_sigmas: None });
         }
     }
 

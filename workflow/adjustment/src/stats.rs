@@ -118,6 +118,8 @@ pub(crate) fn sigma0(p: &Problem, x: &[f64], active: &[bool]) -> (f64, f64) {
         sum += lin.e.norm_squared();
         rows += lin.dim;
     }
+    sum += 2.0 * crate::normal::offset_prior(p, x);
+    rows += 2 * p.offset_sigma.len();
     let redundancy = rows as f64 - p.pattern.dim() as f64;
     ((sum / redundancy.max(1.0)).sqrt(), redundancy)
 }

@@ -183,3 +183,70 @@ fn the_export_holds_the_nodes_chain_and_poles_the_adjustment_solves() {
     let p = &exported.poles[0];
     assert!((p.sigma - obs.poles[0].sigma()).abs() < 1e-15 && p.cadastre == obs.poles[0].cadastre);
 }
+
+/// The correction at t = 20 s of a DG that is the truth, when one pole 10 m from the vehicle, its cadastre
+/// entry 0.3 m off, is seen from `epochs` (σ_cam 5 cm, σ_pole 0.3 m); plain least squares.
+fn pull_of_one_biased_pole(epochs: &[usize], pole_offsets: bool) -> f64 {
+    let s = scene(40.0, 10.0, None, |_| nalgebra::Vector6::zeros(), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+    let at = &s.truth[200];
+    let x = at.position.p + at.attitude.to_rotation().matrix() * nalgebra::Vector3::new(8.0, 6.0, 0.0);
+    let bias = nalgebra::Vector2::new(0.18, -0.24);
+    let updates = epochs
+        .iter()
+        .map(|&i| plumbline_adjustment::PoleUpdate {
+            cadastre_id: "light-1".into(),
+            time: s.truth[i].time,
+            cadastre: [x.x + bias.x, x.y + bias.y],
+            observed: [x.x + 0.05 * gauss(&mut rng), x.y + 0.05 * gauss(&mut rng)],
+            sigma_camera: 0.05,
+            sigma_pole: 0.3,
+        })
+        .collect();
+    let obs = ObservationSetV1 { poles: updates, ..Default::default() };
+    let config = AdjustmentConfig { snooping: None, huber: None, pole_offsets, ..AdjustmentConfig::default() };
+    let (delta, _) = run(&s, &obs, &[], &config).correction_at(20.0).unwrap();
+    delta.fixed_rows::<2>(0).norm()
+}
+
+#[test]
+fn updates_of_one_pole_share_its_cadastre_error() {
+    let ten: Vec<usize> = (195..205).collect();
+    let single = pull_of_one_biased_pole(&[200], true);
+    let shared = pull_of_one_biased_pole(&ten, true);
+    let independent = pull_of_one_biased_pole(&ten, false);
+    eprintln!(
+        "pull of a 0.3 m cadastre error: 1 update {single:.3} m, 10 shared {shared:.3}, 10 independent {independent:.3}"
+    );
+    // One object, one cadastre error: ten sightings pull no harder than one (the camera noise averages, the
+    // cadastre error does not). Weighted as independent control (same nodes, same data), they pull several
+    // times as hard as the shared model lets them.
+    assert!(single > 0.01, "the pole must pull at all: {single}");
+    assert!(shared <= single, "shared {shared} vs single {single}");
+    assert!(independent > 3.0 * shared, "independent {independent} vs shared {shared}");
+}
+
+#[test]
+fn control_decides_between_flagged_jumps_where_the_dg_sigma_is_optimistic() {
+    // The DG reports 2 cm but is 0.8 m off between its flagged jumps at 40 s and 60 s; poles every second
+    // (σ_cam 0.3 m). The prior of 10 × 2 cm at every node would hold the trajectory near the DG.
+    let jump = |t: f64| {
+        let off = if (40.0..60.0).contains(&t) { 0.8 } else { 0.0 };
+        nalgebra::Vector6::new(off, 0.05 * (t / 30.0).sin(), 0.0, 0.0, 0.0, 0.0)
+    };
+    let s = scene(100.0, 10.0, None, jump, 0.02);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(13);
+    let obs = ObservationSetV1 { poles: poles(&s, 10, 0.3, 0.05, &mut rng), ..Default::default() };
+    let links =
+        [WeakLink { start: 39.9, end: 40.1, factor: 100.0 }, WeakLink { start: 59.9, end: 60.1, factor: 100.0 }];
+    let inside = |config: &AdjustmentConfig| {
+        let errors = horizontal_errors(&run(&s, &obs, &links, config).apply(&s.dg).unwrap(), &s.truth);
+        rms(&errors[420..580])
+    };
+    let floored = inside(&AdjustmentConfig::default());
+    let held = inside(&AdjustmentConfig { fault_prior: None, ..AdjustmentConfig::default() });
+    eprintln!("rms inside the fault: {floored:.3} m with the floor, {held:.3} m without");
+    // 20 poles of σ 0.3 m fix the offset to ~7 cm; the tight prior keeps most of the 0.8 m.
+    assert!(floored < 0.15, "with the floor: {floored}");
+    assert!(held > 0.4, "without: {held}");
+}

@@ -136,9 +136,10 @@ fn a_flag_around_a_standstill_explained_by_its_jump_does_not_set_it_adrift() {
     let inside = max_between(&corrected, &s, STOP.0, STOP.1);
     eprintln!("flagged, explained: inside {inside:.4} m");
     assert!(inside < 0.04, "inside: {inside}");
-    // Not taken as explained, the flag lets the standstill float: the prior splits the jump.
+    // Not taken as explained (and the jump not localised), the flag lets the standstill float: the prior
+    // splits the jump.
     let never = StandstillConfig { explained_above: f64::INFINITY, ..StandstillConfig::default() };
-    let config = AdjustmentConfig { standstill: Some(never), ..AdjustmentConfig::default() };
+    let config = AdjustmentConfig { standstill: Some(never), jump_localization: None, ..AdjustmentConfig::default() };
     let adrift = max_between(&run_flagged(&s, &obs, &config, &flag).apply(&s.dg).unwrap(), &s, STOP.0, STOP.1);
     eprintln!("flagged, not explained: inside {adrift:.3} m");
     assert!(adrift > 0.1, "adrift: {adrift}");
@@ -156,6 +157,10 @@ fn a_wrong_standstill_is_rejected_by_data_snooping() {
     let (w, _) = result.standstills[0].rejected.expect("the wrong standstill must be rejected");
     eprintln!("w = {w:.1}; rejected: {:?}", result.rejected);
     assert!(w > 3.29, "{w}");
+    // Reported for the flagged epochs beside the rejected observations.
+    let reported = result.rejected_standstills();
+    assert_eq!(reported.len(), 1);
+    assert_eq!((reported[0].standstill, reported[0].w), (result.standstills[0].standstill, w));
     assert!(result.rejected.is_empty(), "no pole may be blamed: {:?}", result.rejected);
     let worst = max_between(&result.apply(&s.dg).unwrap(), &s, 2.0, 88.0);
     assert!(worst < 0.05, "after rejection the trajectory follows the DG's motion: {worst}");
@@ -164,4 +169,32 @@ fn a_wrong_standstill_is_rejected_by_data_snooping() {
     let bent = max_between(&run(&s, &obs, &blind).apply(&s.dg).unwrap(), &s, 2.0, 88.0);
     eprintln!("kept blindly: {bent:.3} m");
     assert!(bent > 0.1, "kept blindly: {bent}");
+}
+
+/// A 0.5 m jump rising over [29, 30] s, the last second of braking, lasting to the end.
+fn braking_jump(t: f64) -> Vector6<f64> {
+    let jump = 0.5 * smoothstep(t - 29.0);
+    Vector6::new(0.6 * jump, -0.8 * jump, 0.0, 0.0, 0.0, 0.0)
+}
+
+#[test]
+fn a_jump_in_the_last_second_of_braking_does_not_set_the_stop_adrift() {
+    // The image pair spanning the stop (last image at 28 s, first after at 52 s) is flagged. The DG does not
+    // move during the stop, so no standstill explains the flag; weakened evenly, the chain would leave the stop
+    // held by the weak prior alone. Localised, the chain gives way only where the DG jumped (29–30 s).
+    let flag = [WeakLink { start: 28.0, end: 52.0, factor: 100.0 }];
+    for seed in [7, 8] {
+        let s = stop_and_go(0.0, braking_jump, seed);
+        let obs = moving_poles(&s, seed);
+        let result = run_flagged(&s, &obs, &AdjustmentConfig::default(), &flag);
+        assert!(result.standstills.iter().all(|s| s.accepted()), "{:?}", result.standstills);
+        // The stop, clear of the jump's last rise (the detected standstill starts at 30.25 s).
+        let (a, b) = (STOP.0 + 0.4, STOP.1 - 0.4);
+        let inside = max_between(&result.apply(&s.dg).unwrap(), &s, a, b);
+        let even = AdjustmentConfig { jump_localization: None, ..AdjustmentConfig::default() };
+        let adrift = max_between(&run_flagged(&s, &obs, &even, &flag).apply(&s.dg).unwrap(), &s, a, b);
+        eprintln!("seed {seed}: inside the stop {inside:.4} m localised, {adrift:.3} m even");
+        assert!(inside < 0.06, "localised: {inside}");
+        assert!(adrift > 0.2, "even: {adrift}");
+    }
 }

@@ -12,9 +12,15 @@
 //! The simulated DG jumps often happen while the vehicle stands still (paper 002 §4.2.3, Fig. 7), where no
 //! image or pole observes; the adjustment detects standstills in the DG itself and constrains the corrected
 //! pose to stay put over them (`AdjustmentConfig::standstill`, on by default). The notes list, per run, the
-//! standstills found, how many survived data snooping, and the largest 2D error inside them.
+//! standstills found, how many survived data snooping, and the largest 2D error inside them; and where the
+//! three largest cross-track differences near control occur (at least 10 s apart), each with the DG's value,
+//! the speed and what the epoch lies in (a standstill and its fate, a simulated fault, a flagged image pair).
 //!
-//! Run: `cargo bench -p plumbline-navigation --bench accuracy [-- seed]`.
+//! Run: `cargo bench -p plumbline-navigation --bench accuracy [-- seed] [without=NAME ...]`. `without=` switches
+//! one improvement of the adjustment off to measure what it contributes: `offsets` (one nuisance offset per
+//! cadastre object), `fault-prior` (the prior's floor between DG breaks), `localization` (jumps localised inside
+//! flagged intervals); `prior-time` switches the per-time prior off where it is on. `ACC_DEBUG=<time>` prints
+//! the faults, flags, standstills, pole updates and errors within 40 s of that time to stderr.
 #![allow(clippy::unwrap_used)]
 
 use std::collections::HashMap;
@@ -28,7 +34,7 @@ use plumbline_geo::metrics::{Comparison, Stats, compare};
 use plumbline_geo::{Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
 use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};
 use plumbline_synth::cadastre::{CadastreErrors, cadastre};
-use plumbline_synth::motion::dg::{self, DgConfig};
+use plumbline_synth::motion::dg::{self, DgConfig, FaultKind};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig};
 use plumbline_synth::observations::{ObservationConfig, pole_updates, tie_points};
@@ -51,11 +57,19 @@ struct Case {
     motions: usize,
     /// Per epoch: inside a DG fault (simulated jump/outage or the injected jump).
     faulty: Vec<bool>,
+    /// The simulated faults: kind, start, end (seconds).
+    faults: Vec<(FaultKind, f64, f64)>,
 }
 
 fn main() {
     let seed: u64 = std::env::args().skip(1).find_map(|a| a.parse().ok()).unwrap_or(1);
+    let without: Vec<String> =
+        std::env::args().skip(1).filter_map(|a| a.strip_prefix("without=").map(String::from)).collect();
+    let config = ablated(&without);
     println!("# Adjustment accuracy, synthetic district (seed {seed}); observations simulated from truth\n");
+    if !without.is_empty() {
+        println!("Ablation: without {}\n", without.join(", "));
+    }
     println!("Targets (issue 7): aerial + poles: 2D RMSE <= 0.05 m, max cross-track <= 0.15 m within 50 m of");
     println!("control; poles only: 99 % cross-track <= 0.30 m (paper 002: 0.60 m). |values| in m.\n");
     println!("Columns after the 2D RMSE: max cross-track where control lies within 50 m; the same outside DG faults");
@@ -79,11 +93,15 @@ fn main() {
             let input =
                 AdjustmentInput { trajectory: &case.dg, observations: obs, mount: &mount, weak_links: &case.links };
             let t = std::time::Instant::now();
-            let result = adjust(&input, &AdjustmentConfig::default(), Par::rayon(0)).unwrap();
+            let result = adjust(&input, &config, Par::rayon(0)).unwrap();
             let seconds = t.elapsed().as_secs_f64();
             let corrected = result.apply(&case.dg).unwrap();
             let control = control_points(obs);
             row(&case, name, &corrected, Some(&control), target);
+            let worst = worst_epochs(&case, &corrected, &control, &result.standstills);
+            if let Some(t0) = std::env::var("ACC_DEBUG").ok().and_then(|v| v.parse::<f64>().ok()) {
+                debug_around(&case, &result, &corrected, t0, profile, name);
+            }
             let wrong =
                 ObservationRef::Pole { index: case.wrong, cadastre_id: case.poles[case.wrong].cadastre_id.clone() };
             let rejected = result.rejected.iter().any(|r| r.item == wrong);
@@ -102,7 +120,7 @@ fn main() {
                 "{profile}, {name}: {} poles + {} ties, {:.1} s; wrong pole (σ {:.2} m) rejected: {rejected} \
                  ({} rejections in all); {} of {} image pairs flagged; inside the injected jump (1.5 s from its \
                  edges) max 2D error {jump:.3} m (DG {dg_jump:.3} m); {} standstills ({seconds_still:.0} s), {accepted} \
-                 kept, max 2D error inside them {:.3} m (DG {:.3} m)",
+                 kept, max 2D error inside them {:.3} m (DG {:.3} m); largest cross-track near control: {worst}",
                 obs.poles.len(),
                 obs.ties.len(),
                 seconds,
@@ -122,6 +140,22 @@ fn main() {
     }
 }
 
+/// The default configuration with the named improvements switched off (see the file's doc), to measure what
+/// each contributes.
+fn ablated(without: &[String]) -> AdjustmentConfig {
+    let mut config = AdjustmentConfig::default();
+    for name in without {
+        match name.as_str() {
+            "offsets" => config.pole_offsets = false,
+            "prior-time" => config.prior_time = None,
+            "fault-prior" => config.fault_prior = None,
+            "localization" => config.jump_localization = None,
+            other => panic!("unknown improvement {other}"),
+        }
+    }
+    config
+}
+
 fn build(profile: &'static str, canyon: Canyon, seed: u64) -> Case {
     let world = World::generate(&WorldConfig::new(Preset::District, seed)).unwrap();
     let mut route = world.route(seed, 2000.0);
@@ -137,6 +171,7 @@ fn build(profile: &'static str, canyon: Canyon, seed: u64) -> Case {
         .iter()
         .map(|e| e.fault.is_some() || (e.time >= jump.0 - 1.0 && e.time < jump.1 + 1.0))
         .collect();
+    let faults = solution.faults.iter().map(|f| (f.kind, f.start_time, f.start_time + f.duration)).collect();
     let dg = inject_jump(&solution.trajectory, jump);
     let config = ObservationConfig::default();
     let objects = cadastre(&world, &CadastreErrors::typical(), seed);
@@ -171,7 +206,8 @@ fn build(profile: &'static str, canyon: Canyon, seed: u64) -> Case {
     let motions = image_motions(&drive, &config, seed);
     let report = check_consistency(&dg, &motions, &ConsistencyConfig::default()).unwrap();
     let links = report.weak_links();
-    Case { profile, truth: drive.trajectory, dg, jump, poles, wrong, ties, links, motions: motions.len(), faulty }
+    let motions_len = motions.len();
+    Case { profile, truth: drive.trajectory, dg, jump, poles, wrong, ties, links, motions: motions_len, faulty, faults }
 }
 
 /// DG + 0.5 m north over [a, b), rising and falling within 1 s (a multipath jump, as the simulator's).
@@ -289,4 +325,102 @@ fn max_error(estimate: &Trajectory, truth: &Trajectory, a: f64, b: f64) -> f64 {
         .filter(|(e, _)| e.time >= a && e.time < b)
         .map(|(e, t)| (e.position.p - t.position.p).xy().norm())
         .fold(0.0, f64::max)
+}
+
+/// Where the largest cross-track differences near control occur: the three largest at least 10 s apart,
+/// each with its time, value, the DG's value, the true speed and what the epoch lies in.
+fn worst_epochs(
+    case: &Case,
+    estimate: &Trajectory,
+    control: &Grid,
+    standstills: &[plumbline_adjustment::StandstillOutcome],
+) -> String {
+    let c = compare(estimate, &case.truth).unwrap();
+    let dg = compare(&case.dg, &case.truth).unwrap();
+    let truth = case.truth.records();
+    let mut order: Vec<usize> = (0..c.differences.time.len()).collect();
+    order.sort_by(|&a, &b| c.differences.cross[b].abs().total_cmp(&c.differences.cross[a].abs()));
+    let mut picked: Vec<usize> = Vec::new();
+    for i in order {
+        let t = c.differences.time[i];
+        let k = truth.partition_point(|r| r.time < t).min(truth.len() - 1);
+        let near = near_control(control, truth[k].position.x(), truth[k].position.y());
+        if near && picked.iter().all(|&j| (c.differences.time[j] - t).abs() > 10.0) {
+            picked.push(i);
+        }
+        if picked.len() == 3 {
+            break;
+        }
+    }
+    let describe = |i: usize| {
+        let t = c.differences.time[i];
+        let k = truth.partition_point(|r| r.time < t).min(truth.len() - 2);
+        let speed = (truth[k + 1].position.p - truth[k].position.p).norm() / (truth[k + 1].time - truth[k].time);
+        let mut tags = Vec::new();
+        for s in standstills.iter().filter(|s| t >= s.standstill.start && t <= s.standstill.end) {
+            let fate = match s.rejected {
+                None => String::from("kept"),
+                Some((w, _)) => format!("rejected w {w:.1}"),
+            };
+            let at = |t: f64| case.dg.interpolate(t, plumbline_geo::PositionInterpolation::Linear).unwrap().position;
+            let dg_moved = (at(s.standstill.end) - at(s.standstill.start)).norm();
+            tags.push(format!(
+                "stop {:.0}-{:.0} s {fate}, DG moves {dg_moved:.2} m",
+                s.standstill.start, s.standstill.end
+            ));
+        }
+        for (kind, a, b) in case.faults.iter().filter(|(_, a, b)| t >= *a && t <= *b) {
+            tags.push(format!("{kind:?} {a:.0}-{b:.0} s"));
+        }
+        if t >= case.jump.0 - 1.0 && t <= case.jump.1 + 1.0 {
+            tags.push("injected jump".into());
+        }
+        for l in case.links.iter().filter(|l| t >= l.start && t <= l.end) {
+            tags.push(format!("flagged {:.1}-{:.1} s", l.start, l.end));
+        }
+        let j = dg.differences.time.partition_point(|x| *x < t).min(dg.differences.time.len() - 1);
+        format!(
+            "t {t:.1} s {:+.3} m (DG {:+.3}), {speed:.1} m/s [{}]",
+            c.differences.cross[i],
+            dg.differences.cross[j],
+            tags.join(", ")
+        )
+    };
+    picked.into_iter().map(describe).collect::<Vec<_>>().join("; ")
+}
+
+fn debug_around(
+    case: &Case,
+    result: &plumbline_adjustment::Adjustment,
+    corrected: &Trajectory,
+    t0: f64,
+    profile: &str,
+    name: &str,
+) {
+    let near = |a: f64, b: f64| b >= t0 - 40.0 && a <= t0 + 40.0;
+    eprintln!("== {profile} {name} around {t0}");
+    for (k, a, b) in case.faults.iter().filter(|(_, a, b)| near(*a, *b)) {
+        eprintln!("fault {k:?} {a:.1}-{b:.1}");
+    }
+    for l in case.links.iter().filter(|l| near(l.start, l.end)) {
+        eprintln!("flag {:.1}-{:.1}", l.start, l.end);
+    }
+    for s in result.standstills.iter().filter(|s| near(s.standstill.start, s.standstill.end)) {
+        eprintln!("stop {:.1}-{:.1} {:?}", s.standstill.start, s.standstill.end, s.rejected);
+    }
+    for (i, p) in case.poles.iter().enumerate().filter(|(_, p)| near(p.time, p.time)) {
+        let rej = result.rejected.iter().any(|r| matches!(&r.item, ObservationRef::Pole { index, .. } if *index == i));
+        eprintln!(
+            "pole {} t {:.1} σcam {:.2} σpole {:.2} rejected {rej}",
+            p.cadastre_id, p.time, p.sigma_camera, p.sigma_pole
+        );
+    }
+    for r in corrected.records().iter().zip(case.dg.records()).zip(case.truth.records()).step_by(50) {
+        let ((c, d), t) = r;
+        if (c.time - t0).abs() <= 40.0 {
+            let e = c.position.p - t.position.p;
+            let f = d.position.p - t.position.p;
+            eprintln!("t {:.1} err {:+.3} {:+.3} dg {:+.3} {:+.3}", c.time, e.x, e.y, f.x, f.y);
+        }
+    }
 }
