@@ -1,2 +1,33 @@
 //! The adjuster's logic, shared by `plumbline run` and the adjuster service: merge the tiles' observations,
-//! run the global adjustment, and write the campaign's outputs.
+//! run the global adjustment (with standstill constraints and the consistency check's weak links), and
+//! write the campaign's outputs — the corrected trajectory in the input's format, per-epoch corrections,
+//! `observations.gpkg`, `report.json` and `report.html`.
+//!
+//! ```text
+//! merge(&[TileOutputV1]) → Merged (observations, image motions, image outcomes, pole frames, tiles, skipped)
+//! solve(&dg, &merged, &mount, &AdjusterConfig) → Solved (consistency check, adjustment, corrected trajectory)
+//! build_report(&campaign, &merged, &solved, reference, &stages) → plumbline_report::Report
+//! observation_layers(&campaign, &merged, &solved) → the point layers of observations.gpkg
+//! finish(&files, &campaign, &tiles, &config, &progress).await → all of it, written under campaign.output
+//! ```
+
+mod config;
+mod corrections;
+mod finish;
+mod layers;
+mod merge;
+mod refs;
+mod report;
+mod residuals;
+pub mod service;
+mod solve;
+
+pub use config::{AdjusterConfig, critical_value};
+pub use corrections::{CORRECTIONS_HEADER, corrections_csv};
+pub use finish::{Finished, STAGE, finish, stages};
+pub use layers::{LAYERS, observation_layers};
+pub use merge::{ImageOutcome, Merged, merge, motions_of, tile_name};
+pub use report::build_report;
+pub use report::series::SERIES_POINTS;
+pub use residuals::normalised_residuals;
+pub use solve::{SolveError, Solved, panorama_mount, solve};

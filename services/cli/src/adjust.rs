@@ -98,7 +98,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     }
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     let written = output::trajectory(ctx, &prefix, &loaded, &corrected).await?;
-    ctx.write(&format!("{prefix}corrections.csv"), output::corrections_csv(&result, &corrected)).await?;
+    ctx.write(&format!("{prefix}corrections.csv"), plumbline_adjuster::corrections_csv(&loaded.trajectory, &corrected))
+        .await?;
     let summary = output::summary(&result, &observations, &weak_links, &loaded, &written);
     ctx.write(&format!("{prefix}summary.json"), serde_json::to_vec_pretty(&summary)?).await?;
     eprintln!(

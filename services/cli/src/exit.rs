@@ -1,4 +1,4 @@
-//! Exit-code policy: errors marked [`InvalidInput`] exit with 2, every other error with 1.
+//! Exit-code policy: errors marked [`InvalidInput`](plumbline_runtime::InvalidInput) exit with 2, every other error with 1.
 
 pub use plumbline_runtime::errors::{OrInvalid, invalid};
 

@@ -1,15 +1,21 @@
-//! The `plumbline` command-line tool: validate manifests, convert and compare trajectories.
+//! The `plumbline` command-line tool: run campaigns (`run`, `demo`), validate manifests, simulate, and the
+//! tools for trajectories, matching, cadastres, adjustment and navigation.
 //!
 //! Exit codes: 0 success, 1 failure while working (I/O, store, internal), 2 invalid input (a bad manifest,
 //! a malformed or implausible trajectory, an unknown CRS, a bad argument).
 
 mod adjust;
 mod cadastre;
+mod demo;
 mod exit;
 mod io;
 mod matching;
 mod navigate;
+mod run;
+mod serve;
 mod simulate;
+mod status;
+mod submit;
 mod trajectory;
 mod validate;
 
@@ -32,6 +38,11 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
+    /// Simulate a small campaign with ground truth and run it: the before/after table and a report.
+    Demo(demo::Args),
+    /// Run a whole campaign in one process: register, match poles, adjust, write the corrected trajectory,
+    /// observations.gpkg and the report (resumes from finished tiles).
+    Run(run::Args),
     /// Check a campaign manifest and list every problem found (exit code 2 when invalid).
     Validate(validate::Args),
     /// Trajectory tools: format and CRS conversion, comparison against a reference.
@@ -48,6 +59,13 @@ enum Command {
     Adjust(adjust::Args),
     /// Fuse raw GNSS and IMU (Kalman filter + RTS smoother) with integrity tests; write the smoothed trajectory.
     Navigate(navigate::Args),
+    /// Run a service of the distributed path (NATS JetStream + object store).
+    #[command(subcommand)]
+    Serve(serve::Command),
+    /// Submit a campaign manifest to a scheduler's job API; prints the campaign id.
+    Submit(submit::Args),
+    /// Show a submitted campaign's state; --watch follows it with progress bars until it ends.
+    Status(status::Args),
 }
 
 fn main() -> ExitCode {
@@ -63,6 +81,8 @@ fn main() -> ExitCode {
     };
     let result = runtime.block_on(async {
         match cli.command {
+            Command::Demo(args) => demo::run(&ctx, args).await,
+            Command::Run(args) => run::run(&ctx, args).await,
             Command::Validate(args) => validate::run(&ctx, args).await,
             Command::Trajectory(cmd) => trajectory::run(&ctx, cmd).await,
             Command::Simulate(args) => simulate::run(&ctx, args).await,
@@ -70,6 +90,9 @@ fn main() -> ExitCode {
             Command::Cadastre(cmd) => cadastre::run(&ctx, cmd).await,
             Command::Adjust(args) => adjust::run(&ctx, args).await,
             Command::Navigate(args) => navigate::run(&ctx, args).await,
+            Command::Serve(cmd) => serve::run(&ctx, cmd).await,
+            Command::Submit(args) => submit::run(&ctx, args).await,
+            Command::Status(args) => status::run(&ctx, args).await,
         }
     });
     match result {

@@ -5,7 +5,16 @@
 //! whose inputs are unusable as a whole (no trajectory, a CRS PROJ does not know, no panorama index) stops
 //! with an [`plumbline_runtime::InvalidInput`] error naming the file and field. Single bad rows are skipped
 //! and listed in [`Campaign::skipped`].
+//!
+//! The distributed path: [`messages`] (versioned task, result and state messages), [`bus`] (the JetStream
+//! streams, consumers and KV bucket), [`service`] (the job API of `plumbline serve scheduler`), [`api`] and
+//! [`client`] (its bodies and the client `plumbline submit`/`status` use).
 
+pub mod api;
+pub mod bus;
+pub mod client;
 mod load;
+pub mod messages;
+pub mod service;
 
 pub use load::{Campaign, SkippedInput, load_campaign, manifest_base};

@@ -1,6 +1,22 @@
 //! The worker's logic, shared by `plumbline run` (in-process queue) and the worker service (NATS): process
-//! one tile of a planned campaign and write the versioned [`TileOutput`] under `{output}tiles/`.
+//! one tile of a planned campaign — read its panoramas, vehicle mask, aerial frames or orthophoto windows,
+//! depth images and cadastre objects; register the panoramas (paper 000) and match the poles (paper 002);
+//! write the versioned [`TileOutput`] under `{output}tiles/`.
+//!
+//! One broken input (a corrupt panorama, a missing depth image, a bad cadastre feature) is skipped, counted
+//! and listed in the tile's output; the tile goes on.
 
+mod aerial;
+mod config;
+mod fetch;
 mod output;
+mod panoramas;
+mod poles;
+mod raster;
+pub mod service;
+mod tile;
 
+pub use aerial::{frame_camera, frame_pose};
+pub use config::{DEFAULT_CONCURRENCY, WorkerConfig};
 pub use output::{TileOutput, TileOutputV1, tile_key};
+pub use tile::{process_tile, run_tile, tile_camera_height};

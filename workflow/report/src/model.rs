@@ -119,6 +119,37 @@ pub struct Accuracy {
     pub after: Figures,
 }
 
+impl Accuracy {
+    /// The before/after table in paper 002's form (|difference| median, 95 %, 99 %, max per direction,
+    /// then the 2D RMSE), metres, as plain text.
+    pub fn table(&self) -> String {
+        use std::fmt::Write as _;
+        let mut s = String::new();
+        let _ =
+            writeln!(s, "{:<12} {:>6} {:>8} {:>8} {:>8} {:>8}", "vs reference", "", "median", "95 %", "99 %", "max");
+        let rows = [
+            ("along-track", self.before.along, self.after.along),
+            ("cross-track", self.before.cross, self.after.cross),
+            ("height", self.before.height, self.after.height),
+        ];
+        for (name, before, after) in rows {
+            for (when, st) in [("DG", before), ("after", after)] {
+                let _ = writeln!(
+                    s,
+                    "{name:<12} {when:>6} {:>8.3} {:>8.3} {:>8.3} {:>8.3}",
+                    st.median, st.p95, st.p99, st.max
+                );
+            }
+        }
+        let _ = writeln!(
+            s,
+            "RMSE 2D: DG {:.3} m -> after {:.3} m;  3D: {:.3} m -> {:.3} m",
+            self.before.rmse_2d, self.after.rmse_2d, self.before.rmse_3d, self.after.rmse_3d
+        );
+        s
+    }
+}
+
 /// The correction (adjusted − DG) along the trajectory, with its posterior σ.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]

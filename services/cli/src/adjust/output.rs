@@ -1,8 +1,6 @@
 //! Writing the results of `plumbline adjust`: the corrected trajectory in the input's format, the per-epoch
 //! corrections with posterior σ, and the JSON summary.
 
-use std::fmt::Write as _;
-
 use plumbline_adjustment::{Adjustment, WeakLink};
 use plumbline_geo::Trajectory;
 use serde_json::{Value, json};
@@ -18,26 +16,6 @@ pub async fn trajectory(
     corrected: &Trajectory,
 ) -> anyhow::Result<Vec<String>> {
     plumbline_runtime::trajectory::write_like_input(ctx.files(), prefix, "trajectory", input, corrected).await
-}
-
-/// Header of `corrections.csv`.
-const CORRECTIONS_HEADER: &str = "time_s,d_east_m,d_north_m,d_up_m,d_rot_east_rad,d_rot_north_rad,d_rot_up_rad,\
-    std_east_m,std_north_m,std_up_m,std_roll_rad,std_pitch_rad,std_heading_rad\n";
-
-/// One row per corrected record: the correction [δp; δθ] (R' = Exp(δθ) R, δθ in the map frame) and the
-/// posterior σ of the corrected pose.
-pub fn corrections_csv(result: &Adjustment, corrected: &Trajectory) -> Vec<u8> {
-    let mut s = String::from(CORRECTIONS_HEADER);
-    for r in corrected.records() {
-        let Some((d, _)) = result.correction_at(r.time) else { continue };
-        let std = r.std.map_or([f64::NAN; 6], |p| [p.east, p.north, p.height, p.roll, p.pitch, p.heading]);
-        let _ = write!(s, "{}", r.time);
-        for v in d.iter().chain(std.iter()) {
-            let _ = write!(s, ",{v}");
-        }
-        s.push('\n');
-    }
-    s.into_bytes()
 }
 
 /// The summary: solver figures, rejected observations with their w-test values, skipped observations,

@@ -40,7 +40,7 @@ use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::world::{self, World, WorldConfig};
 use tokio::sync::mpsc;
 
-use crate::exit::OrInvalid;
+use crate::exit::{OrInvalid, invalid};
 use crate::io::Context;
 use crate::trajectory::crs;
 
@@ -71,7 +71,11 @@ pub struct Args {
     /// Write only the navigation data (trajectories, GNSS, IMU, error series, overview): no images, no cadastre.
     #[arg(long)]
     pub navigation_only: bool,
-    /// Distance driven between panoramas, metres; default 10 for `tiny` (~40 panoramas), 5 for `district`.
+    /// Length of the drive, metres; default 400 for `tiny`, 2000 for `district` (the route follows the
+    /// world's streets and may double back; the world's size is the preset's).
+    #[arg(long, value_name = "METRES")]
+    pub length: Option<f64>,
+    /// Distance driven between panoramas, metres; default 5 (`tiny`: ~85 panoramas).
     #[arg(long)]
     pub panorama_spacing: Option<f64>,
     /// Panorama width in pixels (height = width / 2); default 1024 for `tiny`, 4096 for `district`.
@@ -131,6 +135,13 @@ impl Sink {
 
 /// Run `simulate`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
+    let manifest = write(ctx, args).await?;
+    println!("{manifest}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Simulate and write the campaign; returns its manifest's path or URL.
+pub async fn write(ctx: &Context, args: Args) -> anyhow::Result<String> {
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     let (tx, mut rx) = mpsc::channel(WRITE_QUEUE);
     let task = tokio::task::spawn_blocking(move || generate(&args, &Sink { tx }));
@@ -141,17 +152,20 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     }
     let summary = task.await.context("simulation task")??;
     eprintln!("{summary}; {written} files");
-    println!("{prefix}campaign.toml");
-    Ok(ExitCode::SUCCESS)
+    Ok(format!("{prefix}campaign.toml"))
 }
 
 /// Simulate the campaign and hand its files to `sink` (CPU and GDAL only; the writing is the caller's).
 fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     let (preset, seed) = (args.preset, args.seed);
-    let (world_preset, length) = match preset {
+    let (world_preset, default_length) = match preset {
         Preset::Tiny => (world::Preset::Tiny, 400.0),
         Preset::District => (world::Preset::District, 2000.0),
     };
+    let length = args.length.unwrap_or(default_length);
+    if !(length.is_finite() && (50.0..=100_000.0).contains(&length)) {
+        return Err(invalid(format!("--length {length}: expected 50–100000 m")));
+    }
     let world_config = WorldConfig::new(world_preset, seed);
     let crs = world_config.epsg;
     let world = World::generate(&world_config).context("synthetic world")?;

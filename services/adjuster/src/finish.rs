@@ -1,0 +1,124 @@
+//! The async end of a campaign run: merge the tiles, adjust, and write the outputs under the campaign's
+//! output prefix — the corrected trajectory in the input's format, `corrections.csv`, `observations.gpkg`,
+//! `report.json` and `report.html`. The CPU work runs on the blocking pool.
+
+use std::collections::BTreeMap;
+
+use anyhow::Context as _;
+use plumbline_campaign::progress::Progress;
+use plumbline_report::{Figures, Report, Stage};
+use plumbline_runtime::Files;
+use plumbline_runtime::trajectory::write_like_input;
+use plumbline_scheduler::Campaign;
+use plumbline_worker::TileOutputV1;
+
+use crate::config::AdjusterConfig;
+use crate::corrections::corrections_csv;
+use crate::layers::observation_layers;
+use crate::merge::{Merged, merge};
+use crate::report::build_report;
+use crate::solve::{Solved, panorama_mount, solve};
+
+/// The progress stage of the adjustment.
+pub const STAGE: &str = "adjustment";
+
+/// What [`finish`] produced.
+#[derive(Clone, Debug)]
+pub struct Finished {
+    /// The report (also written as `report.json` and `report.html`).
+    pub report: Report,
+    /// The files written, in order.
+    pub written: Vec<String>,
+    /// DG against the reference, when there is one.
+    pub before: Option<Figures>,
+    /// Corrected against the reference, when there is one.
+    pub after: Option<Figures>,
+}
+
+/// Everything computed off the async runtime.
+struct Computed {
+    solved: Solved,
+    report: Report,
+    corrections: Vec<u8>,
+    geopackage: Vec<u8>,
+    html: String,
+}
+
+/// Merge `tiles`, adjust the campaign's trajectory, and write its outputs under `campaign.output`.
+pub async fn finish(
+    files: &Files,
+    campaign: &Campaign,
+    tiles: &[TileOutputV1],
+    config: &AdjusterConfig,
+    progress: &dyn Progress,
+) -> anyhow::Result<Finished> {
+    progress.begin(STAGE, Some(1));
+    let (owned, tiles, config) = (campaign.clone(), tiles.to_vec(), *config);
+    let computed =
+        tokio::task::spawn_blocking(move || compute(&owned, &tiles, &config)).await.context("adjustment task")??;
+    let a = &computed.solved.adjustment;
+    let note = format!("{} iterations, σ0 {:.3}, {} rejected", a.iterations, a.sigma0, a.rejected.len());
+    progress.note(STAGE, &note);
+    progress.advance(STAGE, 1);
+    progress.end(STAGE);
+    tracing::info!(iterations = a.iterations, sigma0 = a.sigma0, rejected = a.rejected.len(), "adjusted");
+
+    let prefix = &campaign.output;
+    let mut written =
+        write_like_input(files, prefix, "trajectory", &campaign.trajectory, &computed.solved.corrected).await?;
+    let outputs = [
+        ("corrections.csv", computed.corrections),
+        ("observations.gpkg", computed.geopackage),
+        ("report.json", computed.report.to_json()),
+        ("report.html", computed.html.into_bytes()),
+    ];
+    for (name, bytes) in outputs {
+        let url = format!("{prefix}{name}");
+        files.write(&url, bytes).await?;
+        written.push(url);
+    }
+    let accuracy = computed.report.accuracy.as_ref();
+    let (before, after) = (accuracy.map(|a| a.before), accuracy.map(|a| a.after));
+    Ok(Finished { report: computed.report, written, before, after })
+}
+
+fn compute(campaign: &Campaign, tiles: &[TileOutputV1], config: &AdjusterConfig) -> anyhow::Result<Computed> {
+    let merged = merge(tiles);
+    let mount = panorama_mount(&campaign.manifest);
+    let solved = solve(&campaign.trajectory.trajectory, &merged, &mount, config)
+        .with_context(|| format!("adjusting campaign {}", campaign.manifest.campaign.id))?;
+    let stages = stages(tiles, &merged, &solved);
+    let report = build_report(campaign, &merged, &solved, campaign.reference.as_ref(), &stages);
+    let layers = observation_layers(campaign, &merged, &solved);
+    let geopackage =
+        plumbline_runtime::gdal_write::geopackage(&layers, campaign.epsg()).context("encoding observations.gpkg")?;
+    let corrections = corrections_csv(&campaign.trajectory.trajectory, &solved.corrected);
+    let html = plumbline_report::html::render(&report);
+    Ok(Computed { solved, report, corrections, geopackage, html })
+}
+
+/// The tiles' stages (seconds summed over tiles, tiles that ran them, items skipped in them) and the
+/// adjustment (observations it skipped).
+pub fn stages(tiles: &[TileOutputV1], merged: &Merged, solved: &Solved) -> Vec<Stage> {
+    let mut by_name: BTreeMap<&str, Stage> = BTreeMap::new();
+    for t in tiles {
+        for (name, seconds) in &t.seconds {
+            let s = by_name.entry(name.as_str()).or_insert_with(|| Stage { name: name.clone(), ..Stage::default() });
+            s.done += 1;
+            s.seconds += seconds;
+        }
+    }
+    for s in by_name.values_mut() {
+        s.total = tiles.len();
+        s.skipped = merged.skipped.iter().filter(|k| k.stage == s.name).count();
+    }
+    let mut out: Vec<Stage> = by_name.into_values().collect();
+    out.push(Stage {
+        name: STAGE.into(),
+        done: 1,
+        total: 1,
+        skipped: solved.adjustment.skipped.len(),
+        seconds: solved.seconds,
+    });
+    out
+}

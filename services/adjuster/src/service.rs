@@ -1,0 +1,352 @@
+//! The adjuster service (`plumbline serve adjuster`): consumes the results stream through the durable
+//! `adjuster` consumer, following the protocol of [`plumbline_scheduler::bus`]:
+//!
+//! - each [`TileDone`]/[`TileFailed`] is recorded once per campaign run in the tally bucket
+//!   [`TALLY_BUCKET`] (key `<campaign>.<run>`: the tiles done and failed, revision-checked), and the
+//!   campaign's KV state takes its counters from the tally — so a redelivered result changes nothing;
+//!   `queued` becomes `running`, failed tiles are listed in `dead_lettered`;
+//! - when done + failed == total the state becomes `adjusting`, every done tile's output is read from the
+//!   store, [`finish`] writes the outputs, and the state becomes `done` with the report's URL (or `failed`
+//!   with the error);
+//! - the message is acked after the state is written (a failure to write it naks it for redelivery).
+//!
+//! Restart-safe: everything lives in KV; on start, campaigns found `adjusting` are finished again.
+
+use std::future::Future;
+use std::time::Duration;
+
+use async_nats::jetstream::{self, AckKind, consumer::PullConsumer, kv};
+use futures::StreamExt as _;
+use plumbline_campaign::progress::NoProgress;
+use plumbline_geo::tiling::TileId;
+use plumbline_runtime::Files;
+use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
+use plumbline_scheduler::messages::{CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
+use plumbline_scheduler::{SkippedInput, load_campaign};
+use plumbline_worker::{TileOutput, TileOutputV1, tile_key};
+use serde::{Deserialize, Serialize};
+
+use crate::{AdjusterConfig, finish};
+
+/// The KV bucket of the tiles counted per campaign run.
+pub const TALLY_BUCKET: &str = "plumbline-adjuster";
+/// Interval of the in-progress acks while a result (or the adjustment it triggers) is handled.
+const HEARTBEAT: Duration = Duration::from_secs(30);
+/// Delay asked for when a result is nakked.
+const RETRY_DELAY: Duration = Duration::from_secs(5);
+
+/// The tiles of one campaign run that have been counted.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Tally {
+    /// Tiles whose output is written.
+    pub done: Vec<TileId>,
+    /// Tiles given up on, with their error.
+    pub failed: Vec<DeadLetter>,
+}
+
+impl Tally {
+    /// Record a result; `false` when the tile was already counted.
+    fn record(&mut self, result: &Outcome) -> bool {
+        let tile = result.tile();
+        if self.done.contains(&tile) || self.failed.iter().any(|f| f.tile == tile) {
+            return false;
+        }
+        match result {
+            Outcome::Done(_) => self.done.push(tile),
+            Outcome::Failed(f) => self.failed.push(DeadLetter { tile, error: f.error.clone() }),
+        }
+        true
+    }
+}
+
+/// A message of the results stream.
+#[derive(Debug)]
+enum Outcome {
+    Done(TileDone),
+    Failed(TileFailed),
+}
+
+impl Outcome {
+    fn parse(bytes: &[u8]) -> Option<Self> {
+        TileDone::from_json(bytes).map(Self::Done).or_else(|_| TileFailed::from_json(bytes).map(Self::Failed)).ok()
+    }
+
+    fn tile(&self) -> TileId {
+        match self {
+            Self::Done(d) => d.tile,
+            Self::Failed(f) => f.tile,
+        }
+    }
+
+    fn campaign_run(&self) -> (&plumbline_campaign::CampaignId, u32) {
+        match self {
+            Self::Done(d) => (&d.campaign, d.run),
+            Self::Failed(f) => (&f.campaign, f.run),
+        }
+    }
+}
+
+/// The adjuster's state.
+struct Adjuster {
+    bus: Bus,
+    files: Files,
+    tallies: kv::Store,
+}
+
+/// Handle results until `shutdown` completes (the result in hand is finished first).
+pub async fn serve(bus: Bus, files: Files, shutdown: impl Future<Output = ()>) -> anyhow::Result<()> {
+    let stream =
+        bus.js.get_stream(RESULTS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {RESULTS_STREAM}: {e}"))?;
+    let consumer: PullConsumer = stream
+        .get_consumer(ADJUSTER_CONSUMER)
+        .await
+        .map_err(|e| anyhow::anyhow!("consumer {ADJUSTER_CONSUMER}: {e}"))?;
+    let tallies = bus
+        .js
+        .create_or_update_key_value(kv::Config {
+            bucket: TALLY_BUCKET.into(),
+            description: "plumbline adjuster: tiles counted per campaign run".into(),
+            history: 1,
+            storage: jetstream::stream::StorageType::File,
+            ..Default::default()
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("KV bucket {TALLY_BUCKET}: {e}"))?;
+    let adjuster = Adjuster { bus, files, tallies };
+    adjuster.resume().await?;
+    tracing::info!("adjuster ready");
+    tokio::pin!(shutdown);
+    loop {
+        let batch = tokio::select! {
+            () = &mut shutdown => break,
+            batch = consumer.batch().max_messages(16).expires(Duration::from_secs(2)).messages() => batch,
+        };
+        let mut messages = match batch {
+            Ok(messages) => messages,
+            Err(e) => {
+                tracing::warn!(error = %e, "fetching results failed; retrying");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+                continue;
+            }
+        };
+        while let Some(message) = messages.next().await {
+            match message {
+                Ok(message) => adjuster.handle(&message).await,
+                Err(e) => tracing::warn!(error = %e, "receiving a result failed"),
+            }
+        }
+    }
+    tracing::info!("adjuster stopped");
+    Ok(())
+}
+
+impl Adjuster {
+    /// Finish the campaigns a previous adjuster left `adjusting`.
+    async fn resume(&self) -> anyhow::Result<()> {
+        for state in self.bus.campaigns.list().await? {
+            if state.status == CampaignStatus::Adjusting {
+                tracing::info!(campaign = state.id.as_str(), run = state.run, "finishing an interrupted adjustment");
+                self.finish_campaign(&state).await?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Record one result and answer it.
+    async fn handle(&self, message: &jetstream::Message) {
+        let Some(outcome) = Outcome::parse(&message.payload) else {
+            tracing::error!("unreadable result dropped");
+            reply(message, AckKind::Term).await;
+            return;
+        };
+        match with_heartbeat(message, self.record(&outcome)).await {
+            Ok(()) => reply(message, AckKind::Ack).await,
+            Err(e) => {
+                tracing::warn!(error = %format!("{e:#}"), "recording a result failed; retrying later");
+                reply(message, AckKind::Nak(Some(RETRY_DELAY))).await;
+            }
+        }
+    }
+
+    /// Count the result into the tally and the state; finish the campaign when every tile is handled.
+    async fn record(&self, outcome: &Outcome) -> anyhow::Result<()> {
+        let (id, run) = outcome.campaign_run();
+        let Some((state, _)) = self.bus.campaigns.get(id).await? else {
+            tracing::warn!(campaign = id.as_str(), "result of an unknown campaign dropped");
+            return Ok(());
+        };
+        if state.run != run || state.status.is_terminal() {
+            return Ok(());
+        }
+        let tally = self.add_to_tally(&format!("{}.{run}", id.as_str()), outcome).await?;
+        let counted = tally.clone();
+        let written = self
+            .bus
+            .campaigns
+            .modify(id, move |s| {
+                if s.run != run || s.status.is_terminal() || s.status == CampaignStatus::Adjusting {
+                    return false;
+                }
+                s.tiles_done = counted.done.len() as u64;
+                s.tiles_failed = counted.failed.len() as u64;
+                s.dead_lettered.clone_from(&counted.failed);
+                s.status = if s.tiles_handled() >= s.tiles_total {
+                    CampaignStatus::Adjusting
+                } else {
+                    CampaignStatus::Running
+                };
+                true
+            })
+            .await?;
+        match written {
+            Some(s) if s.status == CampaignStatus::Adjusting && s.run == run => self.finish_campaign(&s).await,
+            _ => Ok(()),
+        }
+    }
+
+    /// Add the result to the run's tally (revision-checked, retried on a lost race); the tally as written.
+    async fn add_to_tally(&self, key: &str, outcome: &Outcome) -> anyhow::Result<Tally> {
+        for _ in 0..64 {
+            let entry = self.tallies.entry(key).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
+            let (mut tally, revision) = match entry {
+                Some(e) if e.operation == kv::Operation::Put => (
+                    serde_json::from_slice::<Tally>(&e.value).map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?,
+                    e.revision,
+                ),
+                _ => (Tally::default(), 0),
+            };
+            if !tally.record(outcome) {
+                return Ok(tally);
+            }
+            let bytes = serde_json::to_vec(&tally)?;
+            let written = if revision == 0 {
+                self.tallies.create(key, bytes.into()).await.map(|_| ()).map_err(|e| e.to_string())
+            } else {
+                self.tallies.update(key, bytes.into(), revision).await.map(|_| ()).map_err(|e| e.to_string())
+            };
+            match written {
+                Ok(()) => return Ok(tally),
+                Err(e) => tracing::debug!(key, error = e, "tally write lost a race; reading again"),
+            }
+        }
+        anyhow::bail!("tally {key}: still contended after 64 rounds")
+    }
+
+    /// Adjust the campaign from its done tiles and set `done` (or `failed`).
+    async fn finish_campaign(&self, state: &CampaignState) -> anyhow::Result<()> {
+        let result = self.adjust(state).await;
+        let run = state.run;
+        let (status, report, error) = match result {
+            Ok(report) => (CampaignStatus::Done, Some(report), None),
+            Err(e) => {
+                tracing::error!(campaign = state.id.as_str(), error = %format!("{e:#}"), "adjustment failed");
+                (CampaignStatus::Failed, None, Some(format!("adjustment: {e:#}")))
+            }
+        };
+        self.bus
+            .campaigns
+            .modify(&state.id, move |s| {
+                if s.run != run || s.status != CampaignStatus::Adjusting {
+                    return false;
+                }
+                s.status = status;
+                s.report.clone_from(&report);
+                s.error.clone_from(&error);
+                true
+            })
+            .await?;
+        tracing::info!(campaign = state.id.as_str(), run, status = status.as_str(), "campaign finished");
+        Ok(())
+    }
+
+    /// Read the done tiles' outputs and run [`finish`]; the report's URL.
+    async fn adjust(&self, state: &CampaignState) -> anyhow::Result<String> {
+        let key = format!("{}.{}", state.id.as_str(), state.run);
+        let entry = self.tallies.entry(key.as_str()).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
+        let tally: Tally = match entry {
+            Some(e) => serde_json::from_slice(&e.value)?,
+            None => Tally::default(),
+        };
+        let mut campaign = load_campaign(&self.files, &state.manifest).await?;
+        let mut outputs = Vec::with_capacity(tally.done.len());
+        for tile in &tally.done {
+            outputs.push(read_output(&self.files, &format!("{}{}", campaign.output, tile_key(tile))).await?);
+        }
+        outputs.sort_by_key(|o| o.tile);
+        if outputs.is_empty() {
+            anyhow::bail!("no tile of {} could be processed ({} failed)", state.id.as_str(), tally.failed.len());
+        }
+        campaign.skipped.extend(tally.failed.iter().map(|f| SkippedInput {
+            stage: "tiles".into(),
+            item: format!("tile {}", f.tile),
+            reason: "dead-lettered".into(),
+            detail: f.error.clone(),
+        }));
+        let config = AdjusterConfig::from_manifest(&campaign.manifest);
+        finish(&self.files, &campaign, &outputs, &config, &NoProgress).await?;
+        Ok(format!("{}report.json", campaign.output))
+    }
+}
+
+/// One tile's output object.
+async fn read_output(files: &Files, url: &str) -> anyhow::Result<TileOutputV1> {
+    let bytes = files.read(url).await?;
+    let doc: TileOutput = serde_json::from_slice(&bytes).map_err(|e| anyhow::anyhow!("tile output {url}: {e}"))?;
+    Ok(doc.into_latest())
+}
+
+/// Run `work`, sending an in-progress ack for `message` every [`HEARTBEAT`].
+async fn with_heartbeat<T>(message: &jetstream::Message, work: impl Future<Output = T>) -> T {
+    tokio::pin!(work);
+    let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + HEARTBEAT, HEARTBEAT);
+    loop {
+        tokio::select! {
+            out = &mut work => return out,
+            _ = ticks.tick() => reply(message, AckKind::Progress).await,
+        }
+    }
+}
+
+/// Send an ack of `kind`, logging a failure (an unacked result is redelivered anyway).
+async fn reply(message: &jetstream::Message, kind: AckKind) {
+    if let Err(e) = message.ack_with(kind).await {
+        tracing::warn!(error = %e, "ack failed");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn done(col: i64) -> Outcome {
+        Outcome::Done(TileDone {
+            campaign: "hh-2024".parse().unwrap(),
+            run: 1,
+            tile: TileId { col, row: 0 },
+            result: format!("s3://b/results/tiles/{col}_0.json"),
+            attempts: 1,
+        })
+    }
+
+    #[test]
+    fn a_tile_is_counted_once_whatever_arrives_again() {
+        let mut tally = Tally::default();
+        assert!(tally.record(&done(1)));
+        assert!(!tally.record(&done(1)), "a redelivered TileDone counts again");
+        let failed = Outcome::Failed(TileFailed {
+            campaign: "hh-2024".parse().unwrap(),
+            run: 1,
+            tile: TileId { col: 2, row: 0 },
+            kind: plumbline_scheduler::messages::FailureKind::Permanent,
+            error: "bad panoramas".into(),
+            attempts: 1,
+        });
+        assert!(tally.record(&failed));
+        assert!(!tally.record(&failed));
+        assert!(!tally.record(&done(2)), "a failed tile may not also count as done");
+        assert_eq!(tally.done, vec![TileId { col: 1, row: 0 }]);
+        assert_eq!(tally.failed, vec![DeadLetter { tile: TileId { col: 2, row: 0 }, error: "bad panoramas".into() }]);
+        let back: Tally = serde_json::from_slice(&serde_json::to_vec(&tally).unwrap()).unwrap();
+        assert_eq!(back, tally);
+    }
+}

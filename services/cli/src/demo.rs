@@ -1,0 +1,61 @@
+//! `plumbline demo`: simulate a campaign with ground truth into a folder and run it — the README's first
+//! command. It ends with the before/after table (DG and corrected trajectory against the simulated truth)
+//! and where the report is.
+
+use std::io::IsTerminal as _;
+use std::process::ExitCode;
+
+use clap::Args as ClapArgs;
+use plumbline_runtime::progress::{ProgressStyle, reporter};
+
+use crate::io::Context;
+use crate::run::{print_summary, run_campaign};
+use crate::simulate::{self, Grade, Preset, Profile};
+
+/// Arguments of `demo`.
+#[derive(Debug, ClapArgs)]
+pub struct Args {
+    /// Which synthetic campaign: `tiny` (~420 m, a minute or two) or `district` (~2 km, much longer).
+    #[arg(long, value_enum, default_value_t = Preset::Tiny)]
+    pub preset: Preset,
+    /// Seed of the synthetic world and drive.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// GNSS environment of the drive.
+    #[arg(long, value_enum, default_value_t = Profile::Canyon)]
+    pub profile: Profile,
+    /// Folder for the simulated campaign; the results go to its `results/`.
+    #[arg(long, value_name = "DIR", default_value = "demo")]
+    pub out: String,
+    /// No progress output.
+    #[arg(long)]
+    pub quiet: bool,
+    /// Progress as JSON lines on stderr.
+    #[arg(long, conflicts_with = "quiet")]
+    pub json: bool,
+}
+
+/// Run `demo`.
+pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
+    let style = ProgressStyle::choose(args.quiet, args.json, std::io::stderr().is_terminal());
+    let progress = reporter(style);
+    progress.begin("simulate", None);
+    let sim = simulate::Args {
+        preset: args.preset,
+        seed: args.seed,
+        out: args.out.clone(),
+        profile: args.profile,
+        imu: Grade::Tactical,
+        navigation_only: false,
+        length: None,
+        panorama_spacing: None,
+        panorama_width: None,
+        aerial_gsd: 0.12,
+        depth_rate: None,
+    };
+    let manifest = simulate::write(ctx, sim).await?;
+    progress.end("simulate");
+    let outcome = run_campaign(ctx.files(), &manifest, false, 2, progress).await?;
+    print_summary(&outcome);
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,189 @@
+//! `plumbline serve <role>`: the long-running services of the distributed path, on NATS JetStream and an
+//! object store, until SIGINT or SIGTERM. `scheduler` serves the job API (`plumbline_scheduler::service`),
+//! `worker` processes tile tasks (`plumbline_worker::service`), `adjuster` counts results and runs the
+//! global adjustment of finished campaigns (`plumbline_adjuster::service`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use clap::{Args as ClapArgs, Subcommand};
+use plumbline_runtime::Secret;
+use plumbline_scheduler::bus::{Bus, TASKS_STREAM, ensure, workers_consumer};
+use plumbline_scheduler::service::{self, Scheduler, Tokens};
+
+use crate::exit::{OrInvalid, invalid};
+use crate::io::Context;
+
+/// The service roles.
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// The job API: validates and plans submitted campaigns, publishes their tile tasks, tracks their state.
+    Scheduler(SchedulerArgs),
+    /// Processes tile tasks from the work queue and writes their outputs to the store.
+    Worker(WorkerArgs),
+    /// Counts tile results into the campaign states and adjusts campaigns whose tiles are all handled.
+    Adjuster(AdjusterArgs),
+}
+
+/// Connection arguments every role shares.
+#[derive(Debug, ClapArgs)]
+pub struct Connection {
+    /// NATS server with JetStream (2.10 or newer).
+    #[arg(long, env = "PLUMBLINE_NATS_URL", value_name = "URL")]
+    pub nats: String,
+    /// File holding the NATS token, if the server wants one.
+    #[arg(long, env = "PLUMBLINE_NATS_TOKEN_FILE", value_name = "FILE")]
+    pub nats_token_file: Option<PathBuf>,
+    /// Object store all agencies' data lives in: s3://bucket/prefix, file:///dir or a local directory.
+    #[arg(long, env = "PLUMBLINE_STORE_URL", value_name = "URL")]
+    pub store: String,
+    /// Seconds to keep trying the first NATS connection.
+    #[arg(long, default_value_t = 30)]
+    pub connect_timeout_s: u64,
+}
+
+/// Arguments of `serve worker`.
+#[derive(Debug, ClapArgs)]
+pub struct WorkerArgs {
+    #[command(flatten)]
+    pub connection: Connection,
+    /// Tile tasks in flight at once (each tile already uses every core).
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=64))]
+    pub concurrency: u16,
+    /// Seconds between in-progress acks while a tile runs (keep it below the consumer's ack wait).
+    #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub heartbeat_s: u64,
+    /// Testing knob: rewrite the shared `workers` consumer's ack wait (and every redelivery backoff step)
+    /// to this many seconds, so a killed worker's task comes back quickly. Any role started later resets
+    /// the consumer to the defaults (60 s); do not use in production.
+    #[arg(long, value_name = "S", value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub ack_wait_s: Option<u64>,
+}
+
+/// Arguments of `serve adjuster`.
+#[derive(Debug, ClapArgs)]
+pub struct AdjusterArgs {
+    #[command(flatten)]
+    pub connection: Connection,
+}
+
+/// Arguments of `serve scheduler`.
+#[derive(Debug, ClapArgs)]
+pub struct SchedulerArgs {
+    /// NATS server with JetStream (2.10 or newer).
+    #[arg(long, env = "PLUMBLINE_NATS_URL", value_name = "URL")]
+    pub nats: String,
+    /// File holding the NATS token, if the server wants one.
+    #[arg(long, env = "PLUMBLINE_NATS_TOKEN_FILE", value_name = "FILE")]
+    pub nats_token_file: Option<PathBuf>,
+    /// Object store all agencies' data lives in: s3://bucket/prefix, file:///dir or a local directory.
+    #[arg(long, env = "PLUMBLINE_STORE_URL", value_name = "URL")]
+    pub store: String,
+    /// Address to serve the API on.
+    #[arg(long, default_value = "127.0.0.1:8080", value_name = "ADDR")]
+    pub listen: String,
+    /// Bearer tokens: a TOML file whose `[tokens]` table maps each token to its agency.
+    #[arg(long, env = "PLUMBLINE_TOKENS_FILE", value_name = "FILE")]
+    pub tokens: PathBuf,
+    /// Seconds to keep trying the first NATS connection.
+    #[arg(long, default_value_t = 30)]
+    pub connect_timeout_s: u64,
+}
+
+/// Run `serve`.
+pub async fn run(ctx: &Context, command: Command) -> anyhow::Result<ExitCode> {
+    match command {
+        Command::Scheduler(args) => scheduler(ctx, args).await,
+        Command::Worker(args) => worker(ctx, args).await,
+        Command::Adjuster(args) => adjuster(ctx, args).await,
+    }
+}
+
+/// Connect and bind the JetStream resources.
+async fn bus(connection: &Connection) -> anyhow::Result<Bus> {
+    let token = nats_token(connection.nats_token_file.as_ref())?;
+    let wait = Duration::from_secs(connection.connect_timeout_s);
+    let client = service::connect(&connection.nats, token.as_ref(), wait).await?;
+    Ok(ensure(async_nats::jetstream::new(client)).await?)
+}
+
+async fn worker(ctx: &Context, args: WorkerArgs) -> anyhow::Result<ExitCode> {
+    let bus = bus(&args.connection).await?;
+    if let Some(seconds) = args.ack_wait_s {
+        shorten_ack_wait(&bus, Duration::from_secs(seconds)).await?;
+    }
+    let config = plumbline_worker::service::ServiceConfig {
+        concurrency: usize::from(args.concurrency),
+        heartbeat: Duration::from_secs(args.heartbeat_s),
+        ..Default::default()
+    };
+    tracing::info!(store = args.connection.store, "worker starting");
+    plumbline_worker::service::serve(bus, ctx.files().clone(), config, shutdown_signal()).await?;
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn adjuster(ctx: &Context, args: AdjusterArgs) -> anyhow::Result<ExitCode> {
+    let bus = bus(&args.connection).await?;
+    tracing::info!(store = args.connection.store, "adjuster starting");
+    plumbline_adjuster::service::serve(bus, ctx.files().clone(), shutdown_signal()).await?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Rewrite the workers consumer's ack wait and backoff (the `--ack-wait-s` testing knob).
+async fn shorten_ack_wait(bus: &Bus, wait: Duration) -> anyhow::Result<()> {
+    let mut config = workers_consumer();
+    config.ack_wait = wait;
+    config.backoff = vec![wait; config.backoff.len()];
+    let stream = bus.js.get_stream(TASKS_STREAM).await?;
+    stream.update_consumer(config).await?;
+    tracing::warn!(seconds = wait.as_secs(), "workers consumer's ack wait shortened (testing knob)");
+    Ok(())
+}
+
+fn nats_token(file: Option<&PathBuf>) -> anyhow::Result<Option<Secret>> {
+    match file {
+        Some(path) => {
+            let token = std::fs::read_to_string(path).or_invalid(&format!("NATS token file {}", path.display()))?;
+            Ok(Some(Secret::new(token.trim())))
+        }
+        None => Ok(None),
+    }
+}
+
+async fn scheduler(ctx: &Context, args: SchedulerArgs) -> anyhow::Result<ExitCode> {
+    let origin = args.tokens.display().to_string();
+    let text = std::fs::read_to_string(&args.tokens).or_invalid(&format!("tokens file {origin}"))?;
+    let tokens = Tokens::from_toml(&origin, &text).map_err(invalid)?;
+    let nats_token = nats_token(args.nats_token_file.as_ref())?;
+    let client = service::connect(&args.nats, nats_token.as_ref(), Duration::from_secs(args.connect_timeout_s)).await?;
+    let scheduler = Scheduler::start(client, ctx.files().clone(), &args.store, tokens).await?;
+    let listener =
+        tokio::net::TcpListener::bind(&args.listen).await.or_invalid(&format!("--listen {}", args.listen))?;
+    tracing::info!(listen = %listener.local_addr()?, "scheduler API listening");
+    service::serve(listener, scheduler, shutdown_signal()).await?;
+    tracing::info!("scheduler stopped");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Completes on SIGINT or SIGTERM.
+async fn shutdown_signal() {
+    let interrupt = async {
+        let _ = tokio::signal::ctrl_c().await;
+    };
+    #[cfg(unix)]
+    let terminate = async {
+        match tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate()) {
+            Ok(mut signal) => {
+                signal.recv().await;
+            }
+            Err(_) => std::future::pending::<()>().await,
+        }
+    };
+    #[cfg(not(unix))]
+    let terminate = std::future::pending::<()>();
+    tokio::select! {
+        () = interrupt => {},
+        () = terminate => {},
+    }
+}

@@ -1,0 +1,207 @@
+//! End-to-end test of the distributed path on real servers (nats-server, moto S3): a short simulated
+//! campaign is uploaded under an agency's prefix, submitted to an in-process scheduler, processed by two
+//! `plumbline serve worker` processes and adjusted by a `plumbline serve adjuster` process; its corrected
+//! trajectory must equal the one `plumbline run` computes from the same files. A second submission of the
+//! campaign (another id) loses a worker to `kill -9` in the middle of a tile: the tile is redelivered to the
+//! other worker and the campaign completes with the same trajectory.
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use plumbline_geo::formats;
+use plumbline_runtime::{Files, S3Options, Secret};
+use plumbline_scheduler::client::Client;
+use plumbline_scheduler::messages::CampaignStatus;
+use plumbline_scheduler::service::{self, Scheduler, Tokens};
+use plumbline_testkit::{MotoServer, NatsServer};
+use support::plumbline;
+
+const TOKEN: &str = "hh-token-0123456789abcdef";
+const STORE: &str = "s3://plumbline/pl";
+
+/// A `plumbline serve` child process, killed when dropped; its stderr goes to `log`.
+struct Role {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Role {
+    fn start(role: &str, nats: &NatsServer, moto: &MotoServer, log: PathBuf, extra: &[&str]) -> Self {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plumbline"));
+        cmd.args(["serve", role, "--nats", &nats.url(), "--store", STORE]).args(extra);
+        for (key, _) in std::env::vars() {
+            if key.starts_with("PLUMBLINE_") {
+                cmd.env_remove(key);
+            }
+        }
+        cmd.env("PLUMBLINE_S3_ENDPOINT", moto.endpoint())
+            .env("PLUMBLINE_S3_ACCESS_KEY_ID", "test")
+            .env("PLUMBLINE_S3_SECRET_ACCESS_KEY", "test")
+            .env("PLUMBLINE_LOG_FILTER", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap());
+        Self { child: cmd.spawn().expect("plumbline serve starts"), log }
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// SIGKILL (`kill -9`).
+    fn kill(&mut self) {
+        self.child.kill().unwrap();
+        self.child.wait().unwrap();
+    }
+}
+
+impl Drop for Role {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+fn s3_files(moto: &MotoServer) -> Files {
+    Files::new(S3Options {
+        endpoint: Some(moto.endpoint()),
+        access_key_id: Some("test".into()),
+        secret_access_key: Some(Secret::new("test")),
+        ..S3Options::default()
+    })
+}
+
+/// Every file under `dir` (recursively), relative paths with `/`.
+fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            walk(&path, base, out);
+        } else {
+            out.push(path.strip_prefix(base).unwrap().to_string_lossy().replace('\\', "/"));
+        }
+    }
+}
+
+/// Upload the simulated campaign's inputs where a manifest of campaign `id` of agency hamburg finds them.
+async fn upload(files: &Files, campaign: &Path, id: &str) {
+    let mut names = Vec::new();
+    walk(campaign, campaign, &mut names);
+    for name in names.iter().filter(|n| !n.starts_with("results/")) {
+        let url = format!("{STORE}/agencies/hamburg/campaigns/{id}/{name}");
+        files.write(&url, std::fs::read(campaign.join(name)).unwrap()).await.unwrap();
+    }
+}
+
+/// Poll the campaign until it is terminal; panics with the roles' logs after `limit`.
+async fn wait_terminal(
+    client: &Client,
+    id: &str,
+    limit: Duration,
+    roles: &[&Role],
+) -> plumbline_scheduler::api::CampaignView {
+    let start = Instant::now();
+    loop {
+        let view = client.status(id).await.unwrap();
+        if view.campaign.status.is_terminal() {
+            return view;
+        }
+        if start.elapsed() > limit {
+            let logs: Vec<String> = roles.iter().map(|r| r.log()).collect();
+            panic!(
+                "campaign {id} still {:?} after {limit:?}: {view:#?}\nlogs:\n{}",
+                view.campaign.status,
+                logs.join("\n----\n")
+            );
+        }
+        tokio::time::sleep(Duration::from_millis(500)).await;
+    }
+}
+
+/// The corrected SBET records must match the reference to 1e-9 in every field.
+fn assert_same_trajectory(found: &[formats::SbetRecord], expected: &[formats::SbetRecord], what: &str) {
+    assert_eq!(found.len(), expected.len(), "{what}: record count");
+    for (i, (f, e)) in found.iter().zip(expected).enumerate() {
+        for (a, b) in f.to_array().iter().zip(e.to_array()) {
+            assert!((a - b).abs() <= 1e-9, "{what}: record {i} differs: {a} vs {b}");
+        }
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker() {
+    let t0 = Instant::now();
+    let dir = tempfile::tempdir().unwrap();
+    let campaign = dir.path().join("campaign");
+    plumbline(&["simulate", "--preset", "tiny", "--length", "150", "--out", campaign.to_str().unwrap()])
+        .run()
+        .success();
+    let manifest = std::fs::read_to_string(campaign.join("campaign.toml")).unwrap();
+    let id = manifest.lines().find_map(|l| l.strip_prefix("id = \"")).unwrap().trim_end_matches('"').to_owned();
+
+    let moto = MotoServer::start();
+    moto.create_bucket("plumbline");
+    let files = s3_files(&moto);
+    let killed_id = format!("{id}-kill");
+    upload(&files, &campaign, &id).await;
+    upload(&files, &campaign, &killed_id).await;
+
+    // The reference: the whole campaign in one process.
+    plumbline(&["run", campaign.join("campaign.toml").to_str().unwrap(), "--quiet"]).run().success();
+    let expected = std::fs::read(campaign.join("results/trajectory.sbet")).unwrap();
+    let expected = formats::parse_sbet(&expected, "run").unwrap();
+    eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
+
+    let nats = NatsServer::start();
+    let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).unwrap();
+    let scheduler = Scheduler::start(client, files.clone(), STORE, tokens).await.unwrap();
+    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let server = format!("http://{}", listener.local_addr().unwrap());
+    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+    tokio::spawn(service::serve(listener, scheduler, async {
+        let _ = stopped.await;
+    }));
+    let api = Client::new(&server, Secret::new(TOKEN)).unwrap();
+
+    // (a) Two workers and an adjuster; the adjuster first, since the workers shorten the ack wait after it.
+    let logs = dir.path();
+    let adjuster = Role::start("adjuster", &nats, &moto, logs.join("adjuster.log"), &[]);
+    let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4"];
+    let mut w1 = Role::start("worker", &nats, &moto, logs.join("w1.log"), &knobs);
+    let w2 = Role::start("worker", &nats, &moto, logs.join("w2.log"), &knobs);
+    let started = Instant::now();
+    let submitted = api.submit(manifest.clone().into_bytes(), false).await.unwrap();
+    assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");
+    let view = wait_terminal(&api, &id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
+    eprintln!("distributed campaign of {} tiles: {:.1} s", view.campaign.tiles_total, started.elapsed().as_secs_f64());
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total);
+    assert_eq!(view.campaign.tiles_failed, 0);
+    let report = api.report(&id).await.unwrap();
+    assert_eq!(report["campaign"]["id"], id.as_str());
+    let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
+    assert_same_trajectory(&formats::parse_sbet(&found, "distributed").unwrap(), &expected, "distributed");
+
+    // (b) The same campaign under another id; worker 1 is killed as soon as it works on a tile.
+    let killed_manifest = manifest.replacen(&format!("id = \"{id}\""), &format!("id = \"{killed_id}\""), 1);
+    let before = w1.log().matches("tile started").count();
+    api.submit(killed_manifest.into_bytes(), false).await.unwrap();
+    let start = Instant::now();
+    while w1.log().matches("tile started").count() == before {
+        assert!(start.elapsed() < Duration::from_secs(120), "worker 1 never started a tile:\n{}", w1.log());
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    w1.kill();
+    let view = wait_terminal(&api, &killed_id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total, "{view:#?}");
+    let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
+    assert_same_trajectory(&formats::parse_sbet(&found, "after kill").unwrap(), &expected, "after kill");
+    eprintln!("campaign with a killed worker: {:.1} s", start.elapsed().as_secs_f64());
+    let _ = stop.send(());
+}

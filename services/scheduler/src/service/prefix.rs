@@ -1,0 +1,141 @@
+//! Object prefixes of agencies: where a submitted manifest is stored, and the check that every location it
+//! names (inputs, image prefixes, output) stays under its agency's prefix `{store}/agencies/<agency>/`.
+
+use plumbline_campaign::{CampaignId, FieldPath, Location, ManifestV1, resolve};
+
+use super::auth::Agency;
+
+/// A location outside the agency's prefix, or one that cannot be resolved.
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+pub struct PrefixProblem {
+    /// The manifest field (`trajectory[0].url`, `output`, …).
+    pub field: String,
+    /// What was found.
+    pub found: String,
+    /// What is expected.
+    pub expected: String,
+}
+
+/// The store layout of the scheduler: the store root URL (ending in `/`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Layout {
+    root: String,
+}
+
+impl Layout {
+    /// The layout under a store URL (`s3://bucket/prefix`, `file:///dir`, or a local path).
+    pub fn new(store: &str) -> Self {
+        let mut root = crate::manifest_base(store);
+        if !root.ends_with('/') {
+            root.push('/');
+        }
+        Self { root }
+    }
+
+    /// The store root, ending in `/`.
+    pub fn root(&self) -> &str {
+        &self.root
+    }
+
+    /// `{root}agencies/<agency>/`.
+    pub fn agency_prefix(&self, agency: &Agency) -> String {
+        format!("{}agencies/{}/", self.root, agency.as_str())
+    }
+
+    /// Where the manifest of a campaign is stored: `{agency prefix}campaigns/<id>/manifest.{toml|json}`.
+    pub fn manifest_url(&self, agency: &Agency, id: &CampaignId, json: bool) -> String {
+        let ext = if json { "json" } else { "toml" };
+        format!("{}campaigns/{}/manifest.{ext}", self.agency_prefix(agency), id.as_str())
+    }
+}
+
+/// Every location the manifest names (inputs, image prefixes, the output) with its field path.
+fn all_locations(manifest: &ManifestV1) -> Vec<(FieldPath, &Location)> {
+    let root = FieldPath::root();
+    let mut out = manifest.input_locations();
+    out.push((root.field("output"), &manifest.output));
+    if let Some(p) = &manifest.panoramas {
+        out.push((root.field("panoramas").field("images"), &p.images));
+    }
+    for (i, d) in manifest.depth.iter().enumerate() {
+        out.push((root.field("depth").index(i).field("images"), &d.images));
+    }
+    if let Some(f) = manifest.aerial.as_ref().and_then(|a| a.frames.as_ref()) {
+        out.push((root.field("aerial").field("frames").field("images"), &f.images));
+    }
+    out
+}
+
+/// The locations of `manifest` (stored at `manifest_url`) that leave `prefix`, each naming its field.
+pub fn check_locations(manifest: &ManifestV1, manifest_url: &str, prefix: &str) -> Vec<PrefixProblem> {
+    let expected = format!("a location under the agency's prefix {prefix}");
+    let mut problems = Vec::new();
+    for (field, location) in all_locations(manifest) {
+        let found = match resolve(manifest_url, location.as_str()) {
+            Err(e) => Some(e.found()),
+            Ok(url) if !url.starts_with(prefix) => Some(format!("{:?} resolves to {url}", location.as_str())),
+            Ok(url) if climbs(&url[prefix.len()..]) => {
+                Some(format!("{:?} has a \".\" or \"..\" segment after the prefix", location.as_str()))
+            }
+            Ok(_) => None,
+        };
+        if let Some(found) = found {
+            problems.push(PrefixProblem { field: field.to_string(), found, expected: expected.clone() });
+        }
+    }
+    problems
+}
+
+/// Whether a key has segments that could move it elsewhere once a store normalises it (`..`, `.`, their
+/// percent-encodings, or backslashes).
+fn climbs(rest: &str) -> bool {
+    let lower = rest.to_ascii_lowercase();
+    lower.contains("%2e")
+        || lower.contains('\\')
+        || lower.contains("%5c")
+        || rest.split('/').any(|s| s == ".." || s == ".")
+}
+
+#[cfg(test)]
+mod tests {
+    use plumbline_campaign::Manifest;
+
+    use super::*;
+
+    fn manifest(trajectory: &str, output: &str) -> ManifestV1 {
+        let text = format!(
+            "version = \"1\"\ncrs = 25832\noutput = {output:?}\n[campaign]\nid = \"c1\"\nname = \"c\"\n\
+             [[trajectory]]\nformat = \"csv\"\nurl = {trajectory:?}\n"
+        );
+        Manifest::from_toml_str(&text).unwrap().into_latest()
+    }
+
+    fn check(trajectory: &str, output: &str, expect_fields: &[&str]) {
+        let layout = Layout::new("s3://bucket/pl");
+        let agency = Agency::parse("hamburg").unwrap();
+        let url = layout.manifest_url(&agency, &"c1".parse().unwrap(), false);
+        assert_eq!(url, "s3://bucket/pl/agencies/hamburg/campaigns/c1/manifest.toml");
+        let problems = check_locations(&manifest(trajectory, output), &url, &layout.agency_prefix(&agency));
+        let fields: Vec<&str> = problems.iter().map(|p| p.field.as_str()).collect();
+        assert_eq!(fields, expect_fields, "{trajectory} {output}: {problems:?}");
+    }
+
+    #[test]
+    fn locations_must_stay_under_the_agency_prefix() {
+        check("nav/dg.csv", "results/", &[]);
+        check("s3://bucket/pl/agencies/hamburg/shared/dg.csv", "results/", &[]);
+        check("../../../bremen/campaigns/x/dg.csv", "results/", &["trajectory[0].url"]);
+        check("nav/dg.csv", "s3://bucket/pl/agencies/bremen/out/", &["output"]);
+        check("s3://bucket/pl/agencies/hamburg/../bremen/dg.csv", "results/", &["trajectory[0].url"]);
+        check("s3://bucket/pl/agencies/hamburg/%2E%2E/bremen/dg.csv", "results/", &["trajectory[0].url"]);
+        check("s3://bucket/pl/agencies/hamburgx/dg.csv", "file:///etc/", &["trajectory[0].url", "output"]);
+        check("s3://other/pl/agencies/hamburg/dg.csv", "results/", &["trajectory[0].url"]);
+    }
+
+    #[test]
+    fn local_stores_get_file_urls() {
+        let layout = Layout::new("file:///data/pl/");
+        assert_eq!(layout.root(), "file:///data/pl/");
+        assert_eq!(layout.agency_prefix(&Agency::parse("bremen").unwrap()), "file:///data/pl/agencies/bremen/");
+    }
+}

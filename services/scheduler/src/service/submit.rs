@@ -1,0 +1,181 @@
+//! `POST /v1/campaigns`: parse and validate the manifest, keep it under the agency's prefix, store it, load
+//! and plan the campaign, write `plan.json`, set the KV state and publish one task per tile.
+
+use axum::http::StatusCode;
+use plumbline_campaign::{Manifest, ManifestV1, ParseError, Problem};
+
+use super::Scheduler;
+use super::auth::Agency;
+use super::error::{ApiError, FieldProblem};
+use super::prefix::check_locations;
+use crate::bus::unix_now;
+use crate::load::{Campaign, load_campaign};
+use crate::messages::{CampaignState, CampaignStatus, TileTask};
+
+/// What was submitted, parsed and checked.
+struct Submission {
+    manifest: ManifestV1,
+    url: String,
+    bytes: Vec<u8>,
+}
+
+/// Handle a submission; the status is 201 for a new campaign or run, 200 for a resubmission.
+pub(super) async fn submit(
+    s: &Scheduler,
+    agency: &Agency,
+    json: bool,
+    body: Vec<u8>,
+) -> Result<(StatusCode, CampaignState), ApiError> {
+    let sub = parse(s, agency, json, body)?;
+    let id = sub.manifest.campaign.id.clone();
+    let existing = s.bus.campaigns.get(&id).await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
+    let (run, revision) = match existing {
+        Some((state, _)) if state.agency != agency.as_str() => {
+            return Err(ApiError::new(StatusCode::CONFLICT, format!("campaign id {:?} is in use", id.as_str())));
+        }
+        Some((state, _)) if !state.status.is_terminal() => return resubmit(s, &sub, state).await,
+        Some((state, revision)) => (state.run + 1, Some(revision)),
+        None => (1, None),
+    };
+    s.files.write(&sub.url, sub.bytes.clone()).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
+    let campaign = load(s, &sub.url).await?;
+    let plan_url = format!("{}plan.json", campaign.output);
+    s.files.write(&plan_url, campaign.plan.to_json()).await.map_err(|e| ApiError::unavailable("store", &e))?;
+    let state = initial_state(agency, run, &sub.url, &campaign);
+    let written = match revision {
+        None => s.bus.campaigns.create(&state).await,
+        Some(revision) => s.bus.campaigns.update(&state, revision).await,
+    }
+    .map_err(|e| ApiError::unavailable("campaign state", &e))?;
+    if written.is_none() {
+        return Err(ApiError::new(StatusCode::CONFLICT, "another submission of this campaign came first; retry"));
+    }
+    publish(s, &state, &campaign).await?;
+    tracing::info!(campaign = id.as_str(), agency = agency.as_str(), run, tiles = state.tiles_total, "campaign queued");
+    Ok((StatusCode::CREATED, state))
+}
+
+/// Parse, validate and check the prefixes of a submitted manifest.
+fn parse(s: &Scheduler, agency: &Agency, json: bool, bytes: Vec<u8>) -> Result<Submission, ApiError> {
+    let unprocessable =
+        |message: &str, problems| ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, message).with_problems(problems);
+    let text =
+        std::str::from_utf8(&bytes).map_err(|e| unprocessable(&format!("manifest is not UTF-8: {e}"), vec![]))?;
+    let parsed = if json { Manifest::from_json_str(text) } else { Manifest::from_toml_str(text) };
+    let manifest = parsed.map_err(|e| unprocessable("manifest cannot be read", vec![parse_problem(&e)]))?;
+    if let Err(problems) = manifest.validate() {
+        let list = problems.iter().map(problem).collect();
+        return Err(unprocessable(&format!("manifest has {} problem(s)", problems.len()), list));
+    }
+    let manifest = manifest.into_latest();
+    let url = s.layout.manifest_url(agency, &manifest.campaign.id, json);
+    let outside = check_locations(&manifest, &url, &s.layout.agency_prefix(agency));
+    if !outside.is_empty() {
+        let list = outside.into_iter().map(|p| FieldProblem { field: p.field, found: p.found, expected: p.expected });
+        return Err(ApiError::new(StatusCode::FORBIDDEN, "manifest names locations outside the agency's prefix")
+            .with_problems(list.collect()));
+    }
+    Ok(Submission { manifest, url, bytes })
+}
+
+fn parse_problem(e: &ParseError) -> FieldProblem {
+    FieldProblem {
+        field: e.path().unwrap_or_default().to_owned(),
+        found: e.to_string(),
+        expected: "a campaign manifest v1 (schemas/manifest.v1.schema.json)".into(),
+    }
+}
+
+fn problem(p: &Problem) -> FieldProblem {
+    FieldProblem { field: p.path.as_str().to_owned(), found: p.found.clone(), expected: p.expected.clone() }
+}
+
+/// Load and plan the stored manifest; unusable inputs are the client's problem (422).
+async fn load(s: &Scheduler, url: &str) -> Result<Campaign, ApiError> {
+    load_campaign(&s.files, url).await.map_err(|e| {
+        let message = format!("{e:#}");
+        if plumbline_runtime::is_invalid(&e) {
+            let problems = message
+                .lines()
+                .map(|l| FieldProblem {
+                    field: String::new(),
+                    found: l.trim().to_owned(),
+                    expected: "inputs that exist under the agency's prefix and can be read".into(),
+                })
+                .collect();
+            ApiError::new(StatusCode::UNPROCESSABLE_ENTITY, "campaign inputs cannot be used").with_problems(problems)
+        } else {
+            ApiError::unavailable("loading the campaign", &message)
+        }
+    })
+}
+
+fn initial_state(agency: &Agency, run: u32, manifest: &str, campaign: &Campaign) -> CampaignState {
+    let now = unix_now();
+    CampaignState {
+        id: campaign.manifest.campaign.id.clone(),
+        agency: agency.as_str().to_owned(),
+        run,
+        manifest: manifest.to_owned(),
+        output: campaign.output.clone(),
+        status: CampaignStatus::Queued,
+        tiles_total: campaign.plan.tiles.tiles().len() as u64,
+        tiles_done: 0,
+        tiles_failed: 0,
+        dead_lettered: Vec::new(),
+        panoramas: campaign.plan.panoramas.len() as u64,
+        skipped: campaign.skipped.len() as u64,
+        created: now,
+        updated: now,
+        report: None,
+        error: None,
+    }
+}
+
+/// The same manifest again while the campaign is active: publish its tasks again (the stream drops the
+/// duplicates, restoring any a failed submission did not get to publish). A different manifest is refused.
+async fn resubmit(
+    s: &Scheduler,
+    sub: &Submission,
+    state: CampaignState,
+) -> Result<(StatusCode, CampaignState), ApiError> {
+    let stored = s.files.read(&state.manifest).await.map_err(|e| ApiError::unavailable("store", &e))?;
+    if stored[..] != sub.bytes[..] || state.manifest != sub.url {
+        return Err(ApiError::new(
+            StatusCode::CONFLICT,
+            format!(
+                "campaign {:?} is {} with a different manifest; cancel it first",
+                state.id.as_str(),
+                state.status.as_str()
+            ),
+        ));
+    }
+    let campaign = load(s, &sub.url).await?;
+    publish(s, &state, &campaign).await?;
+    Ok((StatusCode::OK, state))
+}
+
+/// One task per planned tile, de-duplicated by `Nats-Msg-Id`.
+async fn publish(s: &Scheduler, state: &CampaignState, campaign: &Campaign) -> Result<(), ApiError> {
+    let (mut stored, mut duplicates) = (0, 0);
+    for tile in campaign.plan.tiles.tiles() {
+        let task = TileTask {
+            campaign: state.id.clone(),
+            run: state.run,
+            manifest: state.manifest.clone(),
+            tile: tile.id,
+            output: state.output.clone(),
+        };
+        match s.bus.publish_task(&task).await {
+            Ok(true) => stored += 1,
+            Ok(false) => duplicates += 1,
+            Err(e) => {
+                s.metrics.tasks(stored, duplicates);
+                return Err(ApiError::unavailable("publishing tasks (resubmit to complete)", &e));
+            }
+        }
+    }
+    s.metrics.tasks(stored, duplicates);
+    tracing::info!(campaign = state.id.as_str(), stored, duplicates, "tasks published");
+    Ok(())
+}

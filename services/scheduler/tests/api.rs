@@ -1,0 +1,220 @@
+//! The job API against a real nats-server and a real S3 server (moto): submission publishes one task per
+//! planned tile (de-duplicated on resubmission), state in the KV bucket, agency isolation, cancellation,
+//! rejected manifests naming their fields, and publishing after a nats-server restart.
+#![allow(clippy::unwrap_used)]
+
+mod support;
+
+use std::time::{Duration, Instant};
+
+use async_nats::jetstream;
+use plumbline_campaign::plan::PlanDoc;
+use plumbline_scheduler::bus::TASKS_STREAM;
+use plumbline_scheduler::messages::{CampaignStatus, TileTask};
+use reqwest::StatusCode;
+use support::{BREMEN, HAMBURG, Harness, TINY_TILES, manifest};
+
+/// Every task in the work queue (read without consuming: the stream's messages by sequence).
+async fn tasks(h: &Harness) -> Vec<TileTask> {
+    let js = jetstream::new(async_nats::connect(h.nats.url()).await.unwrap());
+    let stream = js.get_stream(TASKS_STREAM).await.unwrap();
+    let mut stream_info = stream.clone();
+    let info = stream_info.info().await.unwrap();
+    let mut out = Vec::new();
+    for seq in info.state.first_sequence..=info.state.last_sequence {
+        if let Ok(m) = stream.get_raw_message(seq).await {
+            out.push(TileTask::from_json(&m.payload).unwrap());
+        }
+    }
+    assert_eq!(out.len() as u64, info.state.messages);
+    out
+}
+
+fn status_of(e: &plumbline_scheduler::client::ClientError) -> StatusCode {
+    e.status().unwrap_or_else(|| panic!("no HTTP answer: {e}"))
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn submit_status_cancel_and_isolation_on_s3() {
+    let h = Harness::s3().await;
+    h.upload_inputs("hamburg", "tiny-1").await;
+    let hh = h.client(HAMBURG);
+    let text = manifest("tiny-1", "nav/dg.csv", "results/");
+
+    let view = hh.submit(text.clone().into_bytes(), false).await.unwrap();
+    let state = &view.campaign;
+    assert_eq!((state.status, state.run, state.agency.as_str()), (CampaignStatus::Queued, 1, "hamburg"));
+    assert_eq!(state.tiles_total, TINY_TILES);
+    assert_eq!(state.panoramas, 30);
+    assert_eq!(state.manifest, format!("{}manifest.toml", h.campaign_dir("hamburg", "tiny-1")));
+    assert_eq!(state.output, format!("{}results/", h.campaign_dir("hamburg", "tiny-1")));
+
+    // One task per planned tile, the plan beside the outputs, the state in the KV bucket.
+    let plan = match serde_json::from_slice(&h.files.read(&format!("{}plan.json", state.output)).await.unwrap()) {
+        Ok(PlanDoc::V1(plan)) => plan,
+        Err(e) => panic!("plan.json: {e}"),
+    };
+    let planned: Vec<_> = plan.tiles.tiles().iter().map(|t| t.id).collect();
+    let queued = tasks(&h).await;
+    let mut queued_tiles: Vec<_> = queued.iter().map(|t| t.tile).collect();
+    queued_tiles.sort_by_key(|t| (t.row, t.col));
+    assert_eq!(queued_tiles, planned);
+    assert_eq!(planned.iter().map(|t| t.col).collect::<Vec<_>>(), (5000..5006).collect::<Vec<_>>());
+    assert!(queued.iter().all(|t| t.run == 1 && t.manifest == state.manifest && t.output == state.output));
+    let (kv, _) = h.scheduler.bus().campaigns.get(&state.id).await.unwrap().unwrap();
+    assert_eq!(kv, view.campaign);
+
+    // Resubmitting the same manifest publishes nothing new.
+    let again = hh.submit(text.clone().into_bytes(), false).await.unwrap();
+    assert_eq!(again.campaign.run, 1);
+    assert_eq!(tasks(&h).await.len() as u64, TINY_TILES);
+    // A different manifest for the active campaign is refused.
+    let changed = text.replace("tiny test drive", "changed");
+    assert_eq!(status_of(&hh.submit(changed.into_bytes(), false).await.unwrap_err()), StatusCode::CONFLICT);
+
+    // Status for its agency; 404 for another agency; 401 without a token.
+    let shown = hh.status("tiny-1").await.unwrap();
+    assert_eq!(shown.campaign, view.campaign);
+    assert_eq!(shown.stages[1].total, TINY_TILES);
+    let hb = h.client(BREMEN);
+    assert_eq!(status_of(&hb.status("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
+    assert_eq!(status_of(&hb.cancel("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
+    assert!(hb.list().await.unwrap().campaigns.is_empty());
+    assert_eq!(hh.list().await.unwrap().campaigns.len(), 1);
+    let anonymous = reqwest::get(format!("{}/v1/campaigns/tiny-1", h.server)).await.unwrap();
+    assert_eq!(anonymous.status(), StatusCode::UNAUTHORIZED);
+    assert_eq!(status_of(&h.client("not-a-known-token-000").list().await.unwrap_err()), StatusCode::UNAUTHORIZED);
+    // Another agency cannot take the id over.
+    h.upload_inputs("bremen", "tiny-1").await;
+    let taken = hb.submit(text.clone().into_bytes(), false).await.unwrap_err();
+    assert_eq!(status_of(&taken), StatusCode::CONFLICT);
+    assert_eq!(status_of(&hh.report("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
+
+    // Cancel: the KV state says so; cancelling again is a conflict; a new submission starts run 2.
+    let cancelled = hh.cancel("tiny-1").await.unwrap();
+    assert_eq!(cancelled.campaign.status, CampaignStatus::Cancelled);
+    let (kv, _) = h.scheduler.bus().campaigns.get(&state.id).await.unwrap().unwrap();
+    assert_eq!(kv.status, CampaignStatus::Cancelled);
+    assert_eq!(status_of(&hh.cancel("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
+    let rerun = hh.submit(text.into_bytes(), false).await.unwrap();
+    assert_eq!((rerun.campaign.run, rerun.campaign.status), (2, CampaignStatus::Queued));
+    let all = tasks(&h).await;
+    assert_eq!(all.len() as u64, 2 * TINY_TILES);
+    assert_eq!(all.iter().filter(|t| t.run == 2).count() as u64, TINY_TILES);
+
+    // What the adjuster will do when finished: the report is served from the store once the state is done.
+    let report_url = format!("{}report.json", rerun.campaign.output);
+    h.files.write(&report_url, br#"{"version":"1","summary":{"epochs":601}}"#.to_vec()).await.unwrap();
+    let done = h.scheduler.bus().campaigns.modify(&state.id, |c| {
+        c.status = CampaignStatus::Done;
+        c.report = Some(report_url.clone());
+        true
+    });
+    done.await.unwrap().unwrap();
+    assert_eq!(hh.report("tiny-1").await.unwrap()["summary"]["epochs"], 601);
+    assert_eq!(status_of(&hb.report("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
+    assert_eq!(status_of(&hh.cancel("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
+
+    let metrics = reqwest::get(format!("{}/metrics", h.server)).await.unwrap().text().await.unwrap();
+    for line in [
+        format!("plumbline_tasks_published_total {}", 2 * TINY_TILES),
+        format!("plumbline_tasks_duplicate_total {TINY_TILES}"),
+        "plumbline_campaigns{status=\"done\"} 1".to_owned(),
+        format!("plumbline_work_queue_messages {}", 2 * TINY_TILES),
+        "plumbline_api_requests_total{route=\"/v1/campaigns/{id}\",status=\"404\"} 2".to_owned(),
+        "plumbline_api_requests_total{route=\"/v1/campaigns/{id}/report\",status=\"200\"} 1".to_owned(),
+    ] {
+        assert!(metrics.lines().any(|l| l == line), "{line} missing from\n{metrics}");
+    }
+    let ready = reqwest::get(format!("{}/readyz", h.server)).await.unwrap();
+    assert_eq!(ready.status(), StatusCode::OK);
+}
+
+/// Submit `text` as Hamburg and return the status and the problems' fields.
+async fn rejected(h: &Harness, text: &str) -> (StatusCode, Vec<String>, String) {
+    let e = h.client(HAMBURG).submit(text.as_bytes().to_vec(), false).await.unwrap_err();
+    let plumbline_scheduler::client::ClientError::Api { status, body } = &e else { panic!("{e}") };
+    (*status, body.problems.iter().map(|p| p.field.clone()).collect(), e.to_string())
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn rejected_manifests_name_their_fields() {
+    let h = Harness::local().await;
+    h.upload_inputs("hamburg", "bad").await;
+    h.upload_inputs("bremen", "theirs").await;
+
+    // `..` out of the manifest's directory: invalid (422), naming the field.
+    let (status, fields, _) =
+        rejected(&h, &manifest("bad", "../../../../bremen/campaigns/theirs/nav/dg.csv", "results/")).await;
+    assert_eq!((status, fields), (StatusCode::UNPROCESSABLE_ENTITY, vec!["trajectory[0].url".to_owned()]));
+    // Absolute URLs into another agency's prefix: forbidden (403), naming every field.
+    let theirs = format!("{}nav/dg.csv", h.campaign_dir("bremen", "theirs"));
+    let out = format!("{}out/", h.campaign_dir("bremen", "theirs"));
+    let (status, fields, message) = rejected(&h, &manifest("bad", &theirs, &out)).await;
+    assert_eq!(status, StatusCode::FORBIDDEN, "{message}");
+    assert_eq!(fields, ["trajectory[0].url", "output"]);
+    let sneaky = format!("{}../../../bremen/campaigns/theirs/nav/dg.csv", h.campaign_dir("hamburg", "bad"));
+    assert_eq!(rejected(&h, &manifest("bad", &sneaky, "results/")).await.0, StatusCode::FORBIDDEN);
+
+    // An invalid manifest lists every problem.
+    let invalid = manifest("bad", "nav/dg.csv", "results/")
+        .replace("crs = 25832", "crs = 4326")
+        .replace("overlap_m = 10.0", "overlap_m = 300.0");
+    let (status, fields, message) = rejected(&h, &invalid).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(fields.iter().any(|f| f == "crs") && fields.iter().any(|f| f == "tiling.overlap_m"), "{message}");
+    // Unparseable, and inputs that are not there.
+    let (status, fields, _) = rejected(&h, "version = \"1\"\ncrs = \"x\"\n").await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert_eq!(fields.len(), 1);
+    let (status, _, message) = rejected(&h, &manifest("bad", "nav/missing.csv", "results/")).await;
+    assert_eq!(status, StatusCode::UNPROCESSABLE_ENTITY);
+    assert!(message.contains("missing.csv"), "{message}");
+    // Nothing was queued.
+    assert!(h.client(HAMBURG).list().await.unwrap().campaigns.is_empty());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn publishes_again_after_a_nats_restart() {
+    let mut h = Harness::local().await;
+    let hh = h.client(HAMBURG);
+    h.upload_inputs("hamburg", "before").await;
+    hh.submit(manifest("before", "nav/dg.csv", "results/").into_bytes(), false).await.unwrap();
+
+    h.nats.kill();
+    h.upload_inputs("hamburg", "after").await;
+    let down = wait_for_readyz(&h, StatusCode::SERVICE_UNAVAILABLE).await;
+    assert_eq!(down, serde_json::json!({ "nats": false, "store": true }));
+    let refused = hh.submit(manifest("after", "nav/dg.csv", "results/").into_bytes(), false).await.unwrap_err();
+    assert_eq!(status_of(&refused), StatusCode::SERVICE_UNAVAILABLE, "{refused}");
+    h.nats.restart();
+    let started = Instant::now();
+    let view = loop {
+        match hh.submit(manifest("after", "nav/dg.csv", "results/").into_bytes(), false).await {
+            Ok(view) => break view,
+            Err(e) if started.elapsed() < Duration::from_secs(20) => {
+                assert_eq!(status_of(&e), StatusCode::SERVICE_UNAVAILABLE, "{e}");
+                tokio::time::sleep(Duration::from_millis(200)).await;
+            }
+            Err(e) => panic!("no reconnect within 20 s: {e}"),
+        }
+    };
+    assert_eq!(view.campaign.status, CampaignStatus::Queued);
+    let all = tasks(&h).await;
+    assert_eq!(all.len() as u64, 2 * TINY_TILES, "tasks of both campaigns are in the persisted stream");
+    assert_eq!(hh.status("before").await.unwrap().campaign.status, CampaignStatus::Queued);
+    wait_for_readyz(&h, StatusCode::OK).await;
+}
+
+/// Poll `/readyz` until it answers `status` (10 s at most); its body.
+async fn wait_for_readyz(h: &Harness, status: StatusCode) -> serde_json::Value {
+    let started = Instant::now();
+    loop {
+        let answer = reqwest::get(format!("{}/readyz", h.server)).await.unwrap();
+        if answer.status() == status {
+            return answer.json().await.unwrap();
+        }
+        assert!(started.elapsed() < Duration::from_secs(10), "/readyz never answered {status}");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}

@@ -1,0 +1,211 @@
+//! The aerial reference of a tile (paper 000 §3.6–§3.9): the frames of the block that see the tile, decoded
+//! with their interior and exterior orientation, or windows of the orthophoto and its terrain model.
+
+use std::time::Instant;
+
+use plumbline_campaign::manifest::{FrameBlock, InteriorOrientation, Orthophoto as OrthophotoSpec};
+use plumbline_campaign::tables::ExteriorRow;
+use plumbline_geo::camera::{CameraModel, MetricInterior, Pinhole};
+use plumbline_geo::tiling::BBox;
+use plumbline_geo::{Map, MapFromCamera, OmegaPhiKappa, Point3, Pose};
+use plumbline_registration::aerial::{AerialFrame, AerialReference, Orthophoto};
+use plumbline_runtime::gdal_read::MapBox;
+use plumbline_runtime::{Files, file_name, invalid};
+use plumbline_scheduler::{Campaign, SkippedInput};
+use rayon::prelude::*;
+
+use crate::fetch::{blocking, decode_gray, read_all, skipped};
+use crate::raster::{gray, read_window, terrain};
+
+const STAGE: &str = "registration";
+
+/// A tile's aerial reference and what it cost.
+pub(crate) struct LoadedReference {
+    /// Frames or an orthophoto window.
+    pub reference: AerialReference,
+    /// Frames or windows left out.
+    pub skipped: Vec<SkippedInput>,
+    /// Seconds reading.
+    pub read_s: f64,
+    /// Seconds decoding.
+    pub decode_s: f64,
+}
+
+/// The pinhole model of the block's camera: the manifest's metric interior orientation (paper 003 Table 2)
+/// in pixels, as the simulator flies it (`plumbline_synth::aerial::small_format_distorted`).
+pub fn frame_camera(interior: &InteriorOrientation) -> anyhow::Result<Pinhole> {
+    let metric = MetricInterior {
+        focal_mm: interior.focal_length_mm,
+        xp_mm: interior.principal_point_mm[0],
+        yp_mm: interior.principal_point_mm[1],
+        k1: interior.k1,
+        k2: interior.k2,
+        pixel_mm: interior.pixel_size_mm,
+        width: interior.width_px,
+        height: interior.height_px,
+    };
+    Pinhole::from_metric(&metric).map_err(|e| invalid(format!("aerial.frames.interior: {e}")))
+}
+
+/// A frame's exterior orientation: projection centre and omega-phi-kappa (ARCHITECTURE.md § Angles).
+pub fn frame_pose(row: &ExteriorRow) -> MapFromCamera {
+    let [omega, phi, kappa] = row.opk_deg;
+    let [x, y, z] = row.centre;
+    Pose::new(OmegaPhiKappa::from_degrees(omega, phi, kappa).to_rotation(), Point3::new(x, y, z))
+}
+
+/// Whether any of `ground` projects inside the frame.
+fn sees(camera: &Pinhole, pose: &MapFromCamera, ground: &[Point3<Map>]) -> bool {
+    let to_camera = pose.inverse();
+    ground.iter().any(|p| {
+        let d = to_camera.transform_point(p);
+        d.z() > 0.0 && camera.project(&(d - Point3::origin())).is_some_and(|px| camera.contains(px))
+    })
+}
+
+/// The reference for a tile whose MM patches lie around `ground` (box centre and owned panoramas on the
+/// road) within `area`; `None` when the manifest names no aerial imagery.
+pub(crate) async fn load(
+    files: &Files,
+    campaign: &Campaign,
+    ground: &[Point3<Map>],
+    area: MapBox,
+    concurrency: usize,
+) -> anyhow::Result<Option<LoadedReference>> {
+    let Some(aerial) = &campaign.manifest.aerial else {
+        return Ok(None);
+    };
+    let mut loaded = match &aerial.frames {
+        Some(block) => frames(files, campaign, block, ground, concurrency).await?,
+        None => LoadedReference {
+            reference: AerialReference::Frames(Vec::new()),
+            skipped: Vec::new(),
+            read_s: 0.0,
+            decode_s: 0.0,
+        },
+    };
+    let no_frames = matches!(&loaded.reference, AerialReference::Frames(f) if f.is_empty());
+    if let (true, Some(ortho)) = (no_frames, &aerial.orthophoto) {
+        let t0 = Instant::now();
+        let (reference, problems) = orthophoto(files, campaign, ortho, area).await?;
+        loaded.read_s += t0.elapsed().as_secs_f64();
+        loaded.skipped.extend(problems);
+        if let Some(reference) = reference {
+            loaded.reference = reference;
+        }
+    }
+    Ok(Some(loaded))
+}
+
+/// The block's frames that see the tile, decoded; a missing, broken or wrong-size frame is skipped.
+async fn frames(
+    files: &Files,
+    campaign: &Campaign,
+    block: &FrameBlock,
+    ground: &[Point3<Map>],
+    concurrency: usize,
+) -> anyhow::Result<LoadedReference> {
+    let camera = frame_camera(&block.interior)?;
+    let mut skipped_items = Vec::new();
+    let mut chosen = Vec::new();
+    for row in &campaign.aerial_frames {
+        let pose = frame_pose(row);
+        if !sees(&camera, &pose, ground) {
+            continue;
+        }
+        match campaign.file_url(&block.images, &row.file) {
+            Ok(url) => chosen.push((row.image_id.clone(), pose, url)),
+            Err(e) => {
+                skipped_items.push(skipped(STAGE, &row.file, "url", format!("aerial frame {}: {e:#}", row.image_id)))
+            }
+        }
+    }
+    let t0 = Instant::now();
+    let urls: Vec<String> = chosen.iter().map(|c| c.2.clone()).collect();
+    let bytes = read_all(files, &urls, concurrency, STAGE).await;
+    let read_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    let decoded: Vec<Result<AerialFrame, SkippedInput>> = blocking(move || {
+        chosen
+            .into_par_iter()
+            .zip(bytes)
+            .map(|((id, pose, url), bytes)| decode_frame(id, pose, &url, bytes?, camera))
+            .collect()
+    })
+    .await?;
+    let mut out = Vec::new();
+    for frame in decoded {
+        match frame {
+            Ok(f) => out.push(f),
+            Err(s) => skipped_items.push(s),
+        }
+    }
+    let decode_s = t1.elapsed().as_secs_f64();
+    Ok(LoadedReference { reference: AerialReference::Frames(out), skipped: skipped_items, read_s, decode_s })
+}
+
+fn decode_frame(
+    id: String,
+    pose: MapFromCamera,
+    url: &str,
+    bytes: bytes::Bytes,
+    camera: Pinhole,
+) -> Result<AerialFrame, SkippedInput> {
+    let image = decode_gray(url, &bytes).map_err(|e| skipped(STAGE, url, "decode", e))?;
+    let found = (image.width() as u32, image.height() as u32);
+    if found != (camera.width, camera.height) {
+        let detail = format!(
+            "{url}: aerial frame is {} × {} px, the interior orientation says {} × {} px",
+            found.0, found.1, camera.width, camera.height
+        );
+        return Err(skipped(STAGE, url, "size", detail));
+    }
+    Ok(AerialFrame { id, image, camera, pose })
+}
+
+/// Windows of the orthophoto and its terrain model over `area`. An unreadable orthophoto gives no reference
+/// (reported); an unreadable terrain model gives an orthophoto without terrain (reported).
+async fn orthophoto(
+    files: &Files,
+    campaign: &Campaign,
+    spec: &OrthophotoSpec,
+    area: MapBox,
+) -> anyhow::Result<(Option<AerialReference>, Vec<SkippedInput>)> {
+    let (image_url, terrain_url) = (campaign.url(&spec.image)?, campaign.url(&spec.terrain)?);
+    let mut problems = Vec::new();
+    let image =
+        match read_window(files, &image_url, area).await.map(|w| w.map(|w| gray(&w).map(|g| (g, w.geotransform)))) {
+            Ok(Some(Ok(image))) => image,
+            Ok(None) => {
+                let detail = format!("{image_url}: the orthophoto does not cover the tile ({area:?})");
+                problems.push(skipped(STAGE, &image_url, "outside", detail));
+                return Ok((None, problems));
+            }
+            Ok(Some(Err(e))) | Err(e) => {
+                problems.push(skipped(STAGE, &image_url, "orthophoto", format!("{image_url}: {e:#}")));
+                return Ok((None, problems));
+            }
+        };
+    let terrain = match read_window(files, &terrain_url, area).await {
+        Ok(Some(w)) => terrain(&w).map_err(|e| format!("{terrain_url}: {e:#}")),
+        Ok(None) => Err(format!("{terrain_url}: the terrain model does not cover the tile")),
+        Err(e) => Err(format!("{terrain_url}: {e:#}")),
+    };
+    let terrain = terrain.map_err(|detail| problems.push(skipped(STAGE, &terrain_url, "terrain", detail))).ok();
+    let (image, geotransform) = image;
+    let id = file_name(&image_url).to_owned();
+    Ok((Some(AerialReference::Orthophoto(Orthophoto { id, image, geotransform, terrain })), problems))
+}
+
+/// A tile's fetch box grown by `margin` metres, as a raster window.
+pub(crate) fn window_of(fetch: &BBox, margin: f64) -> MapBox {
+    MapBox {
+        min_e: fetch.min_east - margin,
+        min_n: fetch.min_north - margin,
+        max_e: fetch.max_east + margin,
+        max_n: fetch.max_north + margin,
+    }
+}
+
+#[cfg(test)]
+mod tests;

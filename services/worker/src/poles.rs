@@ -1,0 +1,238 @@
+//! The pole side of a tile (paper 002): its depth images read with their DG records, the cadastre objects
+//! around it, and `plumbline_poles::process_depth_frames` per depth camera.
+
+use std::collections::BTreeMap;
+use std::time::Instant;
+
+use bytes::Bytes;
+use plumbline_adjustment::PoleUpdate;
+use plumbline_campaign::manifest::Cadastre;
+use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
+use plumbline_geo::TrajectoryRecord;
+use plumbline_geo::tiling::{BBox, TileId};
+use plumbline_poles::{DepthFrame, FrameReport, PoleConfig, process_depth_frames};
+use plumbline_runtime::Files;
+use plumbline_runtime::cadastre::{CadastreSource, read_cadastre};
+use plumbline_scheduler::{Campaign, SkippedInput};
+
+use crate::fetch::{blocking, read_all, skipped};
+use crate::panoramas::dg_at;
+
+/// Cadastre objects are read this far beyond the tile's fetch box plus the depth range, metres (DG error).
+const CADASTRE_MARGIN_M: f64 = 5.0;
+
+/// The pole results of a tile.
+#[derive(Default)]
+pub(crate) struct PoleResults {
+    /// Coordinate updates.
+    pub updates: Vec<PoleUpdate>,
+    /// One report per depth frame.
+    pub reports: Vec<FrameReport>,
+    /// What was left out.
+    pub skipped: Vec<SkippedInput>,
+    /// Seconds reading depth images and cadastres.
+    pub read_s: f64,
+    /// Seconds in detection and matching.
+    pub process_s: f64,
+}
+
+/// One depth image ready for the pipeline.
+struct Frame {
+    id: String,
+    png: Bytes,
+    dg: TrajectoryRecord,
+}
+
+/// Detect and match the poles of a tile's depth images.
+pub(crate) async fn process(
+    files: &Files,
+    campaign: &Campaign,
+    tile: &TileId,
+    fetch: &BBox,
+    config: &PoleConfig,
+    concurrency: usize,
+) -> anyhow::Result<PoleResults> {
+    let mut out = PoleResults::default();
+    let depth = campaign.plan.depth_of(tile);
+    if depth.is_empty() || campaign.manifest.depth.is_empty() {
+        return Ok(out);
+    }
+    let t0 = Instant::now();
+    let range =
+        campaign.manifest.depth.iter().map(|c| c.intrinsics.max_range_m).fold(config.detect.max_range_m, f64::max);
+    let features = cadastre_features(files, campaign, fetch, range + CADASTRE_MARGIN_M, &mut out.skipped).await?;
+    let frames = depth_frames(files, campaign, depth, concurrency, &mut out.skipped).await;
+    out.read_s = t0.elapsed().as_secs_f64();
+    let t1 = Instant::now();
+    for (camera, frames) in frames {
+        let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
+            continue;
+        };
+        let (features, config) = (features.clone(), *config);
+        let output = blocking(move || {
+            let refs: Vec<DepthFrame<'_>> =
+                frames.iter().map(|f| DepthFrame { id: &f.id, png: &f.png, dg: &f.dg }).collect();
+            process_depth_frames(&spec, &refs, &features, &config)
+        })
+        .await?;
+        out.updates.extend(output.updates);
+        out.reports.extend(output.reports);
+    }
+    out.process_s = t1.elapsed().as_secs_f64();
+    out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {
+        let problem = r.problem.as_ref()?;
+        Some(skipped("poles", &r.frame, "frame", format!("depth frame {}: {problem}", r.frame)))
+    }));
+    Ok(out)
+}
+
+/// The tile's depth images by camera, in time order; missing files and times off the trajectory are skipped.
+async fn depth_frames(
+    files: &Files,
+    campaign: &Campaign,
+    depth: &[usize],
+    concurrency: usize,
+    skipped_items: &mut Vec<SkippedInput>,
+) -> BTreeMap<usize, Vec<Frame>> {
+    let mut wanted = Vec::new();
+    for image in depth.iter().filter_map(|&k| campaign.plan.depth.get(k)) {
+        let Some(camera) = campaign.manifest.depth.get(image.camera) else {
+            let detail = format!("depth image {}: camera {} is not in the manifest", image.image_id, image.camera);
+            skipped_items.push(skipped("poles", &image.file, "camera", detail));
+            continue;
+        };
+        match campaign.file_url(&camera.images, &image.file) {
+            Ok(url) => wanted.push((image, url)),
+            Err(e) => skipped_items.push(skipped("poles", &image.file, "url", format!("{e:#}"))),
+        }
+    }
+    let urls: Vec<String> = wanted.iter().map(|(_, url)| url.clone()).collect();
+    let bytes = read_all(files, &urls, concurrency, "poles").await;
+    let mut by_camera: BTreeMap<usize, Vec<Frame>> = BTreeMap::new();
+    for ((image, url), png) in wanted.into_iter().zip(bytes) {
+        let frame = png.and_then(|png| {
+            let dg = dg_at(campaign, image.time).map_err(|e| skipped("poles", &url, "time", format!("{url}: {e}")))?;
+            Ok(Frame { id: image.image_id.clone(), png, dg })
+        });
+        match frame {
+            Ok(f) => by_camera.entry(image.camera).or_default().push(f),
+            Err(s) => skipped_items.push(s),
+        }
+    }
+    by_camera.values_mut().for_each(|frames| frames.sort_by(|a, b| a.dg.time.total_cmp(&b.dg.time)));
+    by_camera
+}
+
+/// The cadastre objects within `margin` of the fetch box, from every cadastre of the manifest. Layer indices
+/// are numbered on across cadastres so that feature ids stay unique; every dropped feature or layer and every
+/// unreadable cadastre is skipped and reported.
+async fn cadastre_features(
+    files: &Files,
+    campaign: &Campaign,
+    fetch: &BBox,
+    margin: f64,
+    skipped_items: &mut Vec<SkippedInput>,
+) -> anyhow::Result<Vec<CadastreFeature>> {
+    let bbox = [fetch.min_east - margin, fetch.min_north - margin, fetch.max_east + margin, fetch.max_north + margin];
+    let mut features = Vec::new();
+    let mut layer_offset = 0u32;
+    for spec in &campaign.manifest.cadastres {
+        let url = campaign.url(&spec.url)?;
+        let offset = layer_offset;
+        layer_offset += spec.layers.len() as u32;
+        let bytes = match files.read(&url).await {
+            Ok(b) => b,
+            Err(e) => {
+                let reason = if plumbline_runtime::is_invalid(&e) { "missing" } else { "read" };
+                skipped_items.push(skipped("cadastre", &url, reason, format!("{url}: cannot be read: {e:#}")));
+                continue;
+            }
+        };
+        match read_one(url.clone(), bytes, spec.clone(), campaign.manifest.crs, bbox).await? {
+            Ok((read, diagnostics)) => {
+                skipped_items.extend(diagnostics.iter().filter_map(diagnostic_skip));
+                features.extend(read.into_iter().map(|mut f| {
+                    f.id.layer += offset;
+                    f
+                }));
+            }
+            Err(e) => skipped_items.push(skipped("cadastre", &url, "open", e)),
+        }
+    }
+    Ok(features)
+}
+
+type CadastreResult = Result<(Vec<CadastreFeature>, Vec<CadastreDiagnostic>), String>;
+
+/// One cadastre through GDAL, on a blocking thread.
+async fn read_one(
+    url: String,
+    bytes: Bytes,
+    spec: Cadastre,
+    crs: plumbline_campaign::Epsg,
+    bbox: [f64; 4],
+) -> anyhow::Result<CadastreResult> {
+    blocking(move || {
+        let source = CadastreSource::Bytes { name: &url, bytes: &bytes };
+        read_cadastre(source, &spec, crs, Some(bbox)).map(|r| (r.features, r.diagnostics)).map_err(|e| e.to_string())
+    })
+    .await
+}
+
+/// A diagnostic that dropped a feature or layer, as a skipped item naming file, layer, feature and field.
+fn diagnostic_skip(d: &CadastreDiagnostic) -> Option<SkippedInput> {
+    if d.consequence == Consequence::Kept {
+        return None;
+    }
+    let mut item = format!("{} layer {}", d.file, d.layer);
+    if let Some(fid) = d.fid {
+        item.push_str(&format!(" fid {fid}"));
+    }
+    if let Some(field) = &d.field {
+        item.push_str(&format!(" field {field}"));
+    }
+    let reason = serde_json::to_value(d.kind).ok().and_then(|v| v.as_str().map(str::to_owned));
+    Some(skipped("cadastre", &item, &reason.unwrap_or_else(|| "feature".into()), d.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use plumbline_campaign::DiagnosticKind;
+
+    use super::*;
+
+    fn diagnostic(
+        kind: DiagnosticKind,
+        consequence: Consequence,
+        fid: Option<u64>,
+        field: Option<&str>,
+    ) -> CadastreDiagnostic {
+        CadastreDiagnostic {
+            kind,
+            consequence,
+            file: "file:///c/poles.gpkg".into(),
+            layer: "trees".into(),
+            fid,
+            field: field.map(str::to_owned),
+            detail: "value \"oak?\"".into(),
+        }
+    }
+
+    #[test]
+    fn dropped_features_and_layers_are_skipped_items_naming_file_layer_fid_and_field() {
+        let d = diagnostic(DiagnosticKind::UnknownClass, Consequence::FeatureSkipped, Some(17), Some("class"));
+        let s = diagnostic_skip(&d).unwrap();
+        assert_eq!((s.stage.as_str(), s.reason.as_str()), ("cadastre", "unknown_class"));
+        assert_eq!(s.item, "file:///c/poles.gpkg layer trees fid 17 field class");
+        assert!(
+            s.detail.contains("poles.gpkg") && s.detail.contains("17") && s.detail.contains("oak?"),
+            "{}",
+            s.detail
+        );
+        let layer = diagnostic(DiagnosticKind::MissingLayer, Consequence::LayerSkipped, None, None);
+        assert_eq!(diagnostic_skip(&layer).unwrap().item, "file:///c/poles.gpkg layer trees");
+        // A feature that is still used (e.g. its height dropped) is not a skipped input.
+        let kept = diagnostic(DiagnosticKind::HeightDropped, Consequence::Kept, Some(3), None);
+        assert!(diagnostic_skip(&kept).is_none());
+    }
+}

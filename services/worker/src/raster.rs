@@ -1,0 +1,110 @@
+//! Windows of the orthophoto and the terrain model through GDAL ([`RasterSource`]): local files are opened in
+//! place (windowed reads, never the whole city), object-store files are fetched whole first. GDAL handles
+//! are not `Send`, so each call opens its source on the blocking thread that uses it.
+
+use std::path::PathBuf;
+
+use plumbline_imaging::GrayImage;
+use plumbline_registration::aerial::Terrain;
+use plumbline_runtime::Files;
+use plumbline_runtime::gdal_read::{MapBox, RasterSource};
+use plumbline_runtime::gdal_write::{Raster, RasterData};
+
+use crate::fetch::blocking;
+
+/// The local file behind a `file://` URL or a plain path; `None` for other schemes.
+fn local_path(url: &str) -> Option<PathBuf> {
+    match url.split_once("://") {
+        Some(("file", rest)) => Some(PathBuf::from(rest)),
+        Some(_) => None,
+        None => Some(PathBuf::from(url)),
+    }
+}
+
+/// Read the window of the raster at `url` covering `area` (`None`: the area lies outside the raster).
+pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> anyhow::Result<Option<Raster>> {
+    let local = local_path(url);
+    let bytes = if local.is_none() { Some(files.read(url).await?.to_vec()) } else { None };
+    let url = url.to_owned();
+    blocking(move || -> anyhow::Result<Option<Raster>> {
+        let source = match (local, bytes) {
+            (Some(path), _) => RasterSource::open_path(&path)?,
+            (None, bytes) => RasterSource::open_bytes(&url, bytes.unwrap_or_default())?,
+        };
+        Ok(source.window(&area)?)
+    })
+    .await?
+}
+
+/// The gray value of every pixel: band 1 for one band, the luma of bands 1–3 for colour (8-bit or float).
+pub(crate) fn gray(raster: &Raster) -> anyhow::Result<GrayImage> {
+    let (w, h) = (raster.width, raster.height);
+    let bands: Vec<Vec<f32>> = match &raster.data {
+        RasterData::U8(b) => b.iter().map(|band| band.iter().map(|&v| f32::from(v)).collect()).collect(),
+        RasterData::F32(b) => b.clone(),
+    };
+    let image = match bands.as_slice() {
+        [r, g, b, ..] => GrayImage::from_fn(w, h, |c, row| {
+            let k = row * w + c;
+            0.299 * r[k] + 0.587 * g[k] + 0.114 * b[k]
+        }),
+        [one, ..] => GrayImage::new(w, h, one.clone())?,
+        [] => anyhow::bail!("the raster window has no band"),
+    };
+    Ok(image)
+}
+
+/// Band 1 as terrain heights, no-data values as NaN.
+pub(crate) fn terrain(raster: &Raster) -> anyhow::Result<Terrain> {
+    let heights: Vec<f32> = match &raster.data {
+        RasterData::F32(b) => b.first().cloned().unwrap_or_default(),
+        RasterData::U8(b) => b.first().map(|band| band.iter().map(|&v| f32::from(v)).collect()).unwrap_or_default(),
+    };
+    anyhow::ensure!(heights.len() == raster.width * raster.height, "the terrain window has no band");
+    let nodata = raster.nodata;
+    let heights = heights.into_iter().map(|v| if nodata == Some(f64::from(v)) { f32::NAN } else { v }).collect();
+    Ok(Terrain { heights, width: raster.width, height: raster.height, geotransform: raster.geotransform })
+}
+
+/// The terrain height in the pixel containing (e, n), if it holds data.
+pub(crate) fn height_at(terrain: &Terrain, e: f64, n: f64) -> Option<f64> {
+    let g = &terrain.geotransform;
+    let (c, r) = (((e - g[0]) / g[1]).floor(), ((n - g[3]) / g[5]).floor());
+    if !(c >= 0.0 && r >= 0.0 && (c as usize) < terrain.width && (r as usize) < terrain.height) {
+        return None;
+    }
+    let v = *terrain.heights.get(r as usize * terrain.width + c as usize)?;
+    v.is_finite().then_some(f64::from(v))
+}
+
+/// A square box of half-size `half` around (e, n).
+pub(crate) fn around(e: f64, n: f64, half: f64) -> MapBox {
+    MapBox { min_e: e - half, min_n: n - half, max_e: e + half, max_n: n + half }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn raster(data: RasterData, nodata: Option<f64>) -> Raster {
+        Raster { width: 3, height: 2, geotransform: [100.0, 2.0, 0.0, 50.0, 0.0, -2.0], epsg: 25832, data, nodata }
+    }
+
+    #[test]
+    fn heights_are_looked_up_in_the_pixel_containing_the_point_and_nodata_is_none() {
+        let t = terrain(&raster(RasterData::F32(vec![vec![1.0, 2.0, 3.0, 4.0, -9999.0, 6.0]]), Some(-9999.0))).unwrap();
+        assert_eq!(height_at(&t, 100.5, 49.5), Some(1.0));
+        assert_eq!(height_at(&t, 105.9, 47.9), Some(6.0)); // column 2, row 1
+        assert_eq!(height_at(&t, 103.0, 47.0), None); // no data
+        assert_eq!(height_at(&t, 99.0, 49.0), None); // outside
+    }
+
+    #[test]
+    fn colour_windows_become_luma() {
+        let bands = vec![vec![255; 6], vec![0; 6], vec![100; 6]];
+        let g = gray(&raster(RasterData::U8(bands), None)).unwrap();
+        assert!((g.get(2, 1) - (0.299 * 255.0 + 0.114 * 100.0)).abs() < 1e-3);
+        assert_eq!(local_path("file:///a/b.tif"), Some(PathBuf::from("/a/b.tif")));
+        assert_eq!(local_path("s3://bucket/b.tif"), None);
+    }
+}

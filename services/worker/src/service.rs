@@ -1,0 +1,275 @@
+//! The worker service (`plumbline serve worker`): pulls [`TileTask`]s from the durable `workers` consumer
+//! and processes them with [`run_tile`], following the protocol of [`plumbline_scheduler::bus`]:
+//!
+//! - a task of a cancelled or failed campaign, of a run other than the state's, or of an unknown campaign
+//!   is acked and dropped;
+//! - otherwise the campaign is loaded (cached per campaign and run), set `running` if still `queued`, and
+//!   the tile is processed while an in-progress ack goes out every [`ServiceConfig::heartbeat`]; the output
+//!   is written at its deterministic key (a redelivered, already finished tile is read back, not
+//!   recomputed), [`TileDone`] is published to the results stream, and the task is acked;
+//! - invalid input ([`plumbline_runtime::is_invalid`]), or any error on the last delivery
+//!   ([`MAX_DELIVER`]): [`TileFailed`] to results and dead letters, then `AckKind::Term`;
+//! - other errors (store, NATS): `AckKind::Nak` with [`ServiceConfig::retry_delay`].
+//!
+//! [`ServiceConfig::concurrency`] slots each fetch one task at a time, so a worker never holds tasks it
+//! is not working on.
+
+use std::collections::HashMap;
+use std::future::Future;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+use async_nats::jetstream::{self, AckKind, consumer::PullConsumer};
+use futures::StreamExt as _;
+use futures::future::BoxFuture;
+use plumbline_campaign::CampaignId;
+use plumbline_runtime::Files;
+use plumbline_scheduler::bus::{self, Bus, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
+use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
+use plumbline_scheduler::{Campaign, load_campaign};
+use tracing::Instrument as _;
+
+use crate::{WorkerConfig, run_tile, tile_key};
+
+/// How the worker service runs.
+#[derive(Clone, Copy, Debug)]
+pub struct ServiceConfig {
+    /// Tasks in flight at once.
+    pub concurrency: usize,
+    /// Interval of the in-progress acks while a tile runs (must stay below the consumer's `ack_wait`).
+    pub heartbeat: Duration,
+    /// Delay asked for when a task is nakked after a retryable error.
+    pub retry_delay: Duration,
+}
+
+impl Default for ServiceConfig {
+    fn default() -> Self {
+        Self { concurrency: 1, heartbeat: bus::HEARTBEAT, retry_delay: Duration::from_secs(10) }
+    }
+}
+
+/// Campaigns loaded so far, by campaign and run.
+type Cache = Mutex<HashMap<(CampaignId, u32), Arc<Campaign>>>;
+
+/// The shared state of the slots.
+struct Worker {
+    bus: Bus,
+    files: Files,
+    config: ServiceConfig,
+    campaigns: Cache,
+}
+
+/// What became of one task.
+enum Handled {
+    /// Dropped: stale run, cancelled/failed or unknown campaign.
+    Skipped(&'static str),
+    /// The output is written at this URL.
+    Done(String),
+}
+
+/// Process tasks until `shutdown` completes (tasks in flight are finished first).
+pub async fn serve(
+    bus: Bus,
+    files: Files,
+    config: ServiceConfig,
+    shutdown: impl Future<Output = ()> + Send,
+) -> anyhow::Result<()> {
+    let stream = bus.js.get_stream(TASKS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {TASKS_STREAM}: {e}"))?;
+    let consumer: PullConsumer =
+        stream.get_consumer(WORKERS_CONSUMER).await.map_err(|e| anyhow::anyhow!("consumer {WORKERS_CONSUMER}: {e}"))?;
+    let worker = Arc::new(Worker { bus, files, config, campaigns: Mutex::new(HashMap::new()) });
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let slots: Vec<_> = (0..config.concurrency.max(1))
+        .map(|slot| tokio::spawn(run_slot(worker.clone(), consumer.clone(), slot, stop_rx.clone())))
+        .collect();
+    tracing::info!(concurrency = slots.len(), "worker ready");
+    shutdown.await;
+    let _ = stop_tx.send(true);
+    for slot in slots {
+        slot.await?;
+    }
+    tracing::info!("worker stopped");
+    Ok(())
+}
+
+/// One task at a time until stopped.
+async fn run_slot(worker: Arc<Worker>, consumer: PullConsumer, slot: usize, stop: tokio::sync::watch::Receiver<bool>) {
+    while !*stop.borrow() {
+        let batch = fetch_one(&consumer).await;
+        let mut messages = match batch {
+            Ok(messages) => messages,
+            Err(e) => {
+                tracing::warn!(slot, error = %e, "fetching tasks failed; retrying");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+                continue;
+            }
+        };
+        while let Some(message) = messages.next().await {
+            match message {
+                Ok(message) => worker.handle(message).await,
+                Err(e) => tracing::warn!(slot, error = %e, "receiving a task failed"),
+            }
+        }
+    }
+}
+
+impl Worker {
+    /// Handle one delivered task to its ack, nak or term.
+    async fn handle(&self, message: jetstream::Message) {
+        let delivered = message.info().map_or(1, |i| i.delivered);
+        let task = match TileTask::from_json(&message.payload) {
+            Ok(task) => task,
+            Err(e) => {
+                tracing::error!(error = %e, "unreadable task dropped");
+                reply(&message, AckKind::Term).await;
+                return;
+            }
+        };
+        let span = tracing::info_span!("task", campaign = task.campaign.as_str(), run = task.run, tile = %task.tile);
+        self.finish_task(&message, &task, delivered).instrument(span).await;
+    }
+
+    /// Process a parsed task and answer it.
+    async fn finish_task(&self, message: &jetstream::Message, task: &TileTask, delivered: i64) {
+        let outcome = with_heartbeat(message, self.config.heartbeat, self.process(task)).await;
+        let attempts = u32::try_from(delivered).unwrap_or(u32::MAX);
+        match outcome {
+            Ok(Handled::Skipped(why)) => {
+                tracing::info!(why, "task dropped");
+                reply(message, AckKind::Ack).await;
+            }
+            Ok(Handled::Done(result)) => {
+                let done =
+                    TileDone { campaign: task.campaign.clone(), run: task.run, tile: task.tile, result, attempts };
+                match self.publish_result(&task.campaign, done.to_json()).await {
+                    Ok(()) => {
+                        if let Err(e) = message.double_ack().await {
+                            tracing::warn!(error = %e, "ack lost; the task will be redelivered and read back");
+                        }
+                    }
+                    Err(e) => self.retry_or_give_up(message, task, delivered, attempts, e).await,
+                }
+            }
+            Err(e) => self.retry_or_give_up(message, task, delivered, attempts, e).await,
+        }
+    }
+
+    /// Nak a retryable error with deliveries left; give up on anything else.
+    async fn retry_or_give_up(
+        &self,
+        message: &jetstream::Message,
+        task: &TileTask,
+        delivered: i64,
+        attempts: u32,
+        error: anyhow::Error,
+    ) {
+        let permanent = plumbline_runtime::is_invalid(&error);
+        if !permanent && delivered < MAX_DELIVER {
+            tracing::warn!(error = %format!("{error:#}"), delivered, "tile failed; retrying later");
+            reply(message, AckKind::Nak(Some(self.config.retry_delay))).await;
+            return;
+        }
+        let kind = if permanent { FailureKind::Permanent } else { FailureKind::Retryable };
+        tracing::error!(error = %format!("{error:#}"), delivered, ?kind, "tile given up");
+        let failed = TileFailed {
+            campaign: task.campaign.clone(),
+            run: task.run,
+            tile: task.tile,
+            kind,
+            error: format!("{error:#}"),
+            attempts,
+        };
+        let published = match self.publish_result(&task.campaign, failed.to_json()).await {
+            Ok(()) => self.bus.publish_dead(&failed).await.map_err(anyhow::Error::from),
+            Err(e) => Err(e),
+        };
+        match published {
+            Ok(()) => reply(message, AckKind::Term).await,
+            Err(e) => {
+                tracing::warn!(error = %format!("{e:#}"), "reporting the failure failed; retrying later");
+                reply(message, AckKind::Nak(Some(self.config.retry_delay))).await;
+            }
+        }
+    }
+
+    /// Check the state, load the campaign, process (or read back) the tile.
+    async fn process(&self, task: &TileTask) -> anyhow::Result<Handled> {
+        let Some((mut state, revision)) = self.bus.campaigns.get(&task.campaign).await? else {
+            return Ok(Handled::Skipped("unknown campaign"));
+        };
+        if state.run != task.run {
+            return Ok(Handled::Skipped("stale run"));
+        }
+        if matches!(state.status, CampaignStatus::Cancelled | CampaignStatus::Failed) {
+            return Ok(Handled::Skipped("campaign cancelled or failed"));
+        }
+        if state.status == CampaignStatus::Queued {
+            // One try: a lost race means another writer (worker or adjuster) moved the state on.
+            state.status = CampaignStatus::Running;
+            state.updated = bus::unix_now();
+            self.bus.campaigns.update(&state, revision).await?;
+        }
+        let campaign = self.campaign(task).await?;
+        tracing::info!("tile started");
+        let config = WorkerConfig::from_manifest(&campaign.manifest);
+        let (files, owned, tile) = (self.files.clone(), campaign.clone(), task.tile);
+        // `run_tile`'s future is not `Send` for every lifetime (closures over references inside), so it is
+        // driven on a blocking thread of its own; its CPU work goes to rayon as before.
+        let runtime = tokio::runtime::Handle::current();
+        let (_, resumed) =
+            tokio::task::spawn_blocking(move || runtime.block_on(run_tile(&files, &owned, &tile, &config)))
+                .await
+                .map_err(|e| anyhow::anyhow!("tile task: {e}"))??;
+        tracing::info!(resumed, "tile written");
+        Ok(Handled::Done(format!("{}{}", campaign.output, tile_key(&task.tile))))
+    }
+
+    /// The task's campaign, loaded once per campaign and run.
+    async fn campaign(&self, task: &TileTask) -> anyhow::Result<Arc<Campaign>> {
+        let key = (task.campaign.clone(), task.run);
+        if let Some(found) = self.campaigns.lock().ok().and_then(|c| c.get(&key).cloned()) {
+            return Ok(found);
+        }
+        let campaign = Arc::new(load_campaign(&self.files, &task.manifest).await?);
+        if let Ok(mut cache) = self.campaigns.lock() {
+            cache.retain(|(id, _), _| *id != task.campaign);
+            cache.insert(key, campaign.clone());
+        }
+        Ok(campaign)
+    }
+
+    /// Publish a result message and wait for the stream's ack.
+    async fn publish_result(&self, campaign: &CampaignId, payload: Vec<u8>) -> anyhow::Result<()> {
+        let subject = bus::result_subject(campaign);
+        let ack = self.bus.js.publish(subject.clone(), payload.into()).await;
+        let ack = ack.map_err(|e| anyhow::anyhow!("publishing to {subject} ({RESULTS_STREAM}): {e}"))?;
+        ack.await.map_err(|e| anyhow::anyhow!("publishing to {subject} ({RESULTS_STREAM}): {e}"))?;
+        Ok(())
+    }
+}
+
+/// Fetch at most one task, waiting up to 2 s for it.
+fn fetch_one(
+    consumer: &PullConsumer,
+) -> BoxFuture<'_, Result<jetstream::consumer::pull::Batch, jetstream::consumer::pull::BatchError>> {
+    Box::pin(consumer.batch().max_messages(1).expires(Duration::from_secs(2)).messages())
+}
+
+/// Run `work`, sending an in-progress ack for `message` every `every`.
+pub async fn with_heartbeat<T>(message: &jetstream::Message, every: Duration, work: impl Future<Output = T>) -> T {
+    tokio::pin!(work);
+    let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + every, every);
+    loop {
+        tokio::select! {
+            out = &mut work => return out,
+            _ = ticks.tick() => reply(message, AckKind::Progress).await,
+        }
+    }
+}
+
+/// Send an ack of `kind`, logging a failure (the server redelivers an unacked task anyway).
+async fn reply(message: &jetstream::Message, kind: AckKind) {
+    if let Err(e) = message.ack_with(kind).await {
+        tracing::warn!(error = %e, "ack failed");
+    }
+}
