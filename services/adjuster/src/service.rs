@@ -23,6 +23,7 @@ use plumbline_runtime::Files;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
 use plumbline_scheduler::{SkippedInput, load_campaign};
+use plumbline_worker::service::{reply, with_heartbeat};
 use plumbline_worker::{TileOutput, TileOutputV1, tile_key};
 use serde::{Deserialize, Serialize};
 
@@ -159,7 +160,7 @@ impl Adjuster {
             reply(message, AckKind::Term).await;
             return;
         };
-        match with_heartbeat(message, self.record(&outcome)).await {
+        match with_heartbeat(message, HEARTBEAT, self.record(&outcome)).await {
             Ok(()) => reply(message, AckKind::Ack).await,
             Err(e) => {
                 tracing::warn!(error = %format!("{e:#}"), "recording a result failed; retrying later");
@@ -293,25 +294,6 @@ async fn read_output(files: &Files, url: &str) -> anyhow::Result<TileOutputV1> {
     let bytes = files.read(url).await?;
     let doc: TileOutput = serde_json::from_slice(&bytes).map_err(|e| anyhow::anyhow!("tile output {url}: {e}"))?;
     Ok(doc.into_latest())
-}
-
-/// Run `work`, sending an in-progress ack for `message` every [`HEARTBEAT`].
-async fn with_heartbeat<T>(message: &jetstream::Message, work: impl Future<Output = T>) -> T {
-    tokio::pin!(work);
-    let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + HEARTBEAT, HEARTBEAT);
-    loop {
-        tokio::select! {
-            out = &mut work => return out,
-            _ = ticks.tick() => reply(message, AckKind::Progress).await,
-        }
-    }
-}
-
-/// Send an ack of `kind`, logging a failure (an unacked result is redelivered anyway).
-async fn reply(message: &jetstream::Message, kind: AckKind) {
-    if let Err(e) = message.ack_with(kind).await {
-        tracing::warn!(error = %e, "ack failed");
-    }
 }
 
 #[cfg(test)]

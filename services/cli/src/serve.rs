@@ -71,24 +71,14 @@ pub struct AdjusterArgs {
 /// Arguments of `serve scheduler`.
 #[derive(Debug, ClapArgs)]
 pub struct SchedulerArgs {
-    /// NATS server with JetStream (2.10 or newer).
-    #[arg(long, env = "PLUMBLINE_NATS_URL", value_name = "URL")]
-    pub nats: String,
-    /// File holding the NATS token, if the server wants one.
-    #[arg(long, env = "PLUMBLINE_NATS_TOKEN_FILE", value_name = "FILE")]
-    pub nats_token_file: Option<PathBuf>,
-    /// Object store all agencies' data lives in: s3://bucket/prefix, file:///dir or a local directory.
-    #[arg(long, env = "PLUMBLINE_STORE_URL", value_name = "URL")]
-    pub store: String,
+    #[command(flatten)]
+    pub connection: Connection,
     /// Address to serve the API on.
     #[arg(long, default_value = "127.0.0.1:8080", value_name = "ADDR")]
     pub listen: String,
     /// Bearer tokens: a TOML file whose `[tokens]` table maps each token to its agency.
     #[arg(long, env = "PLUMBLINE_TOKENS_FILE", value_name = "FILE")]
     pub tokens: PathBuf,
-    /// Seconds to keep trying the first NATS connection.
-    #[arg(long, default_value_t = 30)]
-    pub connect_timeout_s: u64,
 }
 
 /// Run `serve`.
@@ -155,9 +145,10 @@ async fn scheduler(ctx: &Context, args: SchedulerArgs) -> anyhow::Result<ExitCod
     let origin = args.tokens.display().to_string();
     let text = std::fs::read_to_string(&args.tokens).or_invalid(&format!("tokens file {origin}"))?;
     let tokens = Tokens::from_toml(&origin, &text).map_err(invalid)?;
-    let nats_token = nats_token(args.nats_token_file.as_ref())?;
-    let client = service::connect(&args.nats, nats_token.as_ref(), Duration::from_secs(args.connect_timeout_s)).await?;
-    let scheduler = Scheduler::start(client, ctx.files().clone(), &args.store, tokens).await?;
+    let c = &args.connection;
+    let nats_token = nats_token(c.nats_token_file.as_ref())?;
+    let client = service::connect(&c.nats, nats_token.as_ref(), Duration::from_secs(c.connect_timeout_s)).await?;
+    let scheduler = Scheduler::start(client, ctx.files().clone(), &c.store, tokens).await?;
     let listener =
         tokio::net::TcpListener::bind(&args.listen).await.or_invalid(&format!("--listen {}", args.listen))?;
     tracing::info!(listen = %listener.local_addr()?, "scheduler API listening");

@@ -4,9 +4,9 @@
 use std::process::ExitCode;
 
 use clap::Args as ClapArgs;
-use plumbline_campaign::{Manifest, ManifestV1, Problem};
+use plumbline_campaign::{ManifestV1, Problem};
 
-use crate::exit::{INVALID, OrInvalid};
+use crate::exit::INVALID;
 use crate::io::{Context, file_name};
 
 /// Arguments of `validate`.
@@ -22,14 +22,7 @@ pub struct Args {
 /// Run `validate`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let name = file_name(&args.manifest).to_owned();
-    let bytes = ctx.read(&args.manifest).await?;
-    let text = std::str::from_utf8(&bytes).or_invalid(&format!("{name}: not UTF-8 text"))?;
-    let manifest = if name.to_ascii_lowercase().ends_with(".json") {
-        Manifest::from_json_str(text)
-    } else {
-        Manifest::from_toml_str(text)
-    }
-    .or_invalid(&name)?;
+    let manifest = plumbline_scheduler::parse_manifest(&name, &ctx.read(&args.manifest).await?)?;
     let mut problems: Vec<String> = match manifest.validate() {
         Ok(_) => Vec::new(),
         Err(problems) => problems.iter().map(Problem::to_string).collect(),
@@ -91,7 +84,7 @@ async fn missing_inputs(
     problems: &mut Vec<String>,
     unchecked: &mut Vec<String>,
 ) {
-    let base = base_of(manifest_url);
+    let base = plumbline_scheduler::manifest_base(manifest_url);
     for (path, location) in m.input_locations() {
         let Ok(url) = plumbline_campaign::resolve(&base, location.as_str()) else {
             continue; // the manifest's own validation already names the bad location
@@ -106,13 +99,4 @@ async fn missing_inputs(
 
 fn root_cause(e: &anyhow::Error) -> String {
     e.chain().last().map_or_else(|| e.to_string(), ToString::to_string)
-}
-
-/// The absolute URL a manifest's relative locations resolve against (plain paths become `file://` URLs).
-fn base_of(manifest_url: &str) -> String {
-    if manifest_url.contains("://") {
-        return manifest_url.to_owned();
-    }
-    let absolute = std::path::absolute(manifest_url).unwrap_or_else(|_| manifest_url.into());
-    format!("file://{}", absolute.display())
 }

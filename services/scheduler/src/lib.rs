@@ -17,4 +17,4 @@ mod load;
 pub mod messages;
 pub mod service;
 
-pub use load::{Campaign, SkippedInput, load_campaign, manifest_base};
+pub use load::{Campaign, SkippedInput, load_campaign, manifest_base, parse_manifest};

@@ -90,18 +90,23 @@ pub fn manifest_base(manifest_url: &str) -> String {
     format!("file://{}", absolute.display())
 }
 
-/// Read, validate and plan the campaign `manifest_url` names. Every problem that makes the campaign
-/// unusable as a whole is an invalid-input error; single bad rows are skipped and listed.
-pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<Campaign> {
-    let name = file_name(manifest_url).to_owned();
-    let bytes = files.read(manifest_url).await?;
-    let text = std::str::from_utf8(&bytes).or_invalid(&format!("{name}: not UTF-8 text"))?;
-    let manifest = if name.to_ascii_lowercase().ends_with(".json") {
+/// Parse a manifest's bytes: JSON when `name` ends in `.json`, TOML otherwise; errors are invalid input
+/// naming the file.
+pub fn parse_manifest(name: &str, bytes: &[u8]) -> anyhow::Result<Manifest> {
+    let text = std::str::from_utf8(bytes).or_invalid(&format!("{name}: not UTF-8 text"))?;
+    if name.to_ascii_lowercase().ends_with(".json") {
         Manifest::from_json_str(text)
     } else {
         Manifest::from_toml_str(text)
     }
-    .or_invalid(&name)?;
+    .or_invalid(name)
+}
+
+/// Read, validate and plan the campaign `manifest_url` names. Every problem that makes the campaign
+/// unusable as a whole is an invalid-input error; single bad rows are skipped and listed.
+pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<Campaign> {
+    let name = file_name(manifest_url).to_owned();
+    let manifest = parse_manifest(&name, &files.read(manifest_url).await?)?;
     if let Err(problems) = manifest.validate() {
         let list: Vec<String> = problems.iter().map(Problem::to_string).collect();
         return Err(invalid(format!("{name}: {} problem(s):\n  {}", list.len(), list.join("\n  "))));

@@ -267,8 +267,8 @@ pub async fn with_heartbeat<T>(message: &jetstream::Message, every: Duration, wo
     }
 }
 
-/// Send an ack of `kind`, logging a failure (the server redelivers an unacked task anyway).
-async fn reply(message: &jetstream::Message, kind: AckKind) {
+/// Send an ack of `kind`, logging a failure (the server redelivers an unacked message anyway).
+pub async fn reply(message: &jetstream::Message, kind: AckKind) {
     if let Err(e) = message.ack_with(kind).await {
         tracing::warn!(error = %e, "ack failed");
     }
