@@ -8,6 +8,7 @@
 //! | adjuster's consumer | durable pull consumer `adjuster` on `PLUMBLINE_RESULTS` | explicit ack, deliver all (a restarted adjuster replays what it has not acked), `ack_wait` [`ADJUSTER_ACK_WAIT`] | adjuster |
 //! | dead letters | stream `PLUMBLINE_DEAD`, subjects `plumbline.dead.<campaign>` | limits retention, [`DEAD_MAX_AGE`] (30 days) | workers publish a [`TileFailed`] for every task given up on |
 //! | campaign state | KV bucket `plumbline-campaigns`, key = campaign id | history 5, file storage; writers use [`CampaignStore::modify`] (read, change, `update` with the read revision, retry on a lost race) | everyone |
+//! | adjuster's tallies | KV bucket `plumbline-adjuster` (created by the adjuster), key `<campaign>.<run>` | history 1, file storage; the tiles done and failed of a run, revision-checked, so a redelivered result is counted once | adjuster |
 //!
 //! The roles' loops on top of these resources:
 //! - **scheduler** (this crate's [`crate::service`]): stores the manifest and `plan.json`, creates the state

@@ -188,7 +188,13 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<
     };
 
     let params = TilingParams::new(manifest.tiling.tile_size_m, manifest.tiling.overlap_m);
-    let plan = plan_campaign(&pano_rows, &depth_rows, &trajectory.trajectory, &params).or_invalid(&name)?;
+    let (plan, trajectory) = tokio::task::spawn_blocking(move || {
+        let plan = plan_campaign(&pano_rows, &depth_rows, &trajectory.trajectory, &params);
+        (plan, trajectory)
+    })
+    .await
+    .map_err(|e| anyhow::anyhow!("{name}: the planning task failed: {e}"))?;
+    let plan = plan.or_invalid(&name)?;
     for u in &plan.unplanned {
         skipped.push(SkippedInput {
             stage: "plan".into(),

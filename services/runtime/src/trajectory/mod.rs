@@ -58,25 +58,44 @@ pub struct LoadedTrajectory {
 
 /// Read `input` and bring it into the projected CRS `target`; every defect is invalid input naming the
 /// file, record and field. A projected CSV without its own EPSG code is taken to be in `target` already.
+/// Parsing and the CRS conversion run on a blocking thread (a campaign's trajectory has millions of records).
 pub async fn load_trajectory(
     files: &Files,
     input: &TrajectoryInput,
     target: Option<u32>,
 ) -> anyhow::Result<LoadedTrajectory> {
-    let name = file_name(&input.url).to_owned();
     let bytes = files.read(&input.url).await?;
+    let smrmsg = match (input.format, &input.smrmsg) {
+        (TrajectoryFormat::Sbet, Some(u)) => Some((file_name(u).to_owned(), files.read(u).await?)),
+        _ => None,
+    };
+    let input = input.clone();
+    let name = file_name(&input.url).to_owned();
+    tokio::task::spawn_blocking(move || decode(&input, &bytes, smrmsg, target))
+        .await
+        .map_err(|e| anyhow::anyhow!("{name}: the decoding task failed: {e}"))?
+}
+
+/// Parse a trajectory file's bytes (and its smrmsg's, for an SBET) and bring it into `target`.
+fn decode(
+    input: &TrajectoryInput,
+    bytes: &[u8],
+    smrmsg: Option<(String, impl AsRef<[u8]>)>,
+    target: Option<u32>,
+) -> anyhow::Result<LoadedTrajectory> {
+    let name = file_name(&input.url).to_owned();
     let raw: RawTrajectory = match input.format {
         TrajectoryFormat::Csv => {
-            let parsed = formats::parse_csv(&bytes, &name, input.attitude).or_invalid("")?;
+            let parsed = formats::parse_csv(bytes, &name, input.attitude).or_invalid("")?;
             for w in &parsed.warnings {
                 tracing::warn!(file = %name, warning = %w, "csv input");
             }
             parsed.trajectory
         }
         TrajectoryFormat::Sbet => {
-            let records = formats::parse_sbet(&bytes, &name).or_invalid("")?;
-            let std = match &input.smrmsg {
-                Some(u) => Some(formats::parse_smrmsg(&files.read(u).await?, file_name(u)).or_invalid("")?),
+            let records = formats::parse_sbet(bytes, &name).or_invalid("")?;
+            let std = match smrmsg {
+                Some((file, data)) => Some(formats::parse_smrmsg(data.as_ref(), &file).or_invalid("")?),
                 None => None,
             };
             formats::sbet_to_raw(&records, std.as_deref())
