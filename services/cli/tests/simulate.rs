@@ -150,6 +150,13 @@ fn sensor_data_is_complete_opens_through_gdal_and_validates() {
     let (on, beside, n) = street_light_pixels(&out, [0.0, 0.0, 0.0]);
     assert!(n >= 12, "only {} street lights near panoramas", n / 4);
     assert!(on > 0.75 && beside > 0.75, "green on the lights {on:.2}, different 1 m beside {beside:.2}");
+    let (on_pole, ground_ok, samples) = pixel_truth_agrees(&out);
+    assert!(
+        samples.0 >= 12 && on_pole > 0.75,
+        "{on_pole:.2} of {} light-axis pixels are pole pixels on the light",
+        samples.0
+    );
+    assert!(samples.1 > 1000 && ground_ok == 1.0, "{ground_ok:.4} of {} ground pixels on the ground", samples.1);
     let (agree, depth_n) = pole_depths_agree(&out);
     assert!(depth_n >= 5 && agree > 0.8, "{depth_n} pole samples in depth images, {agree:.2} agree");
     // The same check with the lever arm 30 cm off forward (across the line of sight to kerbside poles) fails: it can tell a wrong mount.
@@ -258,4 +265,124 @@ fn pole_depths_agree(out: &str) -> (f64, usize) {
         }
     }
     (agree as f64 / n.max(1) as f64, n)
+}
+
+/// The per-pixel truth files by an independent route: the TRUE axis of every listed street light 3–10 m from
+/// the nearest panorama, 1.6–2.8 m above the road (above parked cars), projected with the true pose and the
+/// manifest's mount, falls on pixels whose class is "pole" and whose point (camera centre + range · ray) lies
+/// on the light's surface (its radius from the axis, ±1 cm); and every "ground" pixel of the lower image
+/// half decodes to a point on the flat ground of the world's configuration (±3 mm).
+/// Returns the shares that agree and the sample counts (light pixels, ground pixels).
+fn pixel_truth_agrees(out: &str) -> (f64, f64, (usize, usize)) {
+    use plumbline_geo::camera::Equirectangular;
+    use plumbline_geo::dg::{Boresight, CameraMount};
+    use plumbline_geo::{Attitude, MapFromBody, Point3};
+    use plumbline_synth::render::surface_point;
+    let text = std::fs::read_to_string(format!("{out}/campaign.toml")).unwrap();
+    let manifest = plumbline_campaign::Manifest::from_toml_str(&text).unwrap().into_latest();
+    let m = manifest.panoramas.unwrap();
+    let [r, p, y] = m.mount.boresight_deg;
+    let mount = CameraMount::new(m.mount.lever_arm_m, &Boresight::from_degrees(r, p, y));
+    let (w, h) = (m.width_px.unwrap(), m.height_px.unwrap());
+    let cam = Equirectangular::new(w, h).unwrap();
+    let world = plumbline_synth::world::WorldConfig::new(plumbline_synth::world::Preset::Tiny, 4);
+    let f = |row: &std::collections::HashMap<String, String>, k: &str| row[k].parse::<f64>().unwrap();
+    let images = csv_rows(&format!("{out}/truth/images.csv"));
+    let lights = csv_rows(&format!("{out}/truth/poles.csv"));
+    let (mut on, mut n, mut ground_ok, mut ground_n) = (0, 0, 0, 0);
+    let mut checked_ground = std::collections::HashSet::new();
+    for light in lights.iter().filter(|r| r["class"] == "light" && r["defect"] == "none") {
+        let (e, north) = (f(light, "true_e"), f(light, "true_n"));
+        let dist =
+            |img: &std::collections::HashMap<String, String>| (f(img, "easting") - e).hypot(f(img, "northing") - north);
+        let img = images.iter().min_by(|a, b| dist(a).total_cmp(&dist(b))).unwrap();
+        if !(3.0..10.0).contains(&dist(img)) {
+            continue;
+        }
+        let attitude = Attitude::from_degrees(f(img, "roll_deg"), f(img, "pitch_deg"), f(img, "heading_deg"));
+        let body = MapFromBody::new(
+            attitude.to_rotation(),
+            Point3::new(f(img, "easting"), f(img, "northing"), f(img, "height")),
+        );
+        let pose = mount.camera_pose(&body);
+        let ground = world.ground_height;
+        let id = &img["image_id"];
+        let range = image::open(format!("{out}/truth/pixels/{id}_range.png")).unwrap().to_luma16();
+        let class = image::open(format!("{out}/truth/pixels/{id}_class.png")).unwrap().to_luma8();
+        let point = |col: u32, row: u32| {
+            surface_point(&cam, &pose, col, row, f64::from(range.get_pixel(col, row)[0]) / 1000.0).unwrap()
+        };
+        for z in [1.6, 2.2, 2.8] {
+            let px = mount.project(&cam, &body, &Point3::new(e, north, ground + z)).unwrap();
+            let (col, row) = ((px.u as u32).min(w - 1), (px.v as u32).min(h - 1));
+            n += 1;
+            if class.get_pixel(col, row)[0] == 4 {
+                let q = point(col, row);
+                let off_axis = (q.x() - e).hypot(q.y() - north);
+                on += usize::from((off_axis - f(light, "diameter_m") / 2.0).abs() < 0.01);
+            }
+        }
+        if checked_ground.insert(id.clone()) {
+            for row in (h / 2 + 8..h).step_by(7) {
+                for col in (0..w).step_by(11) {
+                    if class.get_pixel(col, row)[0] == 1 {
+                        ground_n += 1;
+                        ground_ok += usize::from((point(col, row).z() - ground).abs() < 0.003);
+                    }
+                }
+            }
+        }
+    }
+    (on as f64 / n.max(1) as f64, ground_ok as f64 / ground_n.max(1) as f64, (n, ground_n))
+}
+
+#[test]
+fn city_streams_legs_into_one_valid_continuous_campaign() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("city").to_str().unwrap().to_owned();
+    let sizes = ["--panorama-width", "128", "--panorama-spacing", "40", "--depth-rate", "0.1"];
+    let args =
+        [&["simulate", "--preset", "city", "--length", "0.7km", "--seed", "3", "--profile", "canyon"][..], &sizes];
+    plumbline(&[&args.concat()[..], &["--out", &out]].concat()).run().success();
+    plumbline(&["validate", &format!("{out}/campaign.toml")]).run().success();
+    // One trajectory across the legs: 200 Hz without gaps, and no step between epochs beyond driving speed.
+    let truth = csv_rows(&format!("{out}/truth/trajectory.csv"));
+    let errors = csv_rows(&format!("{out}/truth/dg_errors.csv"));
+    assert!(truth.len() > 60_000 && errors.len() == truth.len(), "{} epochs, {} errors", truth.len(), errors.len());
+    let time_key = truth[0].keys().find(|k| k.starts_with("time")).unwrap().clone();
+    let xyz: Vec<[f64; 4]> = truth
+        .iter()
+        .map(|r| {
+            let v = |prefix: &str| r.iter().find(|(k, _)| k.starts_with(prefix)).unwrap().1.parse::<f64>().unwrap();
+            [v(&time_key), v("east"), v("north"), v("height")]
+        })
+        .collect();
+    for w in xyz.windows(2) {
+        assert!((w[1][0] - w[0][0] - 0.005).abs() < 1e-6, "time step at {}", w[0][0]);
+        let step = ((w[1][1] - w[0][1]).powi(2) + (w[1][2] - w[0][2]).powi(2) + (w[1][3] - w[0][3]).powi(2)).sqrt();
+        assert!(step < 0.1, "{step} m between epochs at {}", w[0][0]);
+    }
+    let compared = compare(&out, "nav/dg.csv");
+    assert_eq!(compared["cross"]["count"].as_u64().unwrap() as usize, truth.len());
+    // Images of every leg, unique ids, each with its per-pixel truth; every listed cadastre object once.
+    let index = csv_rows(&format!("{out}/panoramas/index.csv"));
+    let ids: std::collections::HashSet<_> = index.iter().map(|r| r["image_id"].clone()).collect();
+    assert!(ids.len() == index.len() && ids.iter().any(|i| i.starts_with("pano0001_")), "{ids:?}");
+    for id in &ids {
+        for file in [
+            format!("panoramas/{id}.jpg"),
+            format!("truth/pixels/{id}_range.png"),
+            format!("truth/pixels/{id}_class.png"),
+        ] {
+            assert!(std::path::Path::new(&format!("{out}/{file}")).is_file(), "{file}");
+        }
+    }
+    let poles = csv_rows(&format!("{out}/truth/poles.csv"));
+    let listed: Vec<_> =
+        poles.iter().filter(|r| !r["cadastre_id"].is_empty()).map(|r| r["cadastre_id"].clone()).collect();
+    let unique: std::collections::HashSet<_> = listed.iter().collect();
+    assert!(listed.len() > 50 && unique.len() == listed.len(), "{} listed, {} unique", listed.len(), unique.len());
+    // Streaming needs a local directory.
+    let r = plumbline(&["simulate", "--preset", "city", "--out", "s3://bucket/city"]).run();
+    assert_eq!(r.code, Some(2), "{}", r.stderr);
 }

@@ -1,5 +1,6 @@
-//! Rendering benchmark: megapixels per second of panoramas, depth images and aerial frames of the `tiny`
-//! world, on all rayon threads. Run with `cargo bench -p plumbline-synth --bench render`.
+//! Rendering benchmark: megapixels per second of panoramas (and their per-pixel truth), depth images and
+//! aerial frames of the `tiny` world, on all rayon threads; the time to make a city window. Run with
+//! `cargo bench -p plumbline-synth --bench render`.
 
 use std::time::Instant;
 
@@ -7,8 +8,10 @@ use plumbline_geo::camera::{Equirectangular, Pinhole};
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::{Attitude, MapFromBody, MapFromCamera, OmegaPhiKappa, Point3};
 use plumbline_synth::render::{
-    AerialOptics, DepthNoise, Scene, VehicleBody, encode_jpeg, render_aerial, render_depth, render_panorama,
+    AerialOptics, DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_aerial, render_depth,
+    render_panorama, render_surfaces,
 };
+use plumbline_synth::world::city::City;
 use plumbline_synth::world::{Epoch, Preset, World, WorldConfig};
 
 /// Median wall time of `runs` calls, seconds.
@@ -45,6 +48,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         long.waypoints.len(),
         start.elapsed().as_secs_f64()
     );
+    let city = City::new(&WorldConfig::new(Preset::City, 1));
+    let o = [city.config().origin_east, city.config().origin_north];
+    let start = Instant::now();
+    let window = city.window_box([o[0] - 370.0, o[1] - 370.0], [o[0] + 370.0, o[1] + 370.0]).world;
+    println!(
+        "city window 740 m square (a 500 m leg with its margin): {} streets, {} buildings, {} poles in {:.3} s",
+        window.streets.len(),
+        window.buildings.len(),
+        window.poles.len(),
+        start.elapsed().as_secs_f64()
+    );
     let world = World::generate(&WorldConfig::new(Preset::Tiny, 1))?;
     let route = world.route(1, 300.0);
     let (p, q) = (route.waypoints[30], route.waypoints[31]);
@@ -66,6 +80,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let pano = render_panorama(&scene, &cam, &mount, &body, &VehicleBody::van());
         let s = time(3, || drop(encode_jpeg(&pano.image, 90)));
         row(&format!("  jpeg encode {w}x{h}"), u64::from(w * h), s);
+        let s = time(3, || drop(render_surfaces(&world, Epoch::Mobile, &cam, &mount, &body, &VehicleBody::van())));
+        row(&format!("  per-pixel truth {w}x{h}"), u64::from(w * h), s);
+        let truth = render_surfaces(&world, Epoch::Mobile, &cam, &mount, &body, &VehicleBody::van());
+        let s = time(3, || drop(encode_png_gray16(&truth.range_mm)));
+        row(&format!("  range png encode {w}x{h}"), u64::from(w * h), s);
     }
     let dcam = Pinhole::new(1280, 720, 640.0, 640.0, 640.0, 360.0, 0.0, 0.0)?;
     let dpose = CameraMount::new([0.2, 0.9, -1.0], &Boresight::from_degrees(0.0, 0.0, 90.0)).camera_pose(&body);

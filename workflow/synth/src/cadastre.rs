@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use crate::world::{PoleClass, World};
+use crate::world::{Pole, PoleClass, World};
 
 /// How the cadastre deviates from the world.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -83,14 +83,20 @@ pub fn class_name(class: PoleClass) -> &'static str {
 
 /// The cadastre of `world`: real objects (listed or missing) then ghosts. Deterministic from `seed`.
 pub fn cadastre(world: &World, errors: &CadastreErrors, seed: u64) -> Vec<CadastreObject> {
+    cadastre_of(&world.poles, errors, seed, 1)
+}
+
+/// The cadastre entries of `poles` (`world_id` = each pole's id), feature ids from `first_id` on: real objects
+/// (listed or missing) then ghosts between neighbouring poles of one class. Deterministic from `seed`.
+pub fn cadastre_of(poles: &[Pole], errors: &CadastreErrors, seed: u64, first_id: i64) -> Vec<CadastreObject> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0xCADA_57E0);
     let mut normal = move || {
         let (u1, u2): (f64, f64) = (rng.random_range(f64::MIN_POSITIVE..1.0), rng.random_range(0.0..1.0));
         (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
     };
-    let mut objects = Vec::with_capacity(world.poles.len());
-    let mut next_id = 1i64;
-    for pole in &world.poles {
+    let mut objects = Vec::with_capacity(poles.len());
+    let mut next_id = first_id;
+    for pole in poles {
         let sigma = if pole.class == PoleClass::Tree { errors.tree_sigma_m } else { errors.pole_sigma_m };
         let error = [normal() * sigma, normal() * sigma];
         // A uniform deviate from the same stream decides the defect (Φ of a normal would do as well).
@@ -110,8 +116,8 @@ pub fn cadastre(world: &World, errors: &CadastreErrors, seed: u64) -> Vec<Cadast
             defect: if missing { Defect::Missing } else { Defect::None },
         });
     }
-    let ghosts = (world.poles.len() as f64 * errors.gone_share).round() as usize;
-    for (k, pair) in world.poles.windows(2).filter(|w| w[0].class == w[1].class).enumerate() {
+    let ghosts = (poles.len() as f64 * errors.gone_share).round() as usize;
+    for (k, pair) in poles.windows(2).filter(|w| w[0].class == w[1].class).enumerate() {
         if k >= ghosts {
             break;
         }

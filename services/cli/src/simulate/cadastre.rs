@@ -31,18 +31,23 @@ pub(crate) fn write(world: &World, crs: u32, seed: u64, sink: &Sink) -> anyhow::
     }
     sink.put("cadastre/poles.gpkg", geopackage(&[poles, trees], CADASTRE_EPSG).context("cadastre GeoPackage")?)?;
     sink.put("truth/poles.csv", cadastre::truth_csv(&objects))?;
-    Ok(format!(
+    Ok(section(&errors))
+}
+
+/// The manifest's `[[cadastres]]` of the written GeoPackage.
+pub(crate) fn section(errors: &CadastreErrors) -> String {
+    format!(
         "[[cadastres]]\nurl = \"cadastre/poles.gpkg\"\nlayers = [\"poles\", \"trees\"]\nclass_attribute = \"class\"\n\
          diameter_attribute = \"diameter_m\"\n\n\
          [cadastres.class_values]\nlight = \"light\"\nsign = \"sign\"\ntraffic_light = \"sign\"\ntree = \"tree\"\n\n\
          [cadastres.accuracy]\npoles = {p:?}\nlights = {p:?}\nsigns = {p:?}\ntrees = {t:?}\n",
         p = errors.pole_sigma_m,
         t = errors.tree_sigma_m
-    ))
+    )
 }
 
 /// The listed object as a feature in the file's CRS; `None` when it is not listed.
-fn feature(o: &CadastreObject, to_file: &CrsTransform) -> anyhow::Result<Option<PointFeature>> {
+pub(crate) fn feature(o: &CadastreObject, to_file: &CrsTransform) -> anyhow::Result<Option<PointFeature>> {
     let (Some([e, n]), Some(id)) = (o.listed, o.cadastre_id) else { return Ok(None) };
     let (x, y, _) = to_file.transform_point(e, n, 0.0).with_context(|| format!("cadastre object {id}"))?;
     let values = vec![FieldValue::Integer(id), FieldValue::Text(o.class.to_owned()), FieldValue::Real(o.diameter_m)];

@@ -8,6 +8,7 @@ use plumbline_synth::motion::dg::DgSolution;
 use plumbline_synth::motion::{Drive, DriveConfig};
 use plumbline_synth::render::{
     DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray, encode_png_gray16, render_depth, render_panorama,
+    render_surfaces,
 };
 use plumbline_synth::sensors::{self, Mount};
 use plumbline_synth::world::{Epoch, World};
@@ -17,7 +18,7 @@ use super::{Args, Preset, Sink};
 use crate::exit::invalid;
 
 /// JPEG quality of the panoramas.
-const JPEG_QUALITY: u8 = 90;
+pub(crate) const JPEG_QUALITY: u8 = 90;
 
 /// Image sizes and rates of the street-level sensors.
 #[derive(Clone, Copy, Debug)]
@@ -37,7 +38,7 @@ impl Sizes {
     pub(crate) fn of(args: &Args) -> anyhow::Result<Self> {
         let (width, spacing, depth, rate) = match args.preset {
             Preset::Tiny => (1024, 5.0, (320, 180), 1.0),
-            Preset::District => (4096, 5.0, (1280, 720), 5.0),
+            Preset::District | Preset::City => (4096, 5.0, (1280, 720), 5.0),
         };
         let panorama_spacing = args.panorama_spacing.unwrap_or(spacing);
         let panorama_width = args.panorama_width.unwrap_or(width);
@@ -66,8 +67,6 @@ pub(crate) fn panoramas(
     sink: &Sink,
 ) -> anyhow::Result<String> {
     let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
-    // The IMU rides `imu_height` above the road; the lever arm's z points down.
-    let camera_height = drive_config.imu_height - Mount::PANORAMA.lever_arm_m[2];
     let cam = Equirectangular::new(w, h).context("panorama camera")?;
     let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
     let shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory)?;
@@ -77,10 +76,9 @@ pub(crate) fn panoramas(
         let pano = render_panorama(&scene, &cam, &mount_, &shot.truth.pose(), &vehicle);
         let jpeg = encode_jpeg(&pano.image, JPEG_QUALITY).with_context(|| format!("panorama {}", shot.id))?;
         sink.put(format!("panoramas/{}.jpg", shot.id), jpeg)?;
+        pixel_truth(world, &cam, &mount_, shot, &vehicle, sink)?;
         if mask_png.is_none() {
-            // The manifest's mask: non-zero = vehicle (the renderer's: 255 = scene).
-            let vehicle_mask = GrayImage::from_fn(w, h, |x, y| image::Luma([255 - pano.mask.get_pixel(x, y)[0]]));
-            mask_png = Some(encode_png_gray(&vehicle_mask).context("vehicle mask")?);
+            mask_png = Some(vehicle_mask_png(&pano)?);
         }
     }
     if let Some(png) = mask_png {
@@ -88,15 +86,47 @@ pub(crate) fn panoramas(
     }
     sink.put("panoramas/index.csv", sensors::index_csv(&shots, "jpg"))?;
     sink.put("truth/images.csv", sensors::truth_csv(&shots))?;
-    Ok(format!(
+    Ok(panorama_section(sizes, drive_config.imu_height))
+}
+
+/// The manifest's `[panoramas]` for the IMU `imu_height` above the road.
+pub(crate) fn panorama_section(sizes: &Sizes, imu_height: f64) -> String {
+    let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
+    // The IMU rides `imu_height` above the road; the lever arm's z points down.
+    let camera_height = imu_height - Mount::PANORAMA.lever_arm_m[2];
+    format!(
         "[panoramas]\nindex = \"panoramas/index.csv\"\nimages = \"panoramas/\"\nwidth_px = {w}\nheight_px = {h}\n\
          vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{}",
         mount("panoramas", &Mount::PANORAMA)
-    ))
+    )
+}
+
+/// The manifest's vehicle mask (non-zero = vehicle; the renderer's mask has 255 = scene) as PNG.
+pub(crate) fn vehicle_mask_png(pano: &plumbline_synth::render::Panorama) -> anyhow::Result<Vec<u8>> {
+    let (w, h) = pano.mask.dimensions();
+    let vehicle_mask = GrayImage::from_fn(w, h, |x, y| image::Luma([255 - pano.mask.get_pixel(x, y)[0]]));
+    encode_png_gray(&vehicle_mask).context("vehicle mask")
+}
+
+/// `truth/pixels/{id}_range.png` (16-bit, millimetres along the pixel-centre ray, 0 = nothing stored) and
+/// `truth/pixels/{id}_class.png` (`plumbline_synth::render::SurfaceClass` codes) of one panorama.
+pub(crate) fn pixel_truth(
+    world: &World,
+    cam: &Equirectangular,
+    mount: &plumbline_geo::dg::CameraMount,
+    shot: &sensors::Shot,
+    vehicle: &VehicleBody,
+    sink: &Sink,
+) -> anyhow::Result<()> {
+    let truth = render_surfaces(world, Epoch::Mobile, cam, mount, &shot.truth.pose(), vehicle);
+    let range = encode_png_gray16(&truth.range_mm).with_context(|| format!("range truth of {}", shot.id))?;
+    sink.put(format!("truth/pixels/{}_range.png", shot.id), range)?;
+    let class = encode_png_gray(&truth.class).with_context(|| format!("class truth of {}", shot.id))?;
+    sink.put(format!("truth/pixels/{}_class.png", shot.id), class)
 }
 
 /// The depth camera: paper 002 §3.1.2's field of view (fx = width / 2, ≈ 90° horizontally).
-fn depth_camera(width: u32, height: u32) -> anyhow::Result<Pinhole> {
+pub(crate) fn depth_camera(width: u32, height: u32) -> anyhow::Result<Pinhole> {
     let f = f64::from(width) / 2.0;
     Pinhole::new(width, height, f, f, f64::from(width) / 2.0, f64::from(height) / 2.0, 0.0, 0.0).context("depth camera")
 }
@@ -124,6 +154,13 @@ pub(crate) fn depth(
     }
     sink.put("depth/right/index.csv", sensors::index_csv(&shots, "png"))?;
     sink.put("truth/depth_images.csv", sensors::truth_csv(&shots))?;
+    depth_section(sizes)
+}
+
+/// The manifest's `[[depth]]`.
+pub(crate) fn depth_section(sizes: &Sizes) -> anyhow::Result<String> {
+    let (w, h) = sizes.depth;
+    let cam = depth_camera(w, h)?;
     let noise = DepthNoise::realsense(0);
     Ok(format!(
         "[[depth]]\nindex = \"depth/right/index.csv\"\nimages = \"depth/right/\"\nrange_error_share = {:?}\n\n\

@@ -30,7 +30,17 @@ pub(crate) fn mount(table: &str, m: &Mount) -> String {
 
 /// The manifest text, checked before it is written.
 pub(crate) fn manifest(id: &str, crs: u32, sections: &Sections) -> anyhow::Result<String> {
-    let mut text = format!(
+    finish(header(id, crs, "gnss = \"nav/gnss.csv\"\nimu = \"nav/imu.csv\"\n"), sections)
+}
+
+/// The manifest of a campaign without raw GNSS and IMU files, checked before it is written.
+pub(crate) fn manifest_without_raw(id: &str, crs: u32, sections: &Sections) -> anyhow::Result<String> {
+    finish(header(id, crs, ""), sections)
+}
+
+/// Everything up to the trajectory's reference; `raw` names the raw sensor files.
+fn header(id: &str, crs: u32, raw: &str) -> String {
+    format!(
         "# A synthetic campaign written by `plumbline simulate`; paths are relative to this file.\n\
          version = \"1\"\n\
          crs = {crs}\n\
@@ -42,10 +52,13 @@ pub(crate) fn manifest(id: &str, crs: u32, sections: &Sections) -> anyhow::Resul
          format = \"sbet\"\n\
          url = \"nav/dg.sbet\"\n\
          smrmsg = \"nav/dg.smrmsg\"\n\
-         gnss = \"nav/gnss.csv\"\n\
-         imu = \"nav/imu.csv\"\n\
+         {raw}\
          reference = \"truth/trajectory.csv\"\n"
-    );
+    )
+}
+
+/// The header followed by the sections, parsed and validated.
+fn finish(mut text: String, sections: &Sections) -> anyhow::Result<String> {
     for section in [&sections.panoramas, &sections.depth, &sections.aerial, &sections.cadastre].into_iter().flatten() {
         let _ = write!(text, "\n{section}");
     }

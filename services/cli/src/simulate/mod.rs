@@ -10,6 +10,13 @@
 //! - `overview.png`: a map of the drive coloured by the horizontal DG error, standstills in black;
 //! - `panoramas/`: equirectangular JPEGs every `--panorama-spacing` metres rendered with the TRUE pose,
 //!   `index.csv` and `vehicle_mask.png` (non-zero = vehicle); `truth/images.csv`: true and DG poses then;
+//! - `truth/pixels/{image_id}_range.png` and `_class.png`: the ground truth under every panorama pixel — the
+//!   distance from the camera centre along the pixel-centre ray to the first surface (16-bit PNG, millimetres,
+//!   0 = sky, the vehicle, or farther than 65.534 m) and what it is (8-bit PNG: 0 none, 1 ground, 2 facade,
+//!   3 roof, 4 pole/trunk, 5 tree crown, 6 parked car, 7 own vehicle). The mapping-frame point of pixel
+//!   (col, row) is C + range · R·d, with C, R the TRUE camera pose (body pose of `truth/images.csv` through
+//!   the manifest's `[panoramas.mount]`) and d the equirectangular ray through (col + 0.5, row + 0.5)
+//!   (`plumbline_synth::render::surface_point`); a correspondence is scored against the point of its pixel;
 //! - `depth/right/`: 16-bit PNG depth images (millimetres) of the side-looking camera, `index.csv`;
 //!   `truth/depth_images.csv`;
 //! - `cadastre/poles.gpkg` (layers `poles`, `trees`, EPSG 4258) and `truth/poles.csv` (module `cadastre`);
@@ -19,10 +26,12 @@
 //!
 //! The drive follows a route through the procedural world (`plumbline_synth::world`) of the same seed;
 //! `--profile` replaces the streets' canyons by one environment, `mixed` keeps the world's own.
-//! Files stream to the store as they are made (a bounded channel), so large campaigns need not fit in memory.
+//! Files stream to the store as they are made (a bounded channel), so large campaigns need not fit in memory;
+//! `--preset city` (module `city`) also makes the drive leg by leg and appends to its files (local directories).
 
 mod aerial;
 mod cadastre;
+mod city;
 mod imagery;
 mod manifest;
 
@@ -71,9 +80,10 @@ pub struct Args {
     /// Write only the navigation data (trajectories, GNSS, IMU, error series, overview): no images, no cadastre.
     #[arg(long)]
     pub navigation_only: bool,
-    /// Length of the drive, metres; default 400 for `tiny`, 2000 for `district` (the route follows the
-    /// world's streets and may double back; the world's size is the preset's).
-    #[arg(long, value_name = "METRES")]
+    /// Length of the drive: metres, or with a unit (`500m`, `5km`); default 400 m for `tiny`, 2 km for
+    /// `district`, 5 km for `city` (the route follows the world's streets and may double back; the world's size
+    /// is the preset's, the city's is unbounded).
+    #[arg(long, value_name = "LENGTH", value_parser = parse_length)]
     pub length: Option<f64>,
     /// Distance driven between panoramas, metres; default 5 (`tiny`: ~85 panoramas).
     #[arg(long)]
@@ -89,6 +99,21 @@ pub struct Args {
     pub depth_rate: Option<f64>,
 }
 
+/// A length in metres: a number, or a number with `m` or `km`.
+fn parse_length(text: &str) -> Result<f64, String> {
+    let t = text.trim();
+    let (number, factor) = match (t.strip_suffix("km"), t.strip_suffix('m')) {
+        (Some(n), _) => (n, 1000.0),
+        (None, Some(n)) => (n, 1.0),
+        (None, None) => (t, 1.0),
+    };
+    number
+        .trim()
+        .parse::<f64>()
+        .map(|v| v * factor)
+        .map_err(|_| format!("`{text}`: expected metres, e.g. 500, 500m or 5km"))
+}
+
 /// Campaign sizes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Preset {
@@ -96,6 +121,8 @@ pub enum Preset {
     Tiny,
     /// ~2 km.
     District,
+    /// Any `--length` (default 5 km) through an unbounded city, made and written leg by leg.
+    City,
 }
 
 /// GNSS environments.
@@ -120,17 +147,66 @@ pub enum Grade {
     Consumer,
 }
 
+/// What the generator hands the writer: a whole file, or bytes to add at the end of one.
+#[derive(Debug)]
+enum Output {
+    /// A whole file (replacing it).
+    Put(String, Vec<u8>),
+    /// Bytes appended to a file this run creates (local directories only).
+    Append(String, Vec<u8>),
+}
+
 /// Where generated files go: path relative to the campaign prefix, bytes; written by the async side.
 #[derive(Debug)]
 pub(crate) struct Sink {
-    tx: mpsc::Sender<(String, Vec<u8>)>,
+    tx: mpsc::Sender<Output>,
 }
 
 impl Sink {
     /// Hand a file to the writer (blocks while the queue is full).
     pub(crate) fn put(&self, path: impl Into<String>, bytes: Vec<u8>) -> anyhow::Result<()> {
-        self.tx.blocking_send((path.into(), bytes)).map_err(|_| anyhow::anyhow!("the campaign writer stopped"))
+        self.send(Output::Put(path.into(), bytes))
     }
+
+    /// Hand bytes to append to a file (created empty by the first append of the run).
+    pub(crate) fn append(&self, path: impl Into<String>, bytes: Vec<u8>) -> anyhow::Result<()> {
+        self.send(Output::Append(path.into(), bytes))
+    }
+
+    fn send(&self, output: Output) -> anyhow::Result<()> {
+        self.tx.blocking_send(output).map_err(|_| anyhow::anyhow!("the campaign writer stopped"))
+    }
+}
+
+/// The local directory of `--out` (a plain path or `file://` URL); `None` for object stores.
+fn local_dir(out: &str) -> Option<std::path::PathBuf> {
+    match out.split_once("://") {
+        None => Some(out.into()),
+        Some(("file", path)) => Some(path.into()),
+        Some(_) => None,
+    }
+}
+
+/// Append `bytes` to `path`, creating it (and its directory) on the first call for it.
+async fn append(
+    path: &std::path::Path,
+    bytes: &[u8],
+    created: &mut std::collections::HashSet<std::path::PathBuf>,
+) -> anyhow::Result<()> {
+    use tokio::io::AsyncWriteExt as _;
+    let fresh = created.insert(path.to_owned());
+    if let Some(dir) = path.parent() {
+        tokio::fs::create_dir_all(dir).await.with_context(|| format!("creating {}", dir.display()))?;
+    }
+    let mut options = tokio::fs::OpenOptions::new();
+    options.create(true).write(true);
+    if fresh {
+        options.truncate(true)
+    } else {
+        options.append(true)
+    };
+    let mut file = options.open(path).await.with_context(|| format!("opening {}", path.display()))?;
+    file.write_all(bytes).await.with_context(|| format!("appending to {}", path.display()))
 }
 
 /// Run `simulate`.
@@ -143,13 +219,25 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
 /// Simulate and write the campaign; returns its manifest's path or URL.
 pub async fn write(ctx: &Context, args: Args) -> anyhow::Result<String> {
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
+    let dir = local_dir(&prefix);
+    if args.preset == Preset::City && dir.is_none() {
+        return Err(invalid(format!("--out {}: the city preset streams to a local directory only", args.out)));
+    }
     let (tx, mut rx) = mpsc::channel(WRITE_QUEUE);
     let task = tokio::task::spawn_blocking(move || generate(&args, &Sink { tx }));
-    let mut written = 0usize;
-    while let Some((path, bytes)) = rx.recv().await {
-        ctx.write(&format!("{prefix}{path}"), bytes).await?;
-        written += 1;
+    let mut written = std::collections::HashSet::new();
+    let mut puts = 0usize;
+    while let Some(output) = rx.recv().await {
+        match (output, &dir) {
+            (Output::Put(path, bytes), _) => {
+                ctx.write(&format!("{prefix}{path}"), bytes).await?;
+                puts += 1;
+            }
+            (Output::Append(path, bytes), Some(dir)) => append(&dir.join(&path), &bytes, &mut written).await?,
+            (Output::Append(path, _), None) => anyhow::bail!("{path}: appending needs a local directory"),
+        }
     }
+    let written = puts + written.len();
     let summary = task.await.context("simulation task")??;
     eprintln!("{summary}; {written} files");
     Ok(format!("{prefix}campaign.toml"))
@@ -161,10 +249,14 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     let (world_preset, default_length) = match preset {
         Preset::Tiny => (world::Preset::Tiny, 400.0),
         Preset::District => (world::Preset::District, 2000.0),
+        Preset::City => (world::Preset::City, 5000.0),
     };
     let length = args.length.unwrap_or(default_length);
     if !(length.is_finite() && (50.0..=100_000.0).contains(&length)) {
         return Err(invalid(format!("--length {length}: expected 50–100000 m")));
+    }
+    if preset == Preset::City {
+        return city::generate(args, length, sink);
     }
     let world_config = WorldConfig::new(world_preset, seed);
     let crs = world_config.epsg;
@@ -208,7 +300,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
 }
 
 /// The route with every street's canyon replaced by the profile's (`mixed`: unchanged).
-fn with_profile(route: Route, profile: Profile) -> Route {
+pub(crate) fn with_profile(route: Route, profile: Profile) -> Route {
     match profile {
         Profile::Open => route.with_canyon(Canyon::OPEN),
         Profile::Urban => route.with_canyon(URBAN_STREET),
@@ -221,6 +313,7 @@ fn name(preset: Preset) -> &'static str {
     match preset {
         Preset::Tiny => "tiny",
         Preset::District => "district",
+        Preset::City => "city",
     }
 }
 

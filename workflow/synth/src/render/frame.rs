@@ -28,7 +28,7 @@ impl VehicleBody {
     }
 
     /// Distance along a body-frame ray to the box, if it is hit in front of the origin.
-    fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
+    pub(crate) fn hit(&self, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<f64> {
         let (mut t0, mut t1) = (0.0f64, f64::INFINITY);
         for k in 0..3 {
             if d[k].abs() < 1e-15 {

@@ -1,11 +1,13 @@
 //! Rendering by ray casting (rayon across rows): equirectangular panoramas with the vehicle's body masked,
-//! side-looking depth images, aerial frame images, and the ground-truth point under any pixel.
+//! side-looking depth images, aerial frame images, and the ground-truth point under any pixel (one function, or range + class images
+//! of a whole panorama).
 
 mod block;
 mod blur;
 mod encode;
 mod frame;
 mod shade;
+mod surface;
 
 pub use block::{AtErrors, BlockSpec, perturb_block, plan_block};
 pub use encode::{RenderError, encode_jpeg, encode_png_gray, encode_png_gray16, encode_png_rgb};
@@ -13,3 +15,4 @@ pub use frame::{
     AerialOptics, DepthNoise, Panorama, VehicleBody, ground_truth, render_aerial, render_depth, render_panorama,
 };
 pub use shade::{Illumination, Scene};
+pub use surface::{MAX_RANGE_M, SurfaceClass, SurfaceImage, render_surfaces, surface_point};

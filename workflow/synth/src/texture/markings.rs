@@ -27,9 +27,9 @@ pub fn paint(place: &Place, epoch: Epoch, seed: u64, fp: f64) -> (f32, f32) {
         (junction_paint(place, end, near_from, fp), 2 + i64::from(near_from))
     } else {
         let arrows = if st.class == StreetClass::Arterial { arrow(place, end, near_from, fp) } else { 0.0 };
-        (lines(place, s + dash_shift(seed, i64::from(st.id), epoch), t, fp).max(arrows), 1)
+        (lines(place, s + dash_shift(seed, i64::from(st.key), epoch), t, fp).max(arrows), 1)
     };
-    (cover, strength(seed, i64::from(st.id), element, epoch))
+    (cover, strength(seed, i64::from(st.key), element, epoch))
 }
 
 /// Where the dashes were repainted between the epochs (15 % of streets), the aerial image shows them at
@@ -64,8 +64,8 @@ fn junction_paint(place: &Place, end: f64, near_from: bool, fp: f64) -> f32 {
     let st = place.street;
     let t = place.station.t;
     let half = st.carriageway() / 2.0;
-    let j = if near_from { st.from } else { st.to };
-    let zebra = !hash(0x2EB2A, i64::from(j), i64::from(st.id)).is_multiple_of(3);
+    let j = if near_from { st.end_keys[0] } else { st.end_keys[1] };
+    let zebra = !hash(0x2EB2A, i64::from(j), i64::from(st.key)).is_multiple_of(3);
     let stripes = if zebra { stripe(end, 0.3, 3.3, fp) * pulses(t + half, 1.0, 0.25, 0.5, fp) } else { 0.0 };
     // Traffic approaching this end drives on the side where t has the sign of `near_from`.
     let approach = if near_from { stripe(t, 0.0, half, fp) } else { stripe(t, -half, 0.0, fp) };

@@ -26,7 +26,7 @@ pub fn asphalt(seed: u64, epoch: Epoch, x: f64, y: f64, fp: f64) -> Rgb {
 /// Manholes: cast-iron discs on the lane centres every ~37 m.
 pub fn manholes(place: &Place, base: Rgb, fp: f64) -> Rgb {
     let st = place.street;
-    let period = 37.0 + f64::from(st.id % 5);
+    let period = 37.0 + f64::from(st.key % 5);
     let s = place.station.s.rem_euclid(period) - period / 2.0;
     let t = place.station.t - st.drive_offset();
     let d = s.hypot(t);

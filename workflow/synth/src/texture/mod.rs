@@ -70,7 +70,7 @@ impl<'w> Texture<'w> {
         }
         if walk_w > 0.0 {
             let local = (place.station.s, t - cw - st.kerb);
-            add(walk_w, materials::paving(seed, st.id, local, x, y, fp));
+            add(walk_w, materials::paving(seed, st.key, local, x, y, fp));
         }
         if yard_w > 0.0 {
             add(yard_w, materials::yard(seed, x, y, fp));

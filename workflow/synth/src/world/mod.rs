@@ -7,12 +7,12 @@
 //! tree groups at junctions; cars park in the parking strips, differently at the two epochs. The ground is flat
 //! at `ground_height`. Everything is held in memory with uniform grids for the texture and the ray caster.
 //!
-//! Sizes: `tiny` (about 700 m of streets, for tests) and `district` (about 2.6 km). A streaming `city` preset
-//! is not built yet; its design: make every random choice a hash of (seed, grid node or cell) instead of one
-//! sequential RNG stream, so any square tile of the infinite street grid (its nodes, streets, and the objects
-//! whose anchor lies in it) can be generated on its own; the route walks the street graph tile by tile and
-//! the renderer keeps the 3 × 3 tiles around the vehicle, so a 100 km drive never holds the whole city.
+//! Sizes: `tiny` (about 700 m of streets, for tests) and `district` (about 2.6 km). The `city` ([`city`]) is
+//! unbounded: every random choice is a hash of (seed, lattice node or edge), so any window of it is made on its
+//! own and overlapping windows agree on everything they share.
 
+pub mod city;
+pub mod city_route;
 mod index;
 pub mod objects;
 mod placement;
@@ -35,6 +35,8 @@ pub enum Preset {
     Tiny,
     /// 4 × 4 junctions 100 m apart: about 2.6 km of streets, the accuracy benchmark.
     District,
+    /// The unbounded city of [`city::City`]; `World::generate` makes its window of 150 m around the origin.
+    City,
 }
 
 /// Parameters of a world.
@@ -89,6 +91,16 @@ pub enum Item {
     Car(u32),
 }
 
+/// What a world holds before it is indexed.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Content {
+    pub junctions: Vec<Junction>,
+    pub streets: Vec<Street>,
+    pub buildings: Vec<Building>,
+    pub poles: Vec<Pole>,
+    pub cars: Vec<Car>,
+}
+
 /// The generated world.
 #[derive(Clone, Debug, PartialEq)]
 pub struct World {
@@ -130,10 +142,19 @@ impl World {
                 return Err(WorldError::InvalidConfig { field, value, reason: "must be finite" });
             }
         }
+        if config.preset == Preset::City {
+            return Ok(city::City::new(config).window([config.origin_east, config.origin_north], 150.0));
+        }
         let (junctions, streets) = streets::generate(config);
         let poles = placement::poles(config.seed, &streets, &junctions);
         let cars = placement::cars(config.seed, &streets, &junctions, config.ground_height);
         let buildings = placement::buildings(config.seed, &streets, &junctions, &poles, config.ground_height);
+        Ok(World::assemble(config, Content { junctions, streets, buildings, poles, cars }))
+    }
+
+    /// A world of the given content, indexed for texture queries and ray casting.
+    pub(crate) fn assemble(config: &WorldConfig, content: Content) -> World {
+        let Content { junctions, streets, buildings, poles, cars } = content;
         let (min, max) = bounds(&streets);
         let mut world = World {
             config: config.clone(),
@@ -149,7 +170,7 @@ impl World {
             cars,
         };
         world.build_index();
-        Ok(world)
+        world
     }
 
     /// South-west and north-east corners of the area the world's content covers.

@@ -63,50 +63,57 @@ pub fn poles(seed: u64, streets: &[Street], junctions: &[Junction]) -> Vec<Pole>
         junction_poles(&mut rng, &mut out, streets, j);
     }
     for st in streets.iter().filter(|s| s.class != StreetClass::Alley) {
-        let (s0, s1) = span(st, junctions, 3.0);
-        let kerb_t = st.carriageway() / 2.0 + st.kerb;
-        let both = st.class == StreetClass::Arterial;
-        let mut s = s0 + rng.random_range(0.0..10.0);
-        let mut side = 1.0;
-        while s < s1 {
-            for sd in if both { vec![1.0, -1.0] } else { vec![side] } {
-                let (p, _) = at(st, s, sd * (kerb_t + 0.5));
-                push_pole(
-                    &mut out,
-                    streets,
-                    pole(PoleClass::StreetLight, p, rng.random_range(0.12..0.2), rng.random_range(6.0..9.0)),
-                );
-            }
-            side = -side;
-            s += rng.random_range(26.0..36.0);
-        }
-        let mut s = s0 + rng.random_range(5.0..30.0);
-        while s < s1 {
-            let sd = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
-            let (p, _) = at(st, s, sd * (kerb_t + 0.35));
-            push_pole(
-                &mut out,
-                streets,
-                pole(PoleClass::SignPost, p, rng.random_range(0.06..0.08), rng.random_range(2.5..3.2)),
-            );
-            s += rng.random_range(25.0..60.0);
-        }
-        if st.sidewalk >= 2.4 && (both || rng.random_bool(0.5)) {
-            let mut s = s0 + rng.random_range(2.0..6.0);
-            while s < s1 {
-                for sd in [1.0, -1.0] {
-                    let (p, _) = at(st, s, sd * (kerb_t + 1.0));
-                    let t = tree(&mut rng, p);
-                    push_pole(&mut out, streets, t);
-                }
-                s += rng.random_range(8.0..14.0);
-            }
-        }
+        street_poles(&mut rng, &mut out, st, streets, junctions);
     }
     out
 }
 
-fn junction_poles(rng: &mut ChaCha8Rng, out: &mut Vec<Pole>, streets: &[Street], j: &Junction) {
+/// The poles of one street (none in alleys), drawn from `rng`, kept off `out`'s and onto the sidewalks of `streets`.
+pub(crate) fn street_poles(
+    rng: &mut ChaCha8Rng,
+    out: &mut Vec<Pole>,
+    st: &Street,
+    streets: &[Street],
+    junctions: &[Junction],
+) {
+    if st.class == StreetClass::Alley {
+        return;
+    }
+    let (s0, s1) = span(st, junctions, 3.0);
+    let kerb_t = st.carriageway() / 2.0 + st.kerb;
+    let both = st.class == StreetClass::Arterial;
+    let mut s = s0 + rng.random_range(0.0..10.0);
+    let mut side = 1.0;
+    while s < s1 {
+        for sd in if both { vec![1.0, -1.0] } else { vec![side] } {
+            let (p, _) = at(st, s, sd * (kerb_t + 0.5));
+            let light = pole(PoleClass::StreetLight, p, rng.random_range(0.12..0.2), rng.random_range(6.0..9.0));
+            push_pole(out, streets, light);
+        }
+        side = -side;
+        s += rng.random_range(26.0..36.0);
+    }
+    let mut s = s0 + rng.random_range(5.0..30.0);
+    while s < s1 {
+        let sd = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+        let (p, _) = at(st, s, sd * (kerb_t + 0.35));
+        push_pole(out, streets, pole(PoleClass::SignPost, p, rng.random_range(0.06..0.08), rng.random_range(2.5..3.2)));
+        s += rng.random_range(25.0..60.0);
+    }
+    if st.sidewalk >= 2.4 && (both || rng.random_bool(0.5)) {
+        let mut s = s0 + rng.random_range(2.0..6.0);
+        while s < s1 {
+            for sd in [1.0, -1.0] {
+                let (p, _) = at(st, s, sd * (kerb_t + 1.0));
+                let t = tree(rng, p);
+                push_pole(out, streets, t);
+            }
+            s += rng.random_range(8.0..14.0);
+        }
+    }
+}
+
+pub(crate) fn junction_poles(rng: &mut ChaCha8Rng, out: &mut Vec<Pole>, streets: &[Street], j: &Junction) {
     for &sid in &j.streets {
         let st = &streets[sid as usize];
         let kerb_t = st.carriageway() / 2.0 + st.kerb;
@@ -141,29 +148,44 @@ pub fn cars(seed: u64, streets: &[Street], junctions: &[Junction], ground: f64) 
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5757_0003);
     let mut out = Vec::new();
     for st in streets.iter().filter(|s| s.parking > 0.0) {
-        let (s0, s1) = span(st, junctions, 6.0);
-        let t = st.carriageway() / 2.0 - st.parking / 2.0;
-        for side in [1.0, -1.0] {
-            let mut s = s0 + 2.8;
-            while s + 2.8 < s1 {
-                let (p, tan) = at(st, s, side * t);
-                let shape = BoxShape { center: p, axis: tan, half: [2.2, 0.9], base: ground, height: 1.45 };
-                let mobile = rng.random_bool(0.55);
-                let aerial = if mobile { rng.random_bool(0.4) } else { rng.random_bool(0.45) };
-                let colour =
-                    [rng.random_range(0.05..0.8f32), rng.random_range(0.05..0.8f32), rng.random_range(0.05..0.8f32)];
-                // At acute junctions a neighbouring street's corridor can reach over the parking strip.
-                let others =
-                    clearance(streets, p, |o| if o.id == st.id { f64::NEG_INFINITY } else { o.half_corridor() + 2.5 });
-                if (mobile || aerial) && others > 0.0 {
-                    // A car there at both epochs is the same car only if both flags are set on one record.
-                    out.push(Car { shape: shape.clone(), colour, in_mobile: mobile, in_aerial: aerial });
-                }
-                s += 5.6;
-            }
-        }
+        street_cars(&mut rng, &mut out, st, streets, junctions, ground);
     }
     out
+}
+
+/// The parked cars of one street (none without parking strips), drawn from `rng`.
+pub(crate) fn street_cars(
+    rng: &mut ChaCha8Rng,
+    out: &mut Vec<Car>,
+    st: &Street,
+    streets: &[Street],
+    junctions: &[Junction],
+    ground: f64,
+) {
+    if st.parking <= 0.0 {
+        return;
+    }
+    let (s0, s1) = span(st, junctions, 6.0);
+    let t = st.carriageway() / 2.0 - st.parking / 2.0;
+    for side in [1.0, -1.0] {
+        let mut s = s0 + 2.8;
+        while s + 2.8 < s1 {
+            let (p, tan) = at(st, s, side * t);
+            let shape = BoxShape { center: p, axis: tan, half: [2.2, 0.9], base: ground, height: 1.45 };
+            let mobile = rng.random_bool(0.55);
+            let aerial = if mobile { rng.random_bool(0.4) } else { rng.random_bool(0.45) };
+            let colour =
+                [rng.random_range(0.05..0.8f32), rng.random_range(0.05..0.8f32), rng.random_range(0.05..0.8f32)];
+            // At acute junctions a neighbouring street's corridor can reach over the parking strip.
+            let others =
+                clearance(streets, p, |o| if o.id == st.id { f64::NEG_INFINITY } else { o.half_corridor() + 2.5 });
+            if (mobile || aerial) && others > 0.0 {
+                // A car there at both epochs is the same car only if both flags are set on one record.
+                out.push(Car { shape: shape.clone(), colour, in_mobile: mobile, in_aerial: aerial });
+            }
+            s += 5.6;
+        }
+    }
 }
 
 /// Building blocks along both sides of each street, kept out of every street corridor and off the poles.
@@ -171,42 +193,52 @@ pub fn buildings(seed: u64, streets: &[Street], junctions: &[Junction], poles: &
     let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5757_0004);
     let mut out = Vec::new();
     for st in streets {
-        let (s0, s1) = span(st, junctions, 0.0);
-        let heights = match st.class {
-            StreetClass::Alley => 10.0..22.0,
-            StreetClass::Residential => 10.0..28.0,
-            StreetClass::Arterial => 18.0..40.0,
-        };
-        for side in [1.0, -1.0] {
-            let mut s = s0;
-            while s < s1 {
-                let width = rng.random_range(12.0..28.0f64).min(s1 - s);
-                let gap = rng.random_bool(0.12);
-                if width > 6.0 && !gap {
-                    let depth = rng.random_range(10.0..16.0);
-                    let front =
-                        st.half_corridor() + if rng.random_bool(0.15) { rng.random_range(1.0..4.0) } else { 0.05 };
-                    let (p, tan) = at(st, s + width / 2.0, side * (front + depth / 2.0));
-                    let shape = BoxShape {
-                        center: p,
-                        axis: tan,
-                        half: [width / 2.0, depth / 2.0],
-                        base: ground,
-                        height: rng.random_range(heights.clone()),
-                    };
-                    let wall =
-                        [rng.random_range(0.35..0.8f32), rng.random_range(0.3..0.7f32), rng.random_range(0.25..0.6f32)];
-                    if !fits(&shape, streets, poles) {
-                        s += 3.0;
-                        continue;
-                    }
-                    out.push(Building { shape, wall, storey: rng.random_range(2.9..3.6) });
-                }
-                s += width;
-            }
-        }
+        street_buildings(&mut rng, &mut out, st, (streets, junctions, poles), ground);
     }
     out
+}
+
+/// The building blocks of one street, drawn from `rng`, kept out of the corridors of `streets` and off `poles`.
+pub(crate) fn street_buildings(
+    rng: &mut ChaCha8Rng,
+    out: &mut Vec<Building>,
+    st: &Street,
+    (streets, junctions, poles): (&[Street], &[Junction], &[Pole]),
+    ground: f64,
+) {
+    let (s0, s1) = span(st, junctions, 0.0);
+    let heights = match st.class {
+        StreetClass::Alley => 10.0..22.0,
+        StreetClass::Residential => 10.0..28.0,
+        StreetClass::Arterial => 18.0..40.0,
+    };
+    for side in [1.0, -1.0] {
+        let mut s = s0;
+        while s < s1 {
+            let width = rng.random_range(12.0..28.0f64).min(s1 - s);
+            let gap = rng.random_bool(0.12);
+            if width > 6.0 && !gap {
+                let depth = rng.random_range(10.0..16.0);
+                let front = st.half_corridor() + if rng.random_bool(0.15) { rng.random_range(1.0..4.0) } else { 0.05 };
+                let (p, tan) = at(st, s + width / 2.0, side * (front + depth / 2.0));
+                let shape = BoxShape {
+                    center: p,
+                    axis: tan,
+                    half: [width / 2.0, depth / 2.0],
+                    base: ground,
+                    height: rng.random_range(heights.clone()),
+                };
+                let wall =
+                    [rng.random_range(0.35..0.8f32), rng.random_range(0.3..0.7f32), rng.random_range(0.25..0.6f32)];
+                if !fits(&shape, streets, poles) {
+                    s += 3.0;
+                    continue;
+                }
+                out.push(Building { shape, wall, storey: rng.random_range(2.9..3.6) });
+            }
+            s += width;
+        }
+    }
 }
 
 fn fits(shape: &BoxShape, streets: &[Street], poles: &[Pole]) -> bool {

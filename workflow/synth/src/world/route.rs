@@ -64,7 +64,7 @@ impl World {
     }
 
     /// Waypoints along one street in one direction, on the right-hand driving lane.
-    fn drive(&self, st: &Street, forward: bool) -> Vec<Waypoint> {
+    pub(crate) fn drive(&self, st: &Street, forward: bool) -> Vec<Waypoint> {
         let mut pts = st.points.clone();
         let (mut j0, mut j1) = (st.from, st.to);
         if !forward {

@@ -58,6 +58,10 @@ pub struct Street {
     pub sidewalk: f64,
     /// Whether lane lines and crossings are painted (paper 000 test area 1 has a street without).
     pub markings: bool,
+    /// Stable identity for texture choices: `id` in a preset world, the lattice edge's key in a city window.
+    pub key: u32,
+    /// Stable identities of the junctions at the start and the end (`from`, `to` in a preset world).
+    pub end_keys: [u32; 2],
 }
 
 impl Street {
@@ -98,6 +102,7 @@ fn grid_size(preset: Preset) -> (usize, usize, f64) {
     match preset {
         Preset::Tiny => (3, 2, 85.0),
         Preset::District => (4, 4, 100.0),
+        Preset::City => (0, 0, 100.0),
     }
 }
 
@@ -144,7 +149,7 @@ pub fn generate(cfg: &WorldConfig) -> (Vec<Junction>, Vec<Street>) {
     (junctions, streets)
 }
 
-fn make_street(
+pub(crate) fn make_street(
     rng: &mut ChaCha8Rng,
     id: u32,
     nodes: &[Junction],
@@ -182,10 +187,12 @@ fn make_street(
         vec![a, b]
     };
     let cum = polyline::cumulative(&points);
-    Street { id, class, points, cum, from: ends.0, to: ends.1, lanes, lane_width, parking, kerb, sidewalk, markings }
+    let (from, to) = ends;
+    let (key, end_keys) = (id, [from, to]);
+    Street { id, class, points, cum, from, to, lanes, lane_width, parking, kerb, sidewalk, markings, key, end_keys }
 }
 
-fn finish_junctions(junctions: &mut [Junction], streets: &[Street]) {
+pub(crate) fn finish_junctions(junctions: &mut [Junction], streets: &[Street]) {
     for s in streets {
         for end in [s.from, s.to] {
             let j = &mut junctions[end as usize];

@@ -50,3 +50,47 @@ impl Knots {
         }
     }
 }
+
+/// A Gauss–Markov series drawn leg by leg on the knots `t0 + j·interval` of the whole drive: each leg's
+/// [`Knots`] start with the last knots of the previous leg, so the series is continuous across legs.
+#[derive(Clone, Debug)]
+pub(crate) struct KnotStream {
+    interval: f64,
+    tau: f64,
+    /// Time of knot 0 (the first leg's start).
+    t0: Option<f64>,
+    /// Index of the first kept knot and the kept values.
+    first: usize,
+    tail: Vec<f64>,
+}
+
+/// Knots kept from one leg for the next (the next leg starts within the last of them).
+const KEEP: usize = 3;
+
+impl KnotStream {
+    pub(crate) fn new(interval: f64, tau: f64) -> Self {
+        Self { interval, tau, t0: None, first: 0, tail: Vec::new() }
+    }
+
+    /// The knots covering up to `t1` (and one beyond), from `t_start` on for the first leg.
+    pub(crate) fn extend(&mut self, t_start: f64, t1: f64, sigma: impl Fn(f64) -> f64, rng: &mut Stream) -> Knots {
+        let t0 = *self.t0.get_or_insert(t_start);
+        let (phi, interval) = ((-self.interval / self.tau).exp(), self.interval);
+        let drive = (1.0 - phi * phi).sqrt();
+        let last = ((t1 - t0) / interval).ceil().max(0.0) as usize + 1;
+        let mut values = std::mem::take(&mut self.tail);
+        if values.is_empty() {
+            values.push(sigma(t0) * rng.normal());
+        }
+        let first = self.first;
+        while first + values.len() <= last {
+            let j = first + values.len();
+            let x = values.last().copied().unwrap_or(0.0);
+            values.push(phi * x + drive * sigma(t0 + j as f64 * interval) * rng.normal());
+        }
+        let keep = values.len().min(KEEP);
+        self.first = first + values.len() - keep;
+        self.tail = values[values.len() - keep..].to_vec();
+        Knots { t0: t0 + first as f64 * interval, interval, values }
+    }
+}

@@ -80,43 +80,82 @@ fn smoothstep(x: f64) -> f64 {
 
 /// Draw the faults along the epochs of a drive.
 pub(crate) fn draw(kinematics: &[Kinematics], config: &DgConfig, seed: u64) -> Vec<Fault> {
-    let mut rng = Stream::new(seed, Purpose::Faults);
+    let mut drawer = FaultDrawer::new(seed);
     let mut faults: Vec<Fault> = Vec::new();
-    // The active fault and, for a jump still holding, its remaining driving time.
-    let mut active: Option<(Fault, Option<f64>)> = None;
     for (i, k) in kinematics.iter().enumerate() {
-        let dt = if i > 0 { k.time - kinematics[i - 1].time } else { 0.0 };
+        drawer.step(i, k, config, &mut faults);
+    }
+    if let Some((mut fault, _)) = drawer.active {
+        fault.end = kinematics.len();
+        faults.push(fault);
+    }
+    faults
+}
+
+/// The fault timeline drawn epoch by epoch; carried from one leg of a drive to the next.
+#[derive(Clone, Debug)]
+pub(crate) struct FaultDrawer {
+    rng: Stream,
+    /// The active fault and, for a jump still holding, its remaining driving time.
+    active: Option<(Fault, Option<f64>)>,
+    last_time: Option<f64>,
+}
+
+impl FaultDrawer {
+    pub(crate) fn new(seed: u64) -> Self {
+        Self { rng: Stream::new(seed, Purpose::Faults), active: None, last_time: None }
+    }
+
+    /// The faults of one leg (epoch indices within it): those that end in it, then the one still active at
+    /// its end, whose fall (if a holding jump) lies beyond the leg.
+    pub(crate) fn leg(&mut self, kinematics: &[Kinematics], config: &DgConfig) -> Vec<Fault> {
+        if let Some((fault, _)) = &mut self.active {
+            fault.first = 0;
+        }
+        let mut faults = Vec::new();
+        for (i, k) in kinematics.iter().enumerate() {
+            self.step(i, k, config, &mut faults);
+        }
+        if let Some((mut fault, holding)) = self.active {
+            fault.end = kinematics.len();
+            if holding.is_some() {
+                fault.duration = f64::INFINITY;
+            }
+            faults.push(fault);
+        }
+        faults
+    }
+
+    /// Advance to epoch `i`; a fault that ends here goes to `out`.
+    fn step(&mut self, i: usize, k: &Kinematics, config: &DgConfig, out: &mut Vec<Fault>) {
+        let dt = self.last_time.map_or(0.0, |t| k.time - t);
+        self.last_time = Some(k.time);
         let env = Environment::of_ratio(k.canyon.ratio());
-        if let Some((mut fault, holding)) = active.take() {
+        if let Some((mut fault, holding)) = self.active.take() {
             match holding {
                 Some(left) => {
                     let left = left - dt * driving_rate(k.speed);
                     if left <= 0.0 || env == Environment::Open {
                         // Start to fall now: gone after the transition.
                         fault.duration = k.time - fault.start_time + fault.transition;
-                        active = Some((fault, None));
+                        self.active = Some((fault, None));
                     } else {
-                        active = Some((fault, Some(left)));
+                        self.active = Some((fault, Some(left)));
                     }
-                    continue;
+                    return;
                 }
                 None if k.time < fault.start_time + fault.duration => {
-                    active = Some((fault, None));
-                    continue;
+                    self.active = Some((fault, None));
+                    return;
                 }
                 None => {
                     fault.end = i;
-                    faults.push(fault);
+                    out.push(fault);
                 }
             }
         }
-        active = begin(i, k, env, dt, config, &mut rng);
+        self.active = begin(i, k, env, dt, config, &mut self.rng);
     }
-    if let Some((mut fault, _)) = active {
-        fault.end = kinematics.len();
-        faults.push(fault);
-    }
-    faults
 }
 
 /// Maybe start a fault at epoch `i`.

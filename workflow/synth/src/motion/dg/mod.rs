@@ -27,12 +27,14 @@
 mod drift;
 pub mod environment;
 pub mod faults;
+mod stream;
 
 use plumbline_geo::{Attitude, Map, PoseStd, Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
 use serde::{Deserialize, Serialize};
 
 pub use environment::{Environment, EnvironmentParameters};
 pub use faults::{Fault, FaultKind};
+pub use stream::DgStream;
 
 use super::rng::{Purpose, Stream};
 use super::{Drive, MotionError};
@@ -156,6 +158,23 @@ pub fn simulate(drive: &Drive, config: &DgConfig, seed: u64) -> Result<DgSolutio
     let faults = faults::draw(k, config, seed);
     let drift = Drifts::draw(drive, config, seed);
     let mut noise = Stream::new(seed, Purpose::DgNoise);
+    let position = |t: f64| drift.position(t);
+    let attitude = |t: f64| drift.attitude(t);
+    errors_of(drive, config, faults, (&position, &attitude), &mut noise)
+}
+
+/// Drift series at a time: position (east, north, up) and attitude (roll, pitch, heading) errors.
+type DriftAt<'a> = (&'a dyn Fn(f64) -> Vec3<Map>, &'a dyn Fn(f64) -> [f64; 3]);
+
+/// The DG solution of `drive` from its faults, its drift series and white noise drawn from `noise`.
+fn errors_of(
+    drive: &Drive,
+    config: &DgConfig,
+    faults: Vec<Fault>,
+    (drift_position, drift_attitude): DriftAt<'_>,
+    noise: &mut Stream,
+) -> Result<DgSolution, MotionError> {
+    let k = &drive.kinematics;
     let mut active = faults.iter().peekable();
     let mut records = Vec::with_capacity(k.len());
     let mut errors = Vec::with_capacity(k.len());
@@ -167,8 +186,8 @@ pub fn simulate(drive: &Drive, config: &DgConfig, seed: u64) -> Result<DgSolutio
         let env = Environment::of_ratio(kin.canyon.ratio());
         let (wh, wv) = (config.white_horizontal, config.white_height);
         let white = Vec3::new(wh * noise.normal(), wh * noise.normal(), wv * noise.normal());
-        let position = drift.position(truth.time) + white + fault.map_or(Vec3::zeros(), |f| f.error_at(truth.time));
-        let attitude = drift.attitude(truth.time);
+        let position = drift_position(truth.time) + white + fault.map_or(Vec3::zeros(), |f| f.error_at(truth.time));
+        let attitude = drift_attitude(truth.time);
         let std = reported(config, env, fault, truth.time);
         let a = &truth.attitude;
         let att = Attitude::new(

@@ -1,0 +1,190 @@
+//! The `city` preset: a drive of any length through the unbounded city (`plumbline_synth::world::city`), made
+//! and written leg by leg (`CityWalk`, ~500 m each) so memory does not grow with the length. Per leg: the
+//! city window around it, the true drive (legs join halfway along a straight street, standing 10 s), the DG
+//! solution continued from the previous leg (`DgStream`), and the leg's panoramas with their per-pixel truth,
+//! depth images and the cadastre objects not yet written. Trajectories, error series, indexes and truth tables
+//! are appended to their files; the cadastre GeoPackage is written at the end from the listed features
+//! (~100 bytes each). Not made for `city`: raw GNSS/IMU, the aerial block, orthophoto and terrain, the maps.
+
+use std::collections::HashSet;
+
+use anyhow::Context as _;
+use plumbline_geo::camera::{Equirectangular, Pinhole};
+use plumbline_geo::formats::{self, RawTrajectory};
+use plumbline_runtime::CrsTransform;
+use plumbline_runtime::gdal_write::{FieldType, PointLayer, geopackage};
+use plumbline_synth::cadastre::{self, CadastreErrors};
+use plumbline_synth::motion::dg::{DgConfig, DgSolution, DgStream};
+use plumbline_synth::motion::{Drive, DriveConfig, files};
+use plumbline_synth::render::{
+    DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_depth, render_panorama,
+};
+use plumbline_synth::sensors::{self, Mount, Shot};
+use plumbline_synth::world::city::{City, PoleOwner};
+use plumbline_synth::world::city_route::{CityWalk, Leg};
+use plumbline_synth::world::{Epoch, Preset, WorldConfig};
+
+use super::imagery::{self, Sizes};
+use super::{Args, Sink, manifest, with_profile};
+use crate::exit::OrInvalid;
+use crate::trajectory::crs;
+
+/// Length of a leg, metres.
+const LEG_LENGTH_M: f64 = 500.0;
+/// Standstill where legs join, seconds on each side.
+const JOIN_DWELL_S: f64 = 5.0;
+
+/// What the legs so far have made: counts, and what must not be written twice.
+#[derive(Default)]
+struct Progress {
+    driven: f64,
+    epochs: usize,
+    panoramas: usize,
+    written_poles: HashSet<PoleOwner>,
+    poles: Vec<cadastre::CadastreObject>,
+}
+
+/// Simulate a city campaign of `length` metres and hand its files to `sink`; returns a summary.
+pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<String> {
+    let seed = args.seed;
+    let config = WorldConfig::new(Preset::City, seed);
+    let crs = config.epsg;
+    let mut walk = CityWalk::new(City::new(&config), seed, LEG_LENGTH_M);
+    let mut dg = DgStream::new(&DgConfig::default(), seed).or_invalid("DG error process")?;
+    let sizes = Sizes::of(args)?;
+    let mut progress = Progress::default();
+    let mut start_time = DriveConfig::default().start_time;
+    while progress.driven < length {
+        let leg = walk.next_leg();
+        let first = leg.index == 0;
+        let drive_config = DriveConfig {
+            start_time,
+            start_dwell: if first { DriveConfig::default().start_dwell } else { JOIN_DWELL_S },
+            end_dwell: JOIN_DWELL_S,
+            ..DriveConfig::default()
+        };
+        let route = with_profile(leg.route.clone(), args.profile);
+        let leg_seed = seed ^ (leg.index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
+        let drive = Drive::simulate(&route, &drive_config, leg_seed).or_invalid("simulated drive")?;
+        let solution = dg.leg(&drive).or_invalid("DG error process")?;
+        write_navigation(&drive, &solution, crs, first, sink)?;
+        if !args.navigation_only {
+            progress.panoramas += write_imagery(&leg, &drive, &solution, &sizes, seed, sink)?;
+            list_poles(&leg, &mut progress, seed);
+        }
+        let (_, t1) = drive.trajectory.span();
+        start_time = t1 + 1.0 / drive_config.rate_hz;
+        progress.driven += drive.kinematics.last().map_or(0.0, |k| k.distance);
+        progress.epochs += drive.trajectory.len();
+        eprintln!("city leg {}: {:.0} m driven", leg.index, progress.driven);
+    }
+    let mut sections = manifest::Sections::default();
+    if !args.navigation_only {
+        sections.panoramas = Some(imagery::panorama_section(&sizes, DriveConfig::default().imu_height));
+        sections.depth = Some(imagery::depth_section(&sizes)?);
+        sections.cadastre = Some(write_cadastre(&progress.poles, crs, sink)?);
+    }
+    let id = format!("synth-city-{seed}");
+    sink.put("campaign.toml", manifest::manifest_without_raw(&id, crs, &sections)?.into_bytes())?;
+    Ok(format!("{id}: {:.0} m, {} epochs, {} panoramas", progress.driven, progress.epochs, progress.panoramas))
+}
+
+/// Append one leg's trajectories and error series.
+fn write_navigation(drive: &Drive, dg: &DgSolution, crs: u32, first: bool, sink: &Sink) -> anyhow::Result<()> {
+    let csv = |bytes: Vec<u8>| if first { bytes } else { without_header(bytes) };
+    let geographic = crs::express(&dg.trajectory, crs, 4326).context("DG trajectory to WGS 84")?;
+    let sbet = formats::raw_to_sbet(&geographic).context("DG trajectory as SBET")?;
+    sink.append("nav/dg.sbet", formats::write_sbet(&sbet))?;
+    sink.append("nav/dg.smrmsg", formats::write_smrmsg(&formats::raw_to_smrmsg(&geographic)))?;
+    sink.append("nav/dg.csv", csv(formats::write_csv(&RawTrajectory::from_map_projected(dg.trajectory.records()))))?;
+    let truth = formats::write_csv(&RawTrajectory::from_map_projected(drive.trajectory.records()));
+    sink.append("truth/trajectory.csv", csv(truth))?;
+    sink.append("truth/dg_errors.csv", csv(files::dg_errors_csv(&dg.errors)))
+}
+
+/// The bytes after the first line.
+fn without_header(bytes: Vec<u8>) -> Vec<u8> {
+    let cut = bytes.iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| i + 1);
+    bytes[cut..].to_vec()
+}
+
+/// Render and append one leg's panoramas (with per-pixel truth) and depth images; returns the panorama count.
+fn write_imagery(
+    leg: &Leg,
+    drive: &Drive,
+    dg: &DgSolution,
+    sizes: &Sizes,
+    seed: u64,
+    sink: &Sink,
+) -> anyhow::Result<usize> {
+    let world = &leg.window.world;
+    let first = leg.index == 0;
+    let csv = |bytes: Vec<u8>| if first { bytes } else { without_header(bytes) };
+    let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
+    let cam = Equirectangular::new(w, h).context("panorama camera")?;
+    let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
+    let shots = sensors::shots(&format!("pano{:04}_", leg.index), &times, &drive.trajectory, &dg.trajectory)?;
+    let (scene, mount, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
+    for (k, shot) in shots.iter().enumerate() {
+        let pano = render_panorama(&scene, &cam, &mount, &shot.truth.pose(), &vehicle);
+        sink.put(format!("panoramas/{}.jpg", shot.id), encode_jpeg(&pano.image, imagery::JPEG_QUALITY)?)?;
+        imagery::pixel_truth(world, &cam, &mount, shot, &vehicle, sink)?;
+        if first && k == 0 {
+            sink.put("panoramas/vehicle_mask.png", imagery::vehicle_mask_png(&pano)?)?;
+        }
+    }
+    sink.append("panoramas/index.csv", csv(sensors::index_csv(&shots, "jpg")))?;
+    sink.append("truth/images.csv", csv(sensors::truth_csv(&shots)))?;
+    let panoramas = shots.len();
+    let (dw, dh) = sizes.depth;
+    let depth_cam: Pinhole = imagery::depth_camera(dw, dh)?;
+    let times = sensors::moving_times(drive, sizes.depth_rate)?;
+    let shots: Vec<Shot> =
+        sensors::shots(&format!("depth{:04}_", leg.index), &times, &drive.trajectory, &dg.trajectory)?;
+    let depth_mount = Mount::DEPTH.camera_mount();
+    for (i, shot) in shots.iter().enumerate() {
+        let noise = DepthNoise::realsense(seed.wrapping_mul(1_000_003).wrapping_add((leg.index * 100_000 + i) as u64));
+        let image =
+            render_depth(world, Epoch::Mobile, &depth_cam, &depth_mount.camera_pose(&shot.truth.pose()), &noise);
+        sink.put(format!("depth/right/{}.png", shot.id), encode_png_gray16(&image)?)?;
+    }
+    sink.append("depth/right/index.csv", csv(sensors::index_csv(&shots, "png")))?;
+    sink.append("truth/depth_images.csv", csv(sensors::truth_csv(&shots)))?;
+    Ok(panoramas)
+}
+
+/// The cadastre entries of the poles of the leg's window not listed yet (errors and defects drawn per leg).
+fn list_poles(leg: &Leg, progress: &mut Progress, seed: u64) {
+    let world = &leg.window.world;
+    let mut batch = Vec::new();
+    for (pole, owner) in world.poles.iter().zip(&leg.window.owners) {
+        if progress.written_poles.insert(*owner) {
+            let mut one = pole.clone();
+            one.id = progress.written_poles.len() as u32;
+            batch.push(one);
+        }
+    }
+    let leg_seed = seed ^ (leg.index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03);
+    let first_id = progress.poles.iter().filter_map(|o| o.cadastre_id).max().unwrap_or(0) + 1;
+    progress.poles.extend(cadastre::cadastre_of(&batch, &CadastreErrors::typical(), leg_seed, first_id));
+}
+
+/// The GeoPackage and `truth/poles.csv` of all listed objects; returns `[[cadastres]]`.
+fn write_cadastre(objects: &[cadastre::CadastreObject], crs: u32, sink: &Sink) -> anyhow::Result<String> {
+    let to_file = CrsTransform::new(crs, super::cadastre::CADASTRE_EPSG).context("cadastre CRS")?;
+    let fields = vec![
+        ("id".to_owned(), FieldType::Integer),
+        ("class".to_owned(), FieldType::Text),
+        ("diameter_m".to_owned(), FieldType::Real),
+    ];
+    let mut poles = PointLayer { name: "poles".into(), fields: fields.clone(), features: Vec::new() };
+    let mut trees = PointLayer { name: "trees".into(), fields, features: Vec::new() };
+    for o in objects {
+        let Some(feature) = super::cadastre::feature(o, &to_file)? else { continue };
+        if o.class == "tree" { &mut trees } else { &mut poles }.features.push(feature);
+    }
+    let gpkg = geopackage(&[poles, trees], super::cadastre::CADASTRE_EPSG).context("cadastre GeoPackage")?;
+    sink.put("cadastre/poles.gpkg", gpkg)?;
+    sink.put("truth/poles.csv", cadastre::truth_csv(objects))?;
+    Ok(super::cadastre::section(&CadastreErrors::typical()))
+}
