@@ -17,7 +17,9 @@ use plumbline_geo::tiling::TileId;
 use plumbline_runtime::Files;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
 use plumbline_scheduler::{Campaign, SkippedInput, load_campaign};
-use plumbline_worker::{TileOutput, TileOutputV1, WorkerConfig, process_tile, run_tile, tile_key};
+use plumbline_worker::{
+    POLES, REGISTRATION, TileOutput, TileOutputV1, WorkerConfig, process_tile_reporting, run_tile_reporting, tile_key,
+};
 use serde::{Deserialize, Serialize};
 
 use crate::io::Context;
@@ -93,7 +95,12 @@ pub async fn run_campaign(
     let config = WorkerConfig::from_manifest(&campaign.manifest);
     let ids = tiles(&campaign);
     progress.begin("tiles", Some(ids.len() as u64));
+    let plan = campaign.plan.tiles.tiles();
+    progress.begin(REGISTRATION, Some(plan.iter().map(|t| t.owned.len() as u64).sum()));
+    progress.begin(POLES, Some(plan.iter().map(|t| campaign.plan.depth_of(&t.id).len() as u64).sum()));
     let (outputs, resumed, failed) = process_tiles(files, &campaign, &ids, &config, reuse, jobs, &*progress).await?;
+    progress.end(REGISTRATION);
+    progress.end(POLES);
     progress.end("tiles");
     campaign.skipped.extend(failed);
     if outputs.is_empty() {
@@ -121,9 +128,9 @@ async fn process_tiles(
     let mut queue = futures::stream::iter(ids.iter().copied())
         .map(|tile| async move {
             let result = if reuse {
-                run_tile(files, campaign, &tile, config).await
+                run_tile_reporting(files, campaign, &tile, config, progress).await
             } else {
-                match process_tile(files, campaign, &tile, config).await {
+                match process_tile_reporting(files, campaign, &tile, config, progress).await {
                     Ok(out) => write_tile(files, campaign, out).await,
                     Err(e) => Err(e),
                 }
@@ -132,10 +139,15 @@ async fn process_tiles(
         })
         .buffer_unordered(jobs.max(1));
     let (mut outputs, mut resumed, mut failed) = (Vec::new(), 0, Vec::new());
+    let (mut matched, mut pole_matches) = (0, 0);
     while let Some((tile, result)) = queue.next().await {
         match result {
             Ok((output, was_resumed)) => {
                 resumed += usize::from(was_resumed);
+                matched += output.registration.as_ref().map_or(0, |r| r.summary.images_matched);
+                pole_matches += output.poles.len();
+                progress.note(REGISTRATION, &format!("{matched} matched with the aerial images"));
+                progress.note(POLES, &format!("{pole_matches} pole matches"));
                 outputs.push(output);
                 progress.advance("tiles", 1);
             }
@@ -156,7 +168,7 @@ async fn process_tiles(
     Ok((outputs, resumed, failed))
 }
 
-/// Store a freshly processed tile (what `run_tile` would have written).
+/// Store a freshly processed tile (what `run_tile_reporting` would have written).
 async fn write_tile(files: &Files, campaign: &Campaign, out: TileOutputV1) -> anyhow::Result<(TileOutputV1, bool)> {
     let url = format!("{}{}", campaign.output, tile_key(&out.tile));
     let doc = TileOutput::V1(out);

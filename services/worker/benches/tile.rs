@@ -2,8 +2,8 @@
 //! and seconds per tile and per stage.
 //!
 //! `cargo bench -p plumbline-worker --bench tile -- CAMPAIGN.toml`, e.g. on a
-//! campaign from `plumbline simulate --preset tiny --out /tmp/camp`. Tiles run one after the other, each
-//! using every core inside.
+//! campaign from `plumbline simulate --preset tiny --out /tmp/camp` (or with `--panorama-width 4096`). Tiles
+//! run one after the other, each using every core inside; the last line gives the process's peak RSS.
 
 use std::time::Instant;
 
@@ -29,9 +29,9 @@ async fn run(manifest: &str) -> anyhow::Result<()> {
     let config = WorkerConfig::from_manifest(&campaign.manifest);
     println!(
         "| tile | owned | context | depth | matched / images | ties | with aerial | pole updates | skipped | wall s | \
-         read | decode | ortho | features | matching | aerial | registration | poles |"
+         read | decode | ortho | features | prepare | matching | aerial | registration | poles |"
     );
-    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
+    println!("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|");
     let (mut owned, mut matched, mut wall) = (0, 0, 0.0);
     for tile in campaign.plan.tiles.tiles() {
         let start = Instant::now();
@@ -41,7 +41,7 @@ async fn run(manifest: &str) -> anyhow::Result<()> {
         let r = out.registration.as_ref().map(|r| r.summary.clone()).unwrap_or_default();
         println!(
             "| c{}_r{} | {} | {} | {} | {} / {} | {} | {} | {} | {} | {seconds:.1} | {:.1} | {:.1} | {:.1} | {:.1} | \
-             {:.1} | {:.1} | {:.1} | {:.1} |",
+             {:.1} | {:.1} | {:.1} | {:.1} | {:.1} |",
             tile.id.col,
             tile.id.row,
             tile.owned.len(),
@@ -57,6 +57,7 @@ async fn run(manifest: &str) -> anyhow::Result<()> {
             stage("decode"),
             stage("ortho"),
             stage("features"),
+            stage("prepare"),
             stage("matching"),
             stage("aerial"),
             stage("registration"),
@@ -72,5 +73,17 @@ async fn run(manifest: &str) -> anyhow::Result<()> {
         campaign.plan.tiles.tiles().len(),
         wall / owned.max(1) as f64
     );
+    println!(
+        "`prepare` and `registration` are elapsed seconds (reading + step 1, and the pairs); peak RSS {}",
+        peak_rss()
+    );
     Ok(())
+}
+
+/// The process's peak resident set size (`VmHWM` of /proc/self/status), as the kernel reports it.
+fn peak_rss() -> String {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).map(|l| l["VmHWM:".len()..].trim().to_owned()))
+        .unwrap_or_else(|| "unknown".into())
 }

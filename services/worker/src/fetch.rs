@@ -1,8 +1,14 @@
-//! Reading a tile's files a few at a time and decoding images to gray, off the async runtime. Every failure
-//! is a [`SkippedInput`] naming the file; the caller goes on with the rest.
+//! Reading a tile's files a few at a time and decoding images to gray, off the async runtime (with progress
+//! forwarded from the blocking work). Every failure is a [`SkippedInput`] naming the file; the caller goes
+//! on with the rest.
+
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
 
 use bytes::Bytes;
 use futures::StreamExt as _;
+use plumbline_campaign::progress::Progress;
 use plumbline_imaging::{GrayImage, Mask};
 use plumbline_runtime::{Files, is_invalid};
 use plumbline_scheduler::SkippedInput;
@@ -20,15 +26,59 @@ pub(crate) async fn read_all(
     concurrency: usize,
     stage: &str,
 ) -> Vec<Result<Bytes, SkippedInput>> {
-    futures::stream::iter(urls.iter().map(|url| async move {
-        files.read(url).await.map_err(|e| {
-            let reason = if is_invalid(&e) { "missing" } else { "read" };
-            skipped(stage, url, reason, format!("{url}: cannot be read: {e:#}"))
-        })
-    }))
-    .buffered(concurrency.max(1))
-    .collect()
-    .await
+    futures::stream::iter(urls.iter().map(|url| read_one(files, url, stage)))
+        .buffered(concurrency.max(1))
+        .collect()
+        .await
+}
+
+/// Read one file; a missing or unreadable one becomes a skipped item of `stage` (reason `missing` or `read`).
+pub(crate) async fn read_one(files: &Files, url: &str, stage: &str) -> Result<Bytes, SkippedInput> {
+    files.read(url).await.map_err(|e| {
+        let reason = if is_invalid(&e) { "missing" } else { "read" };
+        skipped(stage, url, reason, format!("{url}: cannot be read: {e:#}"))
+    })
+}
+
+/// Run CPU-bound work on rayon's pool (where the workflow crates' own parallel loops run, so that a tile's
+/// allocations stay with rayon's threads rather than spreading over tokio's short-lived blocking threads).
+pub(crate) async fn on_rayon<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
+    let (tx, rx) = futures::channel::oneshot::channel();
+    rayon::spawn(move || {
+        // The receiver is gone only when the tile was abandoned; nothing to report to then.
+        let _ = tx.send(work());
+    });
+    rx.await.map_err(|_| anyhow::anyhow!("worker task failed: its rayon job panicked"))
+}
+
+/// Run `work` on tokio's blocking pool while forwarding what it counts to `progress` as done items of
+/// `stage` (polled four times a second, and once more at the end).
+pub(crate) async fn counted<T: Send + 'static>(
+    progress: &dyn Progress,
+    stage: &str,
+    work: impl FnOnce(&AtomicU64) -> T + Send + 'static,
+) -> anyhow::Result<T> {
+    let counter = Arc::new(AtomicU64::new(0));
+    let count = Arc::clone(&counter);
+    let job = blocking(move || work(&count));
+    tokio::pin!(job);
+    let mut ticks = tokio::time::interval(Duration::from_millis(250));
+    let mut reported = 0;
+    let mut forward = || {
+        let now = counter.load(Ordering::Relaxed);
+        if now > reported {
+            progress.advance(stage, now - reported);
+            reported = now;
+        }
+    };
+    let out = loop {
+        tokio::select! {
+            out = &mut job => break out,
+            _ = ticks.tick() => forward(),
+        }
+    };
+    forward();
+    out
 }
 
 /// Luma of an RGB pixel (ITU-R BT.601 weights), the panoramas' and aerial frames' gray value.
@@ -39,7 +89,7 @@ fn luma(rgb: &[u8]) -> f32 {
 /// Decode a JPEG/PNG (any colour type) to a gray image; the error names the file.
 pub(crate) fn decode_gray(url: &str, bytes: &[u8]) -> Result<GrayImage, String> {
     let decoded = image::load_from_memory(bytes).map_err(|e| format!("{url}: not a readable image: {e}"))?;
-    let rgb = decoded.to_rgb8();
+    let rgb = decoded.into_rgb8();
     let (w, h) = (rgb.width() as usize, rgb.height() as usize);
     let raw = rgb.as_raw();
     Ok(GrayImage::from_fn(w, h, |c, r| {
@@ -80,6 +130,40 @@ mod tests {
         assert_eq!((g.width(), g.height()), (6, 4));
         let expect = 0.299 * 50.0 + 0.587 * 60.0 + 0.114 * 200.0;
         assert!((g.get(5, 3) - expect).abs() < 1e-4, "{}", g.get(5, 3));
+    }
+
+    /// Sums what it is told per stage.
+    #[derive(Default)]
+    struct Tally(std::sync::Mutex<Vec<(String, u64)>>);
+
+    impl Progress for Tally {
+        fn begin(&self, _: &str, _: Option<u64>) {}
+        fn advance(&self, stage: &str, n: u64) {
+            self.0.lock().unwrap().push((stage.to_owned(), n));
+        }
+        fn skip(&self, _: &str, _: u64) {}
+        fn note(&self, _: &str, _: &str) {}
+        fn end(&self, _: &str) {}
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn counted_work_reaches_the_progress_while_it_runs_and_in_full() {
+        let tally = Tally::default();
+        let out = counted(&tally, "registration", |count| {
+            for _ in 0..7 {
+                count.fetch_add(1, Ordering::Relaxed);
+                std::thread::sleep(Duration::from_millis(120));
+            }
+            "done"
+        })
+        .await
+        .unwrap();
+        assert_eq!(out, "done");
+        let calls = tally.0.into_inner().unwrap();
+        assert!(calls.iter().all(|(stage, n)| stage == "registration" && *n > 0), "{calls:?}");
+        assert_eq!(calls.iter().map(|(_, n)| n).sum::<u64>(), 7);
+        // 840 ms of work polled every 250 ms: reported along the way, not only at the end.
+        assert!(calls.len() >= 3, "{calls:?}");
     }
 
     #[test]

@@ -12,6 +12,7 @@ mod fetch;
 mod output;
 mod panoramas;
 mod poles;
+mod prepare;
 mod raster;
 pub mod service;
 mod tile;
@@ -19,4 +20,6 @@ mod tile;
 pub use aerial::{frame_camera, frame_pose};
 pub use config::{DEFAULT_CONCURRENCY, WorkerConfig};
 pub use output::{TileOutput, TileOutputV1, tile_key};
-pub use tile::{process_tile, run_tile, tile_camera_height};
+pub use tile::{
+    POLES, REGISTRATION, process_tile, process_tile_reporting, run_tile, run_tile_reporting, tile_camera_height,
+};

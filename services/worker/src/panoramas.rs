@@ -1,7 +1,6 @@
-//! The MM side of a tile's registration: its owned and context panoramas read, decoded to gray and placed at
-//! their DG pose, and the rig they share (camera model, mount, vehicle mask, camera height above the road).
-
-use std::time::Instant;
+//! The MM side of a tile's registration: its owned and context panoramas placed at their DG pose, decoded to
+//! gray one at a time (`crate::prepare`), and the rig they share (camera model, mount, vehicle mask, camera
+//! height above the road).
 
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::plan::PlannedImage;
@@ -9,30 +8,24 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::Tile;
 use plumbline_geo::{PositionInterpolation, TrajectoryRecord};
-use plumbline_imaging::GrayImage;
 use plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M;
 use plumbline_registration::mm::{Panorama, PanoramaRig};
+use plumbline_registration::pipeline::PanoramaInfo;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
-use rayon::prelude::*;
 
-use crate::fetch::{blocking, decode_gray, decode_mask, read_all, skipped};
+use crate::fetch::{blocking, decode_gray, decode_mask, read_all, read_one, skipped};
 use crate::raster::{around, height_at, read_window, terrain};
 
-const STAGE: &str = "registration";
+pub(crate) const STAGE: &str = "registration";
 
-/// A tile's decoded panoramas.
-pub(crate) struct LoadedPanoramas {
-    /// In time order; owned and context.
-    pub panoramas: Vec<Panorama>,
-    /// The panorama size all of them have.
-    pub size: Option<(u32, u32)>,
-    /// What was left out.
-    pub skipped: Vec<SkippedInput>,
-    /// Seconds reading and decoding.
-    pub read_s: f64,
-    /// Seconds decoding (thread time of the blocking task).
-    pub decode_s: f64,
+/// A planned panorama whose file URL and DG pose are known; its pixels are not read yet.
+#[derive(Clone, Debug)]
+pub(crate) struct Placed {
+    /// Where its file is.
+    pub url: String,
+    /// Id, time, DG pose, σ, owned or context.
+    pub info: PanoramaInfo,
 }
 
 /// The planned images of a tile: owned, then context, each in capture order.
@@ -68,75 +61,87 @@ pub(crate) fn mount(spec: &Panoramas) -> CameraMount {
     CameraMount::new(spec.mount.lever_arm_m, &Boresight::from_degrees(roll, pitch, yaw))
 }
 
-/// Read and decode `images`; one that is missing, undecodable, of the wrong size or outside the trajectory is
-/// skipped and reported.
-pub(crate) async fn load(
-    files: &Files,
+/// Place `images` (owned first, `owned` of them) at their DG poses. One whose URL cannot be formed or whose
+/// time lies outside the trajectory is skipped and reported.
+pub(crate) fn place(
     campaign: &Campaign,
     spec: &Panoramas,
     images: &[&PlannedImage],
-    concurrency: usize,
-) -> anyhow::Result<LoadedPanoramas> {
-    let t0 = Instant::now();
-    let mut skipped_items = Vec::new();
-    let mut wanted = Vec::new();
-    for image in images {
-        match campaign.file_url(&spec.images, &image.file) {
-            Ok(url) => wanted.push(((*image).clone(), url)),
+    owned: usize,
+    skipped_items: &mut Vec<SkippedInput>,
+) -> Vec<Placed> {
+    let mut placed = Vec::with_capacity(images.len());
+    for (k, image) in images.iter().enumerate() {
+        let url = match campaign.file_url(&spec.images, &image.file) {
+            Ok(url) => url,
             Err(e) => {
-                skipped_items.push(skipped(STAGE, &image.file, "url", format!("panorama {}: {e:#}", image.image_id)))
+                let detail = format!("panorama {}: {e:#}", image.image_id);
+                skipped_items.push(skipped(STAGE, &image.file, "url", detail));
+                continue;
             }
+        };
+        match dg_at(campaign, image.time) {
+            Ok(record) => placed.push(Placed {
+                info: PanoramaInfo {
+                    id: image.image_id.clone(),
+                    time: image.time,
+                    pose: record.pose(),
+                    position_sigma: position_sigma(&record),
+                    owned: k < owned,
+                },
+                url,
+            }),
+            Err(e) => skipped_items.push(skipped(STAGE, &url, "time", format!("{url}: {e}"))),
         }
     }
-    let urls: Vec<String> = wanted.iter().map(|(_, url)| url.clone()).collect();
-    let bytes = read_all(files, &urls, concurrency, STAGE).await;
-    let read_s = t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
-    let decoded: Vec<(PlannedImage, String, Result<GrayImage, SkippedInput>)> = blocking(move || {
-        wanted
-            .into_par_iter()
-            .zip(bytes)
-            .map(|((image, url), bytes)| {
-                let gray = bytes.and_then(|b| decode_gray(&url, &b).map_err(|e| skipped(STAGE, &url, "decode", e)));
-                (image, url, gray)
-            })
-            .collect()
-    })
-    .await?;
-    let decode_s = t1.elapsed().as_secs_f64();
-    let expected = spec.width_px.zip(spec.height_px);
-    let mut out = LoadedPanoramas { panoramas: Vec::new(), size: expected, skipped: skipped_items, read_s, decode_s };
-    for (image, url, gray) in decoded {
-        match gray.and_then(|g| place(campaign, &image, &url, g, &mut out.size)) {
-            Ok(p) => out.panoramas.push(p),
-            Err(s) => out.skipped.push(s),
-        }
-    }
-    out.panoramas.sort_by(|a, b| a.time.total_cmp(&b.time));
-    Ok(out)
+    placed
 }
 
-/// Check the size (the manifest's, else the first panorama's) and attach the DG pose.
-fn place(
-    campaign: &Campaign,
-    image: &PlannedImage,
-    url: &str,
-    gray: GrayImage,
-    size: &mut Option<(u32, u32)>,
-) -> Result<Panorama, SkippedInput> {
+/// The panorama size: the manifest's, else the header of the first panorama that can be read (no pixels are
+/// decoded). When neither exists, every panorama's failure as a skipped item.
+pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> Result<(u32, u32), Vec<SkippedInput>> {
+    if let Some(size) = spec.width_px.zip(spec.height_px) {
+        return Ok(size);
+    }
+    let mut failures = Vec::new();
+    for p in placed {
+        let url = &p.url;
+        match read_one(files, url, STAGE).await {
+            Ok(bytes) => match image_size(&bytes) {
+                Ok(size) => return Ok(size),
+                Err(e) => failures.push(skipped(STAGE, url, "decode", format!("{url}: not a readable image: {e}"))),
+            },
+            Err(s) => failures.push(s),
+        }
+    }
+    Err(failures)
+}
+
+/// Width and height from an image's header.
+pub(crate) fn image_size(bytes: &[u8]) -> Result<(u32, u32), String> {
+    image::ImageReader::new(std::io::Cursor::new(bytes))
+        .with_guessed_format()
+        .map_err(|e| e.to_string())?
+        .into_dimensions()
+        .map_err(|e| e.to_string())
+}
+
+/// Decode a panorama to gray and check its size: the gray [`Panorama`] at its DG pose, or the skipped item.
+pub(crate) fn decode(placed: &Placed, bytes: &[u8], size: (u32, u32)) -> Result<Panorama, SkippedInput> {
+    let url = &placed.url;
+    let gray = decode_gray(url, bytes).map_err(|e| skipped(STAGE, url, "decode", e))?;
     let found = (gray.width() as u32, gray.height() as u32);
-    let (w, h) = *size.get_or_insert(found);
-    if found != (w, h) {
-        let detail = format!("{url}: panorama is {} × {} px, expected {w} × {h} px", found.0, found.1);
+    if found != size {
+        let detail = format!("{url}: panorama is {} × {} px, expected {} × {} px", found.0, found.1, size.0, size.1);
         return Err(skipped(STAGE, url, "size", detail));
     }
-    let record = dg_at(campaign, image.time).map_err(|e| skipped(STAGE, url, "time", format!("{url}: {e}")))?;
+    let info = &placed.info;
     Ok(Panorama {
-        id: image.image_id.clone(),
-        time: image.time,
+        id: info.id.clone(),
+        time: info.time,
         image: gray,
-        pose: record.pose(),
-        position_sigma: position_sigma(&record),
+        pose: info.pose,
+        position_sigma: info.position_sigma,
     })
 }
 
@@ -216,4 +221,40 @@ pub(crate) async fn rig(
         None => None,
     };
     Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height })
+}
+
+#[cfg(test)]
+mod tests {
+    use plumbline_geo::{MapFromBody, Point3, Rotation};
+
+    use super::*;
+
+    fn jpeg(w: u32, h: u32) -> Vec<u8> {
+        let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb([(x % 256) as u8, (y % 256) as u8, 90]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Jpeg).unwrap();
+        out.into_inner()
+    }
+
+    fn placed(url: &str) -> Placed {
+        let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0, 800.0, 40.0));
+        let info = PanoramaInfo { id: "pano7".into(), time: 12.5, pose, position_sigma: 0.2, owned: true };
+        Placed { url: url.into(), info }
+    }
+
+    #[test]
+    fn the_size_comes_from_the_header_and_a_panorama_of_another_size_is_skipped_naming_it() {
+        let bytes = jpeg(64, 32);
+        assert_eq!(image_size(&bytes), Ok((64, 32)));
+        assert!(image_size(b"no image").is_err());
+        let p = placed("file:///c/panoramas/p7.jpg");
+        let pano = decode(&p, &bytes, (64, 32)).unwrap();
+        assert_eq!((pano.id.as_str(), pano.time, pano.image.width(), pano.image.height()), ("pano7", 12.5, 64, 32));
+        assert_eq!(pano.pose.translation.x(), 500.0);
+        let wrong = decode(&p, &bytes, (128, 64)).unwrap_err();
+        assert_eq!((wrong.stage.as_str(), wrong.reason.as_str()), ("registration", "size"));
+        assert!(wrong.detail.contains("p7.jpg") && wrong.detail.contains("64 × 32"), "{}", wrong.detail);
+        let garbage = decode(&p, b"no image", (64, 32)).unwrap_err();
+        assert_eq!(garbage.reason, "decode");
+    }
 }

@@ -7,6 +7,7 @@ use std::time::Instant;
 use bytes::Bytes;
 use plumbline_adjustment::PoleUpdate;
 use plumbline_campaign::manifest::Cadastre;
+use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::tiling::{BBox, TileId};
@@ -17,6 +18,7 @@ use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::{blocking, read_all, skipped};
 use crate::panoramas::dg_at;
+use crate::tile::POLES;
 
 /// Cadastre objects are read this far beyond the tile's fetch box plus the depth range, metres (DG error).
 const CADASTRE_MARGIN_M: f64 = 5.0;
@@ -43,7 +45,8 @@ struct Frame {
     dg: TrajectoryRecord,
 }
 
-/// Detect and match the poles of a tile's depth images.
+/// Detect and match the poles of a tile's depth images; stage `poles` of `progress` advances by one per depth
+/// image (per camera as its batch finishes; skipped when it could not be read).
 pub(crate) async fn process(
     files: &Files,
     campaign: &Campaign,
@@ -51,10 +54,12 @@ pub(crate) async fn process(
     fetch: &BBox,
     config: &PoleConfig,
     concurrency: usize,
+    progress: &dyn Progress,
 ) -> anyhow::Result<PoleResults> {
     let mut out = PoleResults::default();
     let depth = campaign.plan.depth_of(tile);
     if depth.is_empty() || campaign.manifest.depth.is_empty() {
+        progress.skip(POLES, depth.len() as u64);
         return Ok(out);
     }
     let t0 = Instant::now();
@@ -63,11 +68,15 @@ pub(crate) async fn process(
     let features = cadastre_features(files, campaign, fetch, range + CADASTRE_MARGIN_M, &mut out.skipped).await?;
     let frames = depth_frames(files, campaign, depth, concurrency, &mut out.skipped).await;
     out.read_s = t0.elapsed().as_secs_f64();
+    let readable: usize = frames.values().map(Vec::len).sum();
+    progress.skip(POLES, depth.len().saturating_sub(readable) as u64);
     let t1 = Instant::now();
     for (camera, frames) in frames {
         let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
+            progress.skip(POLES, frames.len() as u64);
             continue;
         };
+        let count = frames.len() as u64;
         let (features, config) = (features.clone(), *config);
         let output = blocking(move || {
             let refs: Vec<DepthFrame<'_>> =
@@ -77,6 +86,7 @@ pub(crate) async fn process(
         .await?;
         out.updates.extend(output.updates);
         out.reports.extend(output.reports);
+        progress.advance(POLES, count);
     }
     out.process_s = t1.elapsed().as_secs_f64();
     out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {

@@ -1,22 +1,31 @@
 //! One tile end to end: [`process_tile`] reads, registers and matches; [`run_tile`] adds resuming from a
-//! result already written and writes the new one.
+//! result already written and writes the new one. The `_reporting` variants report progress per stage.
 
-use std::collections::HashSet;
+use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use plumbline_campaign::manifest::Panoramas;
+use plumbline_campaign::progress::{NoProgress, Progress};
 use plumbline_geo::tiling::{Tile, TileId};
 use plumbline_geo::{Map, Point3};
+use plumbline_registration::TileResultV1;
 use plumbline_registration::mm::PanoramaRig;
-use plumbline_registration::output::TileSummary;
-use plumbline_registration::{TileResultV1, register_tile};
+use plumbline_registration::output::{ImageDiagnostic, TileSummary};
+use plumbline_registration::pipeline::{PreparedPanorama, register_tile_reporting};
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
+use tracing::Instrument as _;
 
 use crate::config::WorkerConfig;
-use crate::fetch::blocking;
+use crate::fetch::counted;
 use crate::output::{TileOutput, TileOutputV1, tile_key};
-use crate::{aerial, panoramas, poles};
+use crate::{aerial, panoramas, poles, prepare};
+
+/// Progress stage of the panoramas registered (one item per owned panorama).
+pub const REGISTRATION: &str = "registration";
+/// Progress stage of the depth images processed for poles (one item per depth image).
+pub const POLES: &str = "poles";
 
 /// Registration of a tile and its stage times.
 struct Registered {
@@ -31,12 +40,27 @@ struct Registered {
 /// Broken inputs (a missing or corrupt panorama, frame or depth image, a bad cadastre feature) are skipped
 /// and listed in the output. Errors: a tile that is not in the plan, a campaign without panoramas, or one
 /// that gives no camera height (invalid input); failures of the store or the runtime.
-#[tracing::instrument(skip_all, fields(col = tile.col, row = tile.row))]
 pub async fn process_tile(
     files: &Files,
     campaign: &Campaign,
     tile: &TileId,
     config: &WorkerConfig,
+) -> anyhow::Result<TileOutputV1> {
+    process_tile_reporting(files, campaign, tile, config, &NoProgress).await
+}
+
+/// [`process_tile`], reporting to `progress`: stage `registration` advances by one per owned panorama
+/// (registered, or skipped when it could not be read or the campaign has no aerial imagery) and stage
+/// `poles` by one per depth image (processed, or skipped when it could not be read). Panoramas are read,
+/// decoded and prepared a few at a time and their pixels dropped at once, so a tile's memory holds ortho
+/// patches rather than panoramas.
+#[tracing::instrument(skip_all, fields(col = tile.col, row = tile.row))]
+pub async fn process_tile_reporting(
+    files: &Files,
+    campaign: &Campaign,
+    tile: &TileId,
+    config: &WorkerConfig,
+    progress: &dyn Progress,
 ) -> anyhow::Result<TileOutputV1> {
     let start = Instant::now();
     let Some(planned) = campaign.plan.tiles.tile(tile) else {
@@ -45,8 +69,13 @@ pub async fn process_tile(
     let Some(spec) = &campaign.manifest.panoramas else {
         return Err(invalid("panoramas: missing; tiles are made of panoramas"));
     };
-    let registered = register(files, campaign, planned, spec, config).await?;
-    let poles = poles::process(files, campaign, tile, &planned.fetch, &config.poles, config.concurrency).await?;
+    let owned = i64::try_from(planned.owned.len()).unwrap_or(i64::MAX);
+    let registered = register(files, campaign, planned, spec, config, progress)
+        .instrument(tracing::info_span!("stage", stage = REGISTRATION, panoramas = owned))
+        .await?;
+    let poles = poles::process(files, campaign, tile, &planned.fetch, &config.poles, config.concurrency, progress)
+        .instrument(tracing::info_span!("stage", stage = POLES))
+        .await?;
     let mut seconds = registered.seconds;
     seconds.push(("poles_read".into(), poles.read_s));
     seconds.push(("poles".into(), poles.process_s));
@@ -86,16 +115,20 @@ pub async fn tile_camera_height(files: &Files, campaign: &Campaign, tile: &TileI
     panoramas::camera_height(files, campaign, spec, first).await
 }
 
-/// The registration half of a tile; `result: None` when the campaign has no aerial imagery.
+/// The registration half of a tile; `result: None` when the campaign has no aerial imagery. Every owned
+/// panorama advances stage `registration` of `progress`, registered or skipped.
 async fn register(
     files: &Files,
     campaign: &Campaign,
     tile: &Tile,
     spec: &Panoramas,
     config: &WorkerConfig,
+    progress: &dyn Progress,
 ) -> anyhow::Result<Registered> {
     let mut out = Registered { result: None, skipped: Vec::new(), seconds: Vec::new() };
+    let owned = tile.owned.len() as u64;
     if campaign.manifest.aerial.is_none() {
+        progress.skip(REGISTRATION, owned);
         return Ok(out);
     }
     let images = panoramas::planned(campaign, tile)?;
@@ -103,55 +136,64 @@ async fn register(
         return Ok(out);
     };
     let camera_height = panoramas::camera_height(files, campaign, spec, first).await?;
-    let loaded = panoramas::load(files, campaign, spec, &images, config.concurrency).await?;
-    out.skipped.extend(loaded.skipped);
-    let (mut read_s, mut decode_s) = (loaded.read_s, loaded.decode_s);
-    let owned: HashSet<String> = images[..tile.owned.len()].iter().map(|p| p.image_id.clone()).collect();
-    let Some(size) = loaded.size else {
-        // Nothing decoded and no size in the manifest: every panorama is already reported as skipped.
-        out.result = Some(summarised(tile.id, Vec::new(), Vec::new()));
-        return Ok(out);
+    let placed = panoramas::place(campaign, spec, &images, tile.owned.len(), &mut out.skipped);
+    let size = match panoramas::size(files, spec, &placed).await {
+        Ok(size) => size,
+        Err(failures) => {
+            // Nothing readable and no size in the manifest: every panorama is skipped.
+            out.skipped.extend(failures);
+            out.result = Some(summarised(tile.id, Vec::new(), Vec::new()));
+            progress.skip(REGISTRATION, owned);
+            return Ok(out);
+        }
     };
-    let rig = panoramas::rig(files, campaign, spec, size, camera_height, &mut out.skipped).await?;
-    let ground = ground_points(&loaded.panoramas, &owned, &rig, tile);
-    let margin = config.registration.mm.half_extent;
-    let area = aerial::window_of(&tile.fetch, margin);
+    let rig = Arc::new(panoramas::rig(files, campaign, spec, size, camera_height, &mut out.skipped).await?);
+    let t0 = Instant::now();
+    let pipeline = config.registration;
+    let prepared = prepare::prepare(files, &placed, &rig, &pipeline, size, config.concurrency).await?;
+    let prepare_s = t0.elapsed().as_secs_f64();
+    out.skipped.extend(prepared.skipped);
+    let ground = ground_points(&prepared.panoramas, &rig, tile);
+    let area = aerial::window_of(&tile.fetch, pipeline.mm.half_extent);
     let Some(reference) = aerial::load(files, campaign, &ground, area, config.concurrency).await? else {
+        progress.skip(REGISTRATION, owned);
         return Ok(out);
     };
     out.skipped.extend(reference.skipped);
-    read_s += reference.read_s;
-    decode_s += reference.decode_s;
-    let (id, pipeline, panoramas) = (tile.id, config.registration, loaded.panoramas);
-    let run = blocking(move || register_tile(id, &panoramas, &rig, &reference.reference, &pipeline)).await?;
+    let (id, panoramas) = (tile.id, prepared.panoramas);
+    let run = counted(progress, REGISTRATION, move |count| {
+        let done = |_: &ImageDiagnostic| {
+            count.fetch_add(1, Ordering::Relaxed);
+        };
+        register_tile_reporting(id, &panoramas, &rig, &reference.reference, &pipeline, &done)
+    })
+    .await?;
+    let result = run.result.into_latest();
+    progress.skip(REGISTRATION, owned.saturating_sub(result.images.len() as u64));
     let t = &run.timings;
     out.seconds = vec![
-        ("read".into(), read_s),
-        ("decode".into(), decode_s),
+        ("read".into(), prepared.read_s + reference.read_s),
+        ("decode".into(), prepared.decode_s + reference.decode_s),
         ("ortho".into(), t.ortho.as_secs_f64()),
         ("features".into(), t.features.as_secs_f64()),
+        ("prepare".into(), prepare_s),
         ("matching".into(), t.matching.as_secs_f64()),
         ("triangulation".into(), t.triangulation.as_secs_f64()),
         ("aerial".into(), t.aerial.as_secs_f64()),
         ("registration".into(), t.total.as_secs_f64()),
     ];
-    out.result = Some(owned_only(run.result.into_latest(), &owned));
+    out.result = Some(result);
     Ok(out)
 }
 
 /// Where the tile's MM patches lie on the road: the owned panoramas' DG camera centres lowered by the camera
 /// height, and the fetch box's centre at their mean height.
-fn ground_points(
-    panoramas: &[plumbline_registration::mm::Panorama],
-    owned: &HashSet<String>,
-    rig: &PanoramaRig,
-    tile: &Tile,
-) -> Vec<Point3<Map>> {
+fn ground_points(panoramas: &[PreparedPanorama], rig: &PanoramaRig, tile: &Tile) -> Vec<Point3<Map>> {
     let mut ground: Vec<Point3<Map>> = panoramas
         .iter()
-        .filter(|p| owned.contains(&p.id))
+        .filter(|p| p.owned())
         .map(|p| {
-            let c = rig.mount.camera_pose(&p.pose).translation;
+            let c = rig.mount.camera_pose(p.pose()).translation;
             Point3::new(c.x(), c.y(), c.z() - rig.camera_height)
         })
         .collect();
@@ -163,20 +205,7 @@ fn ground_points(
     ground
 }
 
-/// Keep the diagnostics and ties of the tile's own panoramas (context panoramas belong to their own tile; a
-/// tie's id is `{first panorama}:{index}`) and recount the summary.
-fn owned_only(result: TileResultV1, owned: &HashSet<String>) -> TileResultV1 {
-    let images = result.images.into_iter().filter(|d| owned.contains(&d.image)).collect();
-    let first = |id: &str| id.rsplit_once(':').map(|(image, _)| image.to_owned());
-    let ties = result.ties.into_iter().filter(|t| first(&t.id.0).is_some_and(|i| owned.contains(&i))).collect();
-    summarised(result.tile, images, ties)
-}
-
-fn summarised(
-    tile: TileId,
-    images: Vec<plumbline_registration::output::ImageDiagnostic>,
-    ties: Vec<plumbline_adjustment::TiePoint>,
-) -> TileResultV1 {
+fn summarised(tile: TileId, images: Vec<ImageDiagnostic>, ties: Vec<plumbline_adjustment::TiePoint>) -> TileResultV1 {
     let summary = TileSummary::of(&images, &ties);
     TileResultV1 { tile, ties, images, summary }
 }
@@ -190,64 +219,46 @@ pub async fn run_tile(
     tile: &TileId,
     config: &WorkerConfig,
 ) -> anyhow::Result<(TileOutputV1, bool)> {
+    run_tile_reporting(files, campaign, tile, config, &NoProgress).await
+}
+
+/// [`run_tile`], reporting to `progress` as [`process_tile_reporting`] does; a resumed tile advances the
+/// stages at once by what its output holds.
+pub async fn run_tile_reporting(
+    files: &Files,
+    campaign: &Campaign,
+    tile: &TileId,
+    config: &WorkerConfig,
+    progress: &dyn Progress,
+) -> anyhow::Result<(TileOutputV1, bool)> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
     if files.exists(&url).await? {
         let bytes = files.read(&url).await?;
         match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
-            Ok(done) if done.tile == *tile => return Ok((done, true)),
+            Ok(done) if done.tile == *tile => {
+                report_resumed(campaign, &done, progress);
+                return Ok((done, true));
+            }
             Ok(other) => {
                 tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing")
             }
             Err(e) => tracing::warn!(file = %url, error = %e, "tile output does not parse; reprocessing"),
         }
     }
-    let output = process_tile(files, campaign, tile, config).await?;
+    let output = process_tile_reporting(files, campaign, tile, config, progress).await?;
     let json = serde_json::to_vec_pretty(&TileOutput::V1(output.clone()))?;
     files.write(&url, json).await?;
     Ok((output, false))
 }
 
-#[cfg(test)]
-mod tests {
-    use plumbline_adjustment::{AerialPoint, TiePoint, TiePointId, TieRay};
-    use plumbline_registration::output::{CornerCounts, DiscardReason, ImageDiagnostic};
-
-    use super::*;
-
-    /// A diagnostic through its wire form (fields with serde defaults left out).
-    fn diagnostic(image: &str, matched: bool) -> ImageDiagnostic {
-        let discarded = (!matched).then_some(DiscardReason::NoNeighbour { nearest_m: None });
-        serde_json::from_value(serde_json::json!({
-            "image": image, "time": 0.0, "neighbour": null, "transform": null, "corners": CornerCounts::default(),
-            "aerial_images": [], "aerial_points": 0, "discarded": discarded,
-        }))
-        .unwrap()
-    }
-
-    fn tie(id: &str, aerial: bool) -> TiePoint {
-        let ray = TieRay { time: 0.0, direction: [0.0, 0.0, 1.0], sigma: 1e-3 };
-        let point =
-            AerialPoint { position: [0.0; 3], covariance: [[1e-2, 0.0, 0.0], [0.0, 1e-2, 0.0], [0.0, 0.0, 1e-2]] };
-        TiePoint { id: TiePointId(id.into()), rays: vec![ray, ray], aerial: aerial.then_some(point) }
-    }
-
-    #[test]
-    fn only_the_owned_panoramas_diagnostics_and_ties_are_kept_and_recounted() {
-        let tile = TileId { col: 3, row: -2 };
-        // "cam:7" is owned (an id with a colon: the tie index follows the last one); "ctx" is context.
-        let images = vec![diagnostic("cam:7", true), diagnostic("ctx", true), diagnostic("own2", false)];
-        let ties =
-            vec![tie("cam:7:0000", true), tie("cam:7:0001", false), tie("ctx:0000", true), tie("own2:0000", false)];
-        let summary = TileSummary::of(&images, &ties);
-        let owned: HashSet<String> = ["cam:7", "own2"].map(String::from).into();
-        let kept = owned_only(TileResultV1 { tile, ties, images, summary }, &owned);
-        let names: Vec<&str> = kept.images.iter().map(|d| d.image.as_str()).collect();
-        assert_eq!(names, ["cam:7", "own2"]);
-        let ids: Vec<&str> = kept.ties.iter().map(|t| t.id.0.as_str()).collect();
-        assert_eq!(ids, ["cam:7:0000", "cam:7:0001", "own2:0000"]);
-        let s = &kept.summary;
-        assert_eq!((s.images, s.images_matched, s.ties, s.ties_with_aerial), (2, 1, 3, 1));
-        assert_eq!(s.discarded.get("no_neighbour"), Some(&1));
-        assert_eq!(kept.tile, tile);
-    }
+/// Advance the stages by a resumed tile's output: its diagnostics and pole frames done, the rest skipped.
+fn report_resumed(campaign: &Campaign, done: &TileOutputV1, progress: &dyn Progress) {
+    let owned = campaign.plan.tiles.tile(&done.tile).map_or(0, |t| t.owned.len()) as u64;
+    let registered = done.registration.as_ref().map_or(0, |r| r.images.len()) as u64;
+    progress.advance(REGISTRATION, registered);
+    progress.skip(REGISTRATION, owned.saturating_sub(registered));
+    let depth = campaign.plan.depth_of(&done.tile).len() as u64;
+    let frames = done.pole_frames.len() as u64;
+    progress.advance(POLES, frames);
+    progress.skip(POLES, depth.saturating_sub(frames));
 }

@@ -1,24 +1,28 @@
-//! The per-tile driver of paper 000 §3: panoramas in time order, each paired with a neighbour closer than a
-//! bound; per pair steps 1–4 (`crate::mm`), then steps 5–8 (`crate::aerial::register_patch`); the tie
-//! points and per-image diagnostics go into a versioned [`TileResult`].
+//! The per-tile driver of paper 000 §3: panoramas in time order, each owned one paired with a neighbour
+//! closer than a bound; per pair steps 1–4 (`crate::mm`), then steps 5–8 (`crate::aerial::register_patch`);
+//! the tie points and per-image diagnostics go into a versioned [`TileResult`].
 //!
-//! Ortho-images and KAZE features are computed once per panorama; pairs run in parallel (rayon).
+//! Step 1 and the KAZE features run once per panorama, one panorama at a time if the caller wishes
+//! ([`prepare_panorama`]: the full panorama is not needed afterwards); pairs run in parallel (rayon).
 
 mod pair;
+mod prepared;
 mod ties;
 
 use std::time::{Duration, Instant};
 
 use plumbline_geo::tiling::TileId;
-use plumbline_imaging::kaze::KazeFeatures;
 use rayon::prelude::*;
 
 use crate::aerial::{AerialConfig, AerialReference};
-use crate::mm::{MmConfig, MmError, OrthoPatch, Panorama, PanoramaRig, features, ortho_patch};
+use crate::mm::{MmConfig, PanoramaRig};
 use crate::output::{ImageDiagnostic, TileResult, TileResultV1, TileSummary};
 
 pub use pair::neighbour;
+pub use prepared::{PanoramaInfo, PreparedPanorama, panoramas_to_prepare, prepare_panorama, prepare_panoramas};
 
+#[cfg(test)]
+mod context_tests;
 #[cfg(test)]
 mod tests;
 
@@ -66,7 +70,8 @@ pub struct StageTimings {
     pub triangulation: Duration,
     /// Steps 5–8, §3.6–§3.9.
     pub aerial: Duration,
-    /// Elapsed time of the whole call.
+    /// Elapsed time of the `register_tile` call: the pairs (preparation, timed in `ortho` and `features`,
+    /// happens before it, panorama by panorama).
     pub total: Duration,
 }
 
@@ -89,31 +94,49 @@ pub struct TileRun {
     pub timings: StageTimings,
 }
 
-/// Per panorama: its ortho-image and features, or the error that stopped them.
-pub(crate) struct Prepared {
-    pub patch: Result<(OrthoPatch, KazeFeatures), MmError>,
-    pub timings: StageTimings,
-}
-
-/// Register every panorama of a tile with its neighbour and with the aerial reference (paper 000 §3).
-/// Bad panoramas (wrong size, no neighbour, failed steps) get a diagnostic; the others go on.
+/// Register every owned panorama of a tile with its neighbour and with the aerial reference (paper 000 §3).
+/// `panoramas` are the tile's panoramas prepared one at a time ([`prepare_panorama`]), owned and context, in
+/// any order; context panoramas serve only as neighbours and get no diagnostic. Bad panoramas (wrong size,
+/// no neighbour, failed steps) get a diagnostic; the others go on.
 pub fn register_tile(
     tile: TileId,
-    panoramas: &[Panorama],
+    panoramas: &[PreparedPanorama],
     rig: &PanoramaRig,
     reference: &AerialReference,
     config: &PipelineConfig,
 ) -> TileRun {
+    register_tile_reporting(tile, panoramas, rig, reference, config, &|_| {})
+}
+
+/// [`register_tile`], calling `done` with each owned panorama's diagnostic as soon as it is registered
+/// (from several threads; for progress reports).
+pub fn register_tile_reporting(
+    tile: TileId,
+    panoramas: &[PreparedPanorama],
+    rig: &PanoramaRig,
+    reference: &AerialReference,
+    config: &PipelineConfig,
+    done: &(dyn Fn(&ImageDiagnostic) + Sync),
+) -> TileRun {
     let start = Instant::now();
-    let mut order: Vec<&Panorama> = panoramas.iter().collect();
-    order.sort_by(|a, b| a.time.total_cmp(&b.time).then_with(|| a.id.cmp(&b.id)));
-    let prepared: Vec<Prepared> = order.par_iter().map(|p| prepare(p, rig, &config.mm)).collect();
-    let inputs = pair::TileInputs { order: &order, prepared: &prepared, rig, reference, config };
-    let outcomes: Vec<(ImageDiagnostic, Vec<_>, StageTimings)> =
-        (0..order.len()).into_par_iter().map(|i| pair::process(i, &inputs)).collect();
+    let order: Vec<&PreparedPanorama> = prepared::time_order(panoramas, |p| (p.pano.time, p.pano.id.as_str()))
+        .into_iter()
+        .map(|k| &panoramas[k])
+        .collect();
+    let poses: Vec<_> = order.iter().map(|p| &p.pano.pose).collect();
+    let inputs = pair::TileInputs { order: &order, poses: &poses, rig, reference, config };
+    let owned: Vec<usize> = (0..order.len()).filter(|&i| order[i].owned).collect();
+    let outcomes: Vec<(ImageDiagnostic, Vec<_>, StageTimings)> = owned
+        .into_par_iter()
+        .map(|i| {
+            let outcome = pair::process(i, &inputs);
+            done(&outcome.0);
+            outcome
+        })
+        .collect();
     let mut timings = StageTimings::default();
-    prepared.iter().for_each(|p| timings.add(&p.timings));
-    let (mut images, mut all_ties) = (Vec::with_capacity(order.len()), Vec::new());
+    order.iter().for_each(|p| timings.add(&p.timings));
+    let (mut images, mut all_ties) = (Vec::with_capacity(outcomes.len()), Vec::new());
     for (diagnostic, ties, t) in outcomes {
         timings.add(&t);
         images.push(diagnostic);
@@ -122,19 +145,4 @@ pub fn register_tile(
     let summary = TileSummary::of(&images, &all_ties);
     timings.total = start.elapsed();
     TileRun { result: TileResult::V1(TileResultV1 { tile, ties: all_ties, images, summary }), timings }
-}
-
-/// Step 1 and the KAZE features of one panorama.
-fn prepare(pano: &Panorama, rig: &PanoramaRig, config: &MmConfig) -> Prepared {
-    let mut timings = StageTimings::default();
-    let t0 = Instant::now();
-    let patch = ortho_patch(pano, rig, config.gsd, config.half_extent);
-    timings.ortho = t0.elapsed();
-    let patch = patch.and_then(|patch| {
-        let t1 = Instant::now();
-        let f = features(&patch, &pano.id, config);
-        timings.features = t1.elapsed();
-        f.map(|f| (patch, f))
-    });
-    Prepared { patch, timings }
 }

@@ -7,6 +7,7 @@
 mod support;
 
 use plumbline_geo::tiling::TileId;
+use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, TileResult, register_tile};
 use plumbline_synth::world;
 use support::{AERIAL_GSD, Campaign, Profile, Spec};
@@ -28,13 +29,9 @@ fn spec(seed: u64) -> Spec {
 fn tiny_junction_registers_with_correct_ties() {
     let seed = std::env::var("MM_SEED").ok().and_then(|s| s.parse().ok()).unwrap_or(1);
     let campaign = Campaign::build(&spec(seed));
-    let run = register_tile(
-        TileId { col: 0, row: 0 },
-        &campaign.panoramas,
-        &campaign.rig,
-        &campaign.reference,
-        &PipelineConfig::default(),
-    );
+    let config = PipelineConfig::default();
+    let prepared = prepare_panoramas(&campaign.panoramas, &campaign.rig, &config.mm);
+    let run = register_tile(TileId { col: 0, row: 0 }, &prepared, &campaign.rig, &campaign.reference, &config);
     let result = run.result.clone().into_latest();
     let summary = &result.summary;
     eprintln!("seed {seed}: {summary:?}; {:?}", run.timings);

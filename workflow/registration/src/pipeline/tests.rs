@@ -8,7 +8,7 @@ use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};
 
 use super::*;
 use crate::mm::testing::{Ground, rig, scene_panorama, true_pose};
-use crate::mm::{FallbackReason, MmConfig, TransformSource};
+use crate::mm::{FallbackReason, MmConfig, Panorama, TransformSource};
 use crate::output::DiscardReason;
 
 #[test]
@@ -31,13 +31,10 @@ fn pairs_neighbours_reports_bad_and_lonely_images_and_writes_ties_consistent_wit
     panoramas.push(broken);
     // Listed out of time order on purpose: the driver sorts.
     panoramas.reverse();
-    let run = register_tile(
-        TileId { col: 0, row: 0 },
-        &panoramas,
-        &rig,
-        &AerialReference::Frames(Vec::new()),
-        &PipelineConfig { mm: MmConfig { half_extent: 7.5, ..MmConfig::default() }, ..PipelineConfig::default() },
-    );
+    let config =
+        PipelineConfig { mm: MmConfig { half_extent: 7.5, ..MmConfig::default() }, ..PipelineConfig::default() };
+    let prepared = prepare_panoramas(&panoramas, &rig, &config.mm);
+    let run = register_tile(TileId { col: 0, row: 0 }, &prepared, &rig, &AerialReference::Frames(Vec::new()), &config);
     let result = run.result.into_latest();
     let ids: Vec<&str> = result.images.iter().map(|d| d.image.as_str()).collect();
     assert_eq!(ids, ["p0", "p1", "broken", "p2", "p3"]);
@@ -97,7 +94,8 @@ fn a_dg_jump_leaves_the_image_motion_true_and_the_consistency_check_flags_it() {
         .collect();
     let config =
         PipelineConfig { mm: MmConfig { half_extent: 7.5, ..MmConfig::default() }, ..PipelineConfig::default() };
-    let run = register_tile(TileId { col: 0, row: 0 }, &panoramas, &rig, &AerialReference::Frames(Vec::new()), &config);
+    let prepared = prepare_panoramas(&panoramas, &rig, &config.mm);
+    let run = register_tile(TileId { col: 0, row: 0 }, &prepared, &rig, &AerialReference::Frames(Vec::new()), &config);
     let result = run.result.into_latest();
     assert!(matches!(result.images[0].transform, Some(TransformSource::Kaze { .. })), "{:?}", result.images[0]);
     let jump = &result.images[1];

@@ -1,0 +1,151 @@
+//! Step 1 (paper 000 §3.2) and the KAZE features (§3.3) of one panorama at a time, so that a caller can
+//! decode a panorama, prepare it and drop its pixels before the next: a tile's memory then holds ortho
+//! patches, not full panoramas. Which panoramas need preparing follows from their DG poses alone.
+
+use std::time::Instant;
+
+use plumbline_geo::MapFromBody;
+use plumbline_imaging::GrayImage;
+use plumbline_imaging::kaze::KazeFeatures;
+use rayon::prelude::*;
+
+use super::{PipelineConfig, StageTimings, pair};
+use crate::mm::{MmConfig, MmError, OrthoPatch, Panorama, PanoramaRig, features, ortho_patch};
+
+/// What the pairing knows of a panorama before its pixels are read: id, time, DG pose, σ and whether the
+/// tile registers it.
+#[derive(Clone, Debug)]
+pub struct PanoramaInfo {
+    /// Image id (unique within the campaign).
+    pub id: String,
+    /// Exposure time on the trajectory's time scale, seconds.
+    pub time: f64,
+    /// The vehicle pose at `time` from direct georeferencing.
+    pub pose: MapFromBody,
+    /// 1σ horizontal uncertainty of the DG position, metres.
+    pub position_sigma: f64,
+    /// True when the tile registers this panorama; false for a context panorama, which serves only as the
+    /// neighbour of an owned one (it is registered by its own tile).
+    pub owned: bool,
+}
+
+impl PanoramaInfo {
+    /// The description of a decoded panorama.
+    pub fn of(pano: &Panorama, owned: bool) -> Self {
+        Self { id: pano.id.clone(), time: pano.time, pose: pano.pose, position_sigma: pano.position_sigma, owned }
+    }
+}
+
+/// A panorama after step 1 and feature extraction: its ortho patch and KAZE features (or the error that
+/// stopped them), without its pixels. A context panorama no owned one pairs with stays unprepared.
+#[derive(Clone, Debug)]
+pub struct PreparedPanorama {
+    /// Id, time, pose and σ; `image` is an empty 0 × 0 placeholder (the pixels are dropped after step 1).
+    pub(crate) pano: Panorama,
+    pub(crate) owned: bool,
+    /// `None`: not prepared.
+    pub(crate) patch: Option<Result<(OrthoPatch, KazeFeatures), MmError>>,
+    pub(crate) timings: StageTimings,
+}
+
+impl PreparedPanorama {
+    /// A panorama that is not prepared: a context panorama that no owned panorama pairs with. It keeps its
+    /// place in the tile's time order (pairing looks at the panoramas next to an owned one).
+    pub fn unprepared(info: PanoramaInfo) -> Self {
+        let pano = Panorama {
+            id: info.id,
+            time: info.time,
+            image: GrayImage::filled(0, 0, 0.0),
+            pose: info.pose,
+            position_sigma: info.position_sigma,
+        };
+        Self { pano, owned: info.owned, patch: None, timings: StageTimings::default() }
+    }
+
+    /// Image id.
+    pub fn id(&self) -> &str {
+        &self.pano.id
+    }
+
+    /// Exposure time, seconds.
+    pub fn time(&self) -> f64 {
+        self.pano.time
+    }
+
+    /// The DG vehicle pose.
+    pub fn pose(&self) -> &MapFromBody {
+        &self.pano.pose
+    }
+
+    /// True when the tile registers it.
+    pub fn owned(&self) -> bool {
+        self.owned
+    }
+
+    /// True when step 1 and the features ran (successfully or not).
+    pub fn is_prepared(&self) -> bool {
+        self.patch.is_some()
+    }
+
+    /// The error of step 1 or of the features, if one stopped them.
+    pub fn error(&self) -> Option<&MmError> {
+        self.patch.as_ref().and_then(|p| p.as_ref().err())
+    }
+
+    /// Time spent in step 1 and the features.
+    pub fn timings(&self) -> StageTimings {
+        self.timings
+    }
+}
+
+/// Step 1 and the KAZE features of one panorama (paper 000 §3.2–§3.3). The result holds no pixels of the
+/// panorama: the caller may drop it at once.
+pub fn prepare_panorama(pano: &Panorama, owned: bool, rig: &PanoramaRig, config: &MmConfig) -> PreparedPanorama {
+    let mut timings = StageTimings::default();
+    let t0 = Instant::now();
+    let patch = ortho_patch(pano, rig, config.gsd, config.half_extent);
+    timings.ortho = t0.elapsed();
+    let patch = patch.and_then(|patch| {
+        let t1 = Instant::now();
+        let f = features(&patch, &pano.id, config);
+        timings.features = t1.elapsed();
+        f.map(|f| (patch, f))
+    });
+    let mut prepared = PreparedPanorama::unprepared(PanoramaInfo::of(pano, owned));
+    prepared.patch = Some(patch);
+    prepared.timings = timings;
+    prepared
+}
+
+/// Every panorama prepared and owned, in parallel (for callers that hold the whole tile anyway).
+pub fn prepare_panoramas(panoramas: &[Panorama], rig: &PanoramaRig, config: &MmConfig) -> Vec<PreparedPanorama> {
+    panoramas.par_iter().map(|p| prepare_panorama(p, true, rig, config)).collect()
+}
+
+/// The indices of `items` in the order the tile processes them: by time, then id.
+pub(crate) fn time_order<T>(items: &[T], key: impl Fn(&T) -> (f64, &str)) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..items.len()).collect();
+    order.sort_by(|&a, &b| {
+        let (ka, kb) = (key(&items[a]), key(&items[b]));
+        ka.0.total_cmp(&kb.0).then_with(|| ka.1.cmp(kb.1))
+    });
+    order
+}
+
+/// Which of `panoramas` must be prepared: every owned one and every context one that is the neighbour
+/// ([`pair::neighbour`]) of an owned one; the others can stay [`PreparedPanorama::unprepared`]. One flag
+/// per panorama, in the given order. Pairing depends on the DG poses only, so this needs no pixels; a
+/// panorama that later cannot be read must be left out and the question asked again.
+pub fn panoramas_to_prepare(panoramas: &[PanoramaInfo], rig: &PanoramaRig, config: &PipelineConfig) -> Vec<bool> {
+    let order = time_order(panoramas, |p| (p.time, p.id.as_str()));
+    let poses: Vec<&MapFromBody> = order.iter().map(|&k| &panoramas[k].pose).collect();
+    let mut needed: Vec<bool> = panoramas.iter().map(|p| p.owned).collect();
+    for (i, &k) in order.iter().enumerate() {
+        if panoramas[k].owned
+            && let Ok(j) = pair::neighbour(i, &poses, rig, config)
+        {
+            needed[order[j]] = true;
+        }
+    }
+    needed
+}
