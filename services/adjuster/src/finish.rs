@@ -5,6 +5,8 @@
 use std::collections::BTreeMap;
 
 use anyhow::Context as _;
+use futures::StreamExt as _;
+use plumbline_adjustment::Iteration;
 use plumbline_campaign::progress::Progress;
 use plumbline_report::{Figures, Report, Stage};
 use plumbline_runtime::Files;
@@ -17,7 +19,7 @@ use crate::corrections::corrections_csv;
 use crate::layers::observation_layers;
 use crate::merge::{Merged, merge};
 use crate::report::build_report;
-use crate::solve::{Solved, panorama_mount, solve};
+use crate::solve::{Solved, panorama_mount, solve_observed};
 
 /// The progress stage of the adjustment.
 pub const STAGE: &str = "adjustment";
@@ -52,15 +54,31 @@ pub async fn finish(
     config: &AdjusterConfig,
     progress: &dyn Progress,
 ) -> anyhow::Result<Finished> {
-    progress.begin(STAGE, Some(1));
+    progress.begin(STAGE, None);
     let (owned, tiles, config) = (campaign.clone(), tiles.to_vec(), *config);
-    let computed =
-        tokio::task::spawn_blocking(move || compute(&owned, &tiles, &config)).await.context("adjustment task")??;
+    let (sender, mut iterations) = futures::channel::mpsc::unbounded::<Iteration>();
+    let count = i64::try_from(tiles.len()).unwrap_or(i64::MAX);
+    let span = tracing::info_span!("stage", stage = STAGE, tiles = count);
+    let task = tokio::task::spawn_blocking(move || {
+        let _entered = span.enter();
+        // Sending fails only when `finish` was dropped: then nobody listens any more.
+        compute(&owned, &tiles, &config, &mut |it| {
+            let _ = sender.unbounded_send(*it);
+        })
+    });
+    while let Some(it) = iterations.next().await {
+        progress.note(STAGE, &it.note());
+        progress.advance(STAGE, 1);
+    }
+    let computed = task.await.context("adjustment task")??;
     let a = &computed.solved.adjustment;
     let note = format!("{} iterations, σ0 {:.3}, {} rejected", a.iterations, a.sigma0, a.rejected.len());
     progress.note(STAGE, &note);
-    progress.advance(STAGE, 1);
     progress.end(STAGE);
+    for b in &a.height_biases {
+        let frames = b.frames.join("+");
+        tracing::info!(frames, points = b.points, bias = b.bias, sigma = b.sigma, "aerial height bias");
+    }
     tracing::info!(iterations = a.iterations, sigma0 = a.sigma0, rejected = a.rejected.len(), "adjusted");
 
     let prefix = &campaign.output;
@@ -82,10 +100,15 @@ pub async fn finish(
     Ok(Finished { report: computed.report, written, before, after })
 }
 
-fn compute(campaign: &Campaign, tiles: &[TileOutputV1], config: &AdjusterConfig) -> anyhow::Result<Computed> {
+fn compute(
+    campaign: &Campaign,
+    tiles: &[TileOutputV1],
+    config: &AdjusterConfig,
+    observer: &mut dyn FnMut(&Iteration),
+) -> anyhow::Result<Computed> {
     let merged = merge(tiles);
     let mount = panorama_mount(&campaign.manifest);
-    let solved = solve(&campaign.trajectory.trajectory, &merged, &mount, config)
+    let solved = solve_observed(&campaign.trajectory.trajectory, &merged, &mount, config, observer)
         .with_context(|| format!("adjusting campaign {}", campaign.manifest.campaign.id))?;
     let stages = stages(tiles, &merged, &solved);
     let report = build_report(campaign, &merged, &solved, campaign.reference.as_ref(), &stages);

@@ -6,6 +6,7 @@
 //! ```text
 //! merge(&[TileOutputV1]) → Merged (observations, image motions, image outcomes, pole frames, tiles, skipped)
 //! solve(&dg, &merged, &mount, &AdjusterConfig) → Solved (consistency check, adjustment, corrected trajectory)
+//! solve_observed(…, &mut |iteration| …) → the same, each adjustment iteration reported as it ends
 //! build_report(&campaign, &merged, &solved, reference, &stages) → plumbline_report::Report
 //! observation_layers(&campaign, &merged, &solved) → the point layers of observations.gpkg
 //! finish(&files, &campaign, &tiles, &config, &progress).await → all of it, written under campaign.output
@@ -30,4 +31,4 @@ pub use merge::{ImageOutcome, Merged, merge, motions_of, tile_name};
 pub use report::build_report;
 pub use report::series::SERIES_POINTS;
 pub use residuals::normalised_residuals;
-pub use solve::{SolveError, Solved, panorama_mount, solve};
+pub use solve::{SolveError, Solved, panorama_mount, solve, solve_observed};

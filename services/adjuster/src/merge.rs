@@ -1,9 +1,9 @@
 //! Merging the tiles' results into one observation set for the global adjustment, with what the report needs
 //! from them: the image diagnostics, the pole frames, per-tile counts and every skipped item.
 
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 
-use plumbline_adjustment::ObservationSetV1;
+use plumbline_adjustment::{AerialFrameSet, ObservationSetV1, TiePoint, TiePointId};
 use plumbline_geo::tiling::TileId;
 use plumbline_navigation::ImageMotion;
 use plumbline_poles::{FrameReport, FrameReportV1};
@@ -36,7 +36,8 @@ impl ImageOutcome {
 /// The tiles' results merged.
 #[derive(Clone, Debug, Default)]
 pub struct Merged {
-    /// Tie points and pole updates of all tiles (duplicated tie ids are kept once).
+    /// Tie points and pole updates of all tiles (duplicated tie ids are kept once), and the aerial frame sets
+    /// their aerial coordinates came from (one height bias each in the adjustment).
     pub observations: ObservationSetV1,
     /// Image-derived motions between neighbouring panoramas, for the consistency check.
     pub motions: Vec<ImageMotion>,
@@ -60,19 +61,18 @@ pub fn merge(tiles: &[TileOutputV1]) -> Merged {
     let mut out = Merged::default();
     let mut tie_ids = HashSet::new();
     let mut motion_pairs = HashSet::new();
+    let mut frame_sets: BTreeMap<Vec<String>, Vec<TiePointId>> = BTreeMap::new();
     for t in tiles {
         let skipped_before = out.skipped.len();
         out.skipped.extend(t.skipped.iter().cloned());
         let (mut images, mut matched, mut ties) = (0, 0, 0);
         if let Some(reg) = &t.registration {
-            let height_scale = shared_height_scale(reg);
             for tie in &reg.ties {
                 if tie_ids.insert(tie.id.clone()) {
-                    let mut tie = tie.clone();
-                    if let Some(a) = tie.aerial.as_mut() {
-                        scale_height(&mut a.covariance, height_scale);
+                    if let Some(frames) = frames_of(reg, tie) {
+                        frame_sets.entry(frames).or_default().push(tie.id.clone());
                     }
-                    out.observations.ties.push(tie);
+                    out.observations.ties.push(tie.clone());
                     ties += 1;
                 } else {
                     out.skipped.push(duplicate_tie(&t.tile, &tie.id.0));
@@ -94,7 +94,22 @@ pub fn merge(tiles: &[TileOutputV1]) -> Merged {
         let line = TileLine { tile: tile_name(&t.tile), images, matched, ties, poles: t.poles.len(), skipped };
         out.tiles.push(line);
     }
+    out.observations.aerial_frame_sets =
+        frame_sets.into_iter().map(|(frames, ties)| AerialFrameSet { frames, ties }).collect();
     out
+}
+
+/// The aerial frames a tie's coordinates were triangulated from: those that gave correspondences to the
+/// patch of its first panorama (the one whose diagnostic lists the aerial images; paper 000 §3.8), sorted.
+/// `None` without aerial coordinates or without such frames.
+fn frames_of(reg: &TileResultV1, tie: &TiePoint) -> Option<Vec<String>> {
+    tie.aerial.as_ref()?;
+    let first = tie.rays.first()?.time;
+    let diagnostic = reg.images.iter().find(|d| d.time == first)?;
+    let used = diagnostic.aerial_images.iter().filter(|a| a.rejection.is_none() && a.correspondences > 0);
+    let mut frames: Vec<String> = used.map(|a| a.frame.clone()).collect();
+    frames.sort();
+    (!frames.is_empty()).then_some(frames)
 }
 
 /// The image diagnostics of one tile as outcomes, each discard also a skipped item.
@@ -113,28 +128,6 @@ fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1) {
     }
 }
 
-/// The factor on the σ of the aerial heights of one tile's tie points. Paper 000 §3.9 triangulates each
-/// point from the same few nadir frames of the tile's area, so the points share those frames' orientation
-/// errors: with a base-to-height ratio of a few per cent, a 10 µrad relative attitude error moves every
-/// height of the tile by decimetres while their horizontal positions move by millimetres. Weighting n such
-/// heights as independent would let their common error pull the trajectory's height with √n times its
-/// weight; scaling each height σ by √n gives the tile's heights together the weight of one point's.
-fn shared_height_scale(reg: &TileResultV1) -> f64 {
-    let n = reg.ties.iter().filter(|t| t.aerial.is_some()).count();
-    (n.max(1) as f64).sqrt()
-}
-
-/// Scale the height row and column of a 3×3 covariance by `k` (D C D with D = diag(1, 1, k): stays SPD, keeps
-/// the correlations).
-fn scale_height(c: &mut [[f64; 3]; 3], k: f64) {
-    for row in c.iter_mut() {
-        row[2] *= k;
-    }
-    for v in c[2].iter_mut() {
-        *v *= k;
-    }
-}
-
 fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
     SkippedInput {
         stage: "adjustment".into(),
@@ -148,23 +141,4 @@ fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
 /// motion to its neighbour, where KAZE + RANSAC measured one.
 pub fn motions_of(result: &TileResultV1) -> Vec<ImageMotion> {
     result.images.iter().filter_map(|d| d.motion).collect()
-}
-
-#[cfg(test)]
-mod tests {
-    use super::scale_height;
-
-    #[test]
-    fn the_height_scaling_keeps_the_horizontal_block_and_the_correlations() {
-        let mut c = [[0.04, 0.01, 0.02], [0.01, 0.09, -0.03], [0.02, -0.03, 2.25]];
-        let before = c;
-        scale_height(&mut c, 4.0_f64.sqrt());
-        assert_eq!([c[0][0], c[0][1], c[1][0], c[1][1]], [before[0][0], before[0][1], before[1][0], before[1][1]]);
-        assert!((c[2][2] - 4.0 * 2.25).abs() < 1e-12, "σz doubles for four points");
-        let corr = |m: [[f64; 3]; 3], i: usize| m[i][2] / (m[i][i] * m[2][2]).sqrt();
-        for i in 0..2 {
-            assert!((corr(c, i) - corr(before, i)).abs() < 1e-12);
-            assert_eq!(c[i][2], c[2][i]);
-        }
-    }
 }

@@ -3,7 +3,7 @@
 
 use std::time::Instant;
 
-use plumbline_adjustment::{Adjustment, AdjustmentError, AdjustmentInput, WeakLink, adjust};
+use plumbline_adjustment::{Adjustment, AdjustmentError, AdjustmentInput, Iteration, WeakLink, adjust_observed};
 use plumbline_geo::dg::CameraMount;
 use plumbline_geo::{Trajectory, TrajectoryError};
 use plumbline_navigation::{ConsistencyReport, NavError, check_consistency};
@@ -48,11 +48,22 @@ pub fn solve(
     mount: &CameraMount,
     config: &AdjusterConfig,
 ) -> Result<Solved, SolveError> {
+    solve_observed(trajectory, merged, mount, config, &mut |_| {})
+}
+
+/// [`solve`], reporting each Gauss–Newton/LM iteration of the adjustment to `observer` as it ends.
+pub fn solve_observed(
+    trajectory: &Trajectory,
+    merged: &Merged,
+    mount: &CameraMount,
+    config: &AdjusterConfig,
+    observer: &mut dyn FnMut(&Iteration),
+) -> Result<Solved, SolveError> {
     let start = Instant::now();
     let consistency = check_consistency(trajectory, &merged.motions, &config.consistency)?;
     let weak_links = consistency.weak_links();
     let input = AdjustmentInput { trajectory, observations: &merged.observations, mount, weak_links: &weak_links };
-    let adjustment = adjust(&input, &config.adjustment(), faer::Par::rayon(0))?;
+    let adjustment = adjust_observed(&input, &config.adjustment(), faer::Par::rayon(0), observer)?;
     let corrected = adjustment.apply(trajectory)?;
     Ok(Solved { consistency, weak_links, adjustment, corrected, seconds: start.elapsed().as_secs_f64() })
 }

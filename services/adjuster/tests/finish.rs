@@ -72,9 +72,17 @@ async fn finish_writes_every_output() {
     let want: Vec<String> = names.iter().map(|n| format!("{out}{n}")).collect();
     assert_eq!(done.written, want);
     let calls = progress.0.lock().unwrap().clone();
-    assert_eq!(calls.first().map(String::as_str), Some("begin adjustment Some(1)"));
+    assert_eq!(calls.first().map(String::as_str), Some("begin adjustment None"));
     assert_eq!(calls.last().map(String::as_str), Some("end adjustment"));
     assert!(calls.iter().any(|c| c.starts_with("note adjustment") && c.contains("σ0")), "{calls:?}");
+    // Every Gauss–Newton/LM iteration shows as it ends: one advance and a note each, numbered in order.
+    let advances = calls.iter().filter(|c| *c == "advance adjustment 1").count();
+    let notes: Vec<&String> = calls.iter().filter(|c| c.starts_with("note adjustment iteration ")).collect();
+    let summary = calls.iter().rev().find_map(|c| c.strip_prefix("note adjustment ")?.split_once(" iterations, "));
+    let total: usize = summary.and_then(|(n, _)| n.parse().ok()).unwrap_or(0);
+    assert!(total >= 2 && advances == total && notes.len() == total, "{calls:?}");
+    assert!(notes.iter().enumerate().all(|(i, n)| n.starts_with(&format!("note adjustment iteration {}: σ0 ", i + 1))));
+    assert!(notes.iter().all(|n| n.ends_with(" rejected")), "{notes:?}");
 
     // The corrected trajectory parses back with one record per DG record.
     let bytes = std::fs::read(dir.path().join("trajectory.csv")).unwrap();

@@ -68,3 +68,32 @@ fn a_wrong_pole_is_rejected_and_reported() {
     assert!(skipped.is_some_and(|k| k.reason == "bad observed"), "{:?}", report.skipped);
     assert_eq!(report.summary.pole_updates, poles.len() - 1);
 }
+
+/// The merge groups the ties with aerial coordinates by the aerial frames their first panorama was matched
+/// in (here a new frame pair every 20 s of drive), and the adjustment estimates one height bias per group:
+/// the simulated aerial heights carry no shared error, so every bias is zero within 3σ.
+#[test]
+fn aerial_frame_sets_reach_the_adjustment_as_height_biases() {
+    let s = common::scenario(3);
+    let c = common::campaign(&s, "/tmp/unused/");
+    let merged = merge(&common::tiles(&s, &s.poles));
+    let sets = &merged.observations.aerial_frame_sets;
+    let with_aerial = merged.observations.ties.iter().filter(|t| t.aerial.is_some()).count();
+    assert!(sets.len() >= 2, "{} sets", sets.len());
+    assert_eq!(sets.iter().map(|f| f.ties.len()).sum::<usize>(), with_aerial, "every aerial tie in one set");
+    for set in sets {
+        let n: i64 = set.frames[0].strip_prefix("aerial").unwrap().parse().unwrap();
+        assert_eq!(set.frames, [format!("aerial{n:04}"), format!("aerial{:04}", n + 1)]);
+        for id in &set.ties {
+            let tie = merged.observations.ties.iter().find(|t| &t.id == id).unwrap();
+            assert_eq!(((tie.rays[0].time / common::FRAME_SPAN).floor() as i64), n, "{id:?} in {:?}", set.frames);
+        }
+    }
+    let solved = solve(&s.dg, &merged, &panorama_mount(&c.manifest), &AdjusterConfig::default()).unwrap();
+    let biases = &solved.adjustment.height_biases;
+    assert_eq!(biases.len(), sets.len());
+    for b in biases {
+        assert!(b.points > 0 && b.sigma > 0.0 && b.sigma < b.prior_sigma, "{b:?}");
+        assert!(b.bias.abs() < 3.0 * b.sigma, "{b:?}");
+    }
+}

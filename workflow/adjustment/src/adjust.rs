@@ -1,17 +1,20 @@
-//! The adjustment driver: Levenberg–Marquardt on the (Huber-)weighted normal equations with one symbolic
-//! factorisation, then Baarda data snooping, then posterior covariances from the selected inverse.
+//! The adjustment driver: Levenberg–Marquardt (`lm.rs`) on the (Huber-)weighted normal equations with one
+//! symbolic factorisation, then Baarda data snooping, then posterior covariances from the selected inverse.
 
 use faer::Par;
 use nalgebra::{Matrix6, Vector3, Vector6};
 use serde::{Deserialize, Serialize};
 
 use crate::config::AdjustmentConfig;
-use crate::normal::{assemble, cost, node};
+use crate::heights::HeightBias;
+use crate::jumps::DetectedJump;
+use crate::lm::{Iteration, Observed, minimize};
+use crate::normal::{assemble, node};
 use crate::observations::{ObservationError, ObservationRef, TiePointId};
 use crate::problem::{AdjustmentInput, Item, Kind, Problem};
 use crate::solver::{Factorizer, SelectedInverse, SolverError, SolverTimings};
 use crate::standstill::Standstill;
-use crate::stats::{VarianceFactors, node_covariances, sigma0, variance_factors, w_tests};
+use crate::stats::{Suspect, VarianceFactors, node_covariances, sigma0, variance_factors, w_tests};
 
 /// Failures of the adjustment as a whole (single bad observations are skipped and reported instead).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
@@ -105,6 +108,10 @@ pub struct Adjustment {
     pub rejected: Vec<RejectedObservation>,
     /// The detected standstills and whether their zero-velocity constraints survived snooping.
     pub standstills: Vec<StandstillOutcome>,
+    /// The estimated height bias of every aerial frame set with aerial heights in the adjustment.
+    pub height_biases: Vec<HeightBias>,
+    /// DG jumps found by data snooping on the relative constraints (those links were widened).
+    pub jumps: Vec<DetectedJump>,
     /// Observations not used because they are broken or outside the trajectory.
     pub skipped: Vec<ObservationError>,
     /// A-posteriori standard deviation of unit weight.
@@ -133,51 +140,118 @@ impl Adjustment {
 
 /// Adjust the trajectory (see the crate documentation): a Huber-robust solution first; then, with
 /// snooping, plain least-squares rounds that each reject the largest |w| beyond the critical value (one per
-/// time window) until none is left; posterior covariances at the final solution. Broken observations are
+/// time window) until none is left — an observation is rejected, a relative constraint (with jump
+/// detection) widened as a DG jump; posterior covariances at the final solution. Broken observations are
 /// skipped and listed, not fatal. `par` is the parallelism of the per-observation work and the factorisation.
 pub fn adjust(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) -> Result<Adjustment, AdjustmentError> {
-    let problem = Problem::build(input, config, par);
+    adjust_observed(input, config, par, &mut |_| {})
+}
+
+/// [`adjust`], reporting every Gauss–Newton/LM iteration to `observer` as it finishes (e.g. for a progress
+/// display: [`Iteration::note`]).
+pub fn adjust_observed(
+    input: &AdjustmentInput<'_>,
+    config: &AdjustmentConfig,
+    par: Par,
+    observer: &mut dyn FnMut(&Iteration),
+) -> Result<Adjustment, AdjustmentError> {
+    let mut problem = Problem::build(input, config, par);
     let mut x = initial_state(&problem);
     let mut active = vec![true; problem.obs.len()];
     let mut fac = Factorizer::new(&problem.pattern, par)?;
-    let mut iterations = minimize(&problem, &mut x, &active, config.huber, &mut fac, config)?;
-    let mut rejected = Vec::new();
-    let mut standstills: Vec<StandstillOutcome> =
-        problem.standstills.iter().map(|s| StandstillOutcome { standstill: *s, rejected: None }).collect();
+    let mut observed = Observed { observer, round: 0, rejected: 0, done: 0 };
+    let mut iterations = minimize(&problem, &mut x, &active, config.huber, &mut fac, config, &mut observed)?;
+    let mut snooped = Snooped::new(&problem, config);
     let selected = match config.snooping {
         Some(snoop) => {
             let mut round = 0;
             loop {
-                iterations += minimize(&problem, &mut x, &active, None, &mut fac, config)?;
+                observed.round = round + 1;
+                observed.rejected = snooped.count();
+                iterations += minimize(&problem, &mut x, &active, None, &mut fac, config, &mut observed)?;
                 let sel = factor_at(&problem, &x, &active, None, &mut fac)?;
-                let found = w_tests(&problem, &x, &active, &sel, &snoop);
+                let links = config.jump_detection.is_some().then_some(snooped.testable.as_slice());
+                let found = w_tests(&problem, &x, &active, &sel, &snoop, links);
                 if found.is_empty() || round >= snoop.max_rounds {
                     break sel;
                 }
-                for (i, w) in found {
-                    active[i] = false;
-                    match &problem.obs[i].item {
-                        Item::Observation(item) => {
-                            rejected.push(RejectedObservation { item: item.clone(), w, round });
-                            rejected.extend(drop_undetermined(&problem, i, &mut active, w, round));
-                        }
-                        Item::Standstill(s) => {
-                            // Both parts (position and heading) go together.
-                            for (o, a) in problem.obs.iter().zip(active.iter_mut()) {
-                                *a &= o.item != problem.obs[i].item;
-                            }
-                            standstills[*s].rejected = Some((w, round));
-                        }
-                    }
+                for (suspect, w) in found {
+                    snooped.apply(&mut problem, &mut active, suspect, w, round, config);
                 }
                 round += 1;
             }
         }
         None => factor_at(&problem, &x, &active, config.huber, &mut fac)?,
     };
-    let mut out = finish(problem, &x, &active, &selected, rejected, iterations, fac.timings);
-    out.standstills = standstills;
+    let mut out = finish(problem, &x, &active, &selected, snooped.rejected, iterations, fac.timings);
+    out.standstills = snooped.standstills;
+    out.jumps = snooped.jumps;
     Ok(out)
+}
+
+/// What data snooping found so far: rejected observations, standstills with their fate, detected jumps,
+/// and the relative constraints still under test.
+struct Snooped {
+    rejected: Vec<RejectedObservation>,
+    standstills: Vec<StandstillOutcome>,
+    jumps: Vec<DetectedJump>,
+    /// The links still tested for jumps (one widened to the largest σ is not tested again).
+    testable: Vec<bool>,
+}
+
+impl Snooped {
+    fn new(p: &Problem, config: &AdjustmentConfig) -> Self {
+        Self {
+            rejected: Vec::new(),
+            standstills: p.standstills.iter().map(|s| StandstillOutcome { standstill: *s, rejected: None }).collect(),
+            jumps: Vec::new(),
+            testable: vec![config.jump_detection.is_some(); p.relative_sigma.len()],
+        }
+    }
+
+    /// Rejected observations and standstills, and detected jumps.
+    fn count(&self) -> usize {
+        self.rejected.len() + self.standstills.iter().filter(|s| !s.accepted()).count() + self.jumps.len()
+    }
+
+    /// Act on one suspect of snooping round `round`: reject an observation (a standstill's both parts, a tie
+    /// left undetermined whole) or widen a relative constraint as a DG jump.
+    fn apply(
+        &mut self,
+        p: &mut Problem,
+        active: &mut [bool],
+        suspect: Suspect,
+        w: f64,
+        round: usize,
+        config: &AdjustmentConfig,
+    ) {
+        let i = match (suspect, &config.jump_detection, &config.snooping) {
+            (Suspect::Observation(i), _, _) => i,
+            (Suspect::Link(k), Some(j), Some(snoop)) => {
+                self.testable[k] = crate::jumps::widen(p, k, w, snoop.critical_value, j.sigma);
+                let (start, end) = (p.nodes.times[k], p.nodes.times[k + 1]);
+                if !self.jumps.iter().any(|d| d.start == start) {
+                    self.jumps.push(DetectedJump { start, end, w, round });
+                }
+                return;
+            }
+            (Suspect::Link(_), _, _) => return,
+        };
+        active[i] = false;
+        match &p.obs[i].item {
+            Item::Observation(item) => {
+                self.rejected.push(RejectedObservation { item: item.clone(), w, round });
+                self.rejected.extend(drop_undetermined(p, i, active, w, round));
+            }
+            Item::Standstill(s) => {
+                // Both parts (position and heading) go together.
+                for (o, a) in p.obs.iter().zip(active.iter_mut()) {
+                    *a &= o.item != p.obs[i].item;
+                }
+                self.standstills[*s].rejected = Some((w, round));
+            }
+        }
+    }
 }
 
 /// After rejecting observation `i`: if it belonged to a tie point that is no longer determined (neither
@@ -230,74 +304,6 @@ fn factor_at(
     fac.selected_inverse()
 }
 
-/// Levenberg–Marquardt with IRLS weights re-evaluated at each iterate; returns the iterations taken.
-fn minimize(
-    p: &Problem,
-    x: &mut [f64],
-    active: &[bool],
-    huber: Option<f64>,
-    fac: &mut Factorizer,
-    config: &AdjustmentConfig,
-) -> Result<usize, SolverError> {
-    let mut lambda = 0.0;
-    for it in 0..config.max_iterations {
-        let n = assemble(p, x, active, huber);
-        let Some((step, new_cost)) = damped_step(p, x, active, huber, fac, &n, &mut lambda, config.tolerance)? else {
-            return Ok(it + 1);
-        };
-        for (xi, si) in x.iter_mut().zip(&step) {
-            *xi += si;
-        }
-        let largest = step.iter().fold(0.0f64, |m, s| m.max(s.abs()));
-        if largest < config.tolerance || n.cost - new_cost <= 1e-10 * n.cost {
-            return Ok(it + 1);
-        }
-    }
-    Ok(config.max_iterations)
-}
-
-/// A step that lowers the objective (or is below `tolerance`), raising the damping until one does; `None`
-/// when none can.
-#[allow(clippy::too_many_arguments)]
-fn damped_step(
-    p: &Problem,
-    x: &[f64],
-    active: &[bool],
-    huber: Option<f64>,
-    fac: &mut Factorizer,
-    n: &crate::normal::Normal,
-    lambda: &mut f64,
-    tolerance: f64,
-) -> Result<Option<(Vec<f64>, f64)>, SolverError> {
-    loop {
-        if *lambda == 0.0 {
-            fac.factor(&p.pattern, &n.values)?;
-        } else {
-            let mut damped = n.values.clone();
-            for i in 0..p.pattern.dim() {
-                damped[p.pattern.diagonal(i)] *= 1.0 + *lambda;
-            }
-            fac.factor(&p.pattern, &damped)?;
-        }
-        let mut step: Vec<f64> = n.gradient.iter().map(|g| -g).collect();
-        fac.solve(&mut step);
-        if step.iter().all(|s| s.abs() < tolerance) {
-            // Converged: the objective cannot drop measurably any more, rounding would only reject it.
-            return Ok(Some((step, n.cost)));
-        }
-        let trial: Vec<f64> = x.iter().zip(&step).map(|(a, b)| a + b).collect();
-        let new_cost = cost(p, &trial, active, huber);
-        if new_cost <= n.cost {
-            *lambda = if *lambda < 1e-6 { 0.0 } else { *lambda * 0.1 };
-            return Ok(Some((step, new_cost)));
-        }
-        *lambda = if *lambda == 0.0 { 1e-4 } else { *lambda * 10.0 };
-        if *lambda > 1e8 {
-            return Ok(None);
-        }
-    }
-}
-
 fn finish(
     p: Problem,
     x: &[f64],
@@ -331,6 +337,16 @@ fn finish(
     let (sigma0, redundancy) = sigma0(&p, x, active);
     let link_variances = p.relative_sigma.iter().map(|s| s.component_mul(s)).collect();
     let variance_factors = variance_factors(&p, x, active, sel);
+    let height_biases = p
+        .biases
+        .iter()
+        .enumerate()
+        .map(|(h, b)| {
+            let i = p.bias_param(h);
+            let (frames, points, prior_sigma) = (b.frames.clone(), b.points, b.prior_sigma);
+            HeightBias { frames, points, bias: x[i], prior_sigma, sigma: sel.get(i, i).max(0.0).sqrt() }
+        })
+        .collect();
     Adjustment {
         nodes,
         cross_covariances,
@@ -338,6 +354,8 @@ fn finish(
         points,
         rejected,
         standstills: Vec::new(),
+        height_biases,
+        jumps: Vec::new(),
         skipped: p.skipped,
         sigma0,
         redundancy,

@@ -4,6 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::faults::FaultPrior;
+use crate::heights::HeightBiases;
+use crate::jumps::JumpDetection;
 use crate::localize::JumpLocalization;
 use crate::standstill::StandstillConfig;
 
@@ -93,6 +95,21 @@ pub struct AdjustmentConfig {
     /// Standstill detection on the DG trajectory and zero-velocity constraints (`None`: off).
     #[serde(default = "default_standstill")]
     pub standstill: Option<StandstillConfig>,
+    /// One height bias per aerial frame set listed in the observations (`None`: aerial heights independent).
+    #[serde(default = "default_height_biases")]
+    pub height_biases: Option<HeightBiases>,
+    /// Data snooping also tests the relative constraints' position rows and widens an inconsistent one as
+    /// a DG jump the consistency check missed (`None`: only observations are tested).
+    #[serde(default = "default_jump_detection")]
+    pub jump_detection: Option<JumpDetection>,
+}
+
+fn default_jump_detection() -> Option<JumpDetection> {
+    Some(JumpDetection::default())
+}
+
+fn default_height_biases() -> Option<HeightBiases> {
+    Some(HeightBiases::default())
 }
 
 fn default_fault_prior() -> Option<FaultPrior> {
@@ -132,6 +149,8 @@ impl Default for AdjustmentConfig {
             pole_offsets: true,
             fault_prior: default_fault_prior(),
             jump_localization: default_localization(),
+            height_biases: default_height_biases(),
+            jump_detection: default_jump_detection(),
         }
     }
 }

@@ -12,18 +12,24 @@
 //!   once gets a 2-D nuisance offset with prior σ_pole, its updates keep σ_cam (paper 002 eq. (1) split).
 //! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
 //!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]) and aerial coordinates.
+//! - **Aerial frame sets** ([`AerialFrameSet`]): the aerial heights triangulated from the same frames share
+//!   one height bias, a nuisance parameter with a prior as large as one point's height σ ([`HeightBiases`]),
+//!   estimated jointly and reported ([`Adjustment::height_biases`]).
 //! - **Standstills** ([`detect_standstills`]): where the DG trajectory says the vehicle stands still, the
 //!   corrected pose at the end equals the one at the start (a zero-velocity constraint, robust-weighted and
 //!   snooped like any observation) instead of following the DG's relative motion, so a DG jump while
 //!   standing is absorbed into the correction; [`Adjustment::apply`] holds the pose over the accepted ones.
+//! - **Jumps the consistency check missed** ([`JumpDetection`]): snooping tests the relative constraints'
+//!   position rows too; an inconsistent one is widened as a DG jump ([`Adjustment::jumps`]) instead of the
+//!   control after it being rejected one by one.
 //! - **Solver**: Levenberg–Marquardt with Huber IRLS; the normal matrix is assembled straight into
 //!   compressed-column form; faer's simplicial sparse Cholesky with AMD on the block graph, symbolic
 //!   factorisation once and reused. Then Baarda data snooping (w-test with redundancy numbers from Q_vv's
 //!   diagonal) and posterior covariances, both from the selected inverse of the normal matrix (Takahashi
 //!   recurrences on the factor's pattern).
 //! - **Output** ([`Adjustment`]): node corrections with covariances, tie points, rejected and skipped
-//!   observations, standstills with their fate ([`Adjustment::rejected_standstills`]), variance factors,
-//!   timings; [`Adjustment::apply`] corrects a full-rate trajectory.
+//!   observations, standstills with their fate ([`Adjustment::rejected_standstills`]), height biases,
+//!   variance factors, timings; every iteration reported as it ends with [`adjust_observed`] ([`Iteration`]); [`Adjustment::apply`] corrects a full-rate trajectory.
 //!   A tie point that snooping leaves undetermined (no aerial coordinates, fewer than two rays) is rejected
 //!   whole. [`export`] writes the chain and pole CUPTs as plain data for the GTSAM comparison bench.
 
@@ -33,6 +39,9 @@ mod chain;
 mod config;
 mod export;
 mod faults;
+mod heights;
+mod jumps;
+mod lm;
 mod localize;
 mod model;
 mod nodes;
@@ -49,16 +58,19 @@ mod stats;
 
 pub use adjust::{
     AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, RejectedStandstill,
-    StandstillOutcome, adjust,
+    StandstillOutcome, adjust, adjust_observed,
 };
 pub use config::{AdjustmentConfig, RandomWalk, Snooping};
 pub use export::{ExportedNode, ExportedPole, ExportedProblem, export};
 pub use faults::FaultPrior;
+pub use heights::{HeightBias, HeightBiases};
+pub use jumps::{DetectedJump, JumpDetection};
+pub use lm::Iteration;
 pub use localize::JumpLocalization;
 pub use nodes::WeakLink;
 pub use observations::{
-    AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1, PoleUpdate,
-    TiePoint, TiePointId, TieRay,
+    AerialFrameSet, AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1,
+    PoleUpdate, TiePoint, TiePointId, TieRay,
 };
 pub use problem::AdjustmentInput;
 pub use solver::{SolverError, SolverTimings};

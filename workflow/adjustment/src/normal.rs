@@ -43,7 +43,11 @@ pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
         }
         Kind::Gnss { lever, measured, sigma } => model::gnss(&o.dg, &delta, lever, measured, sigma),
         Kind::Ray { point: i, direction, sigma } => model::ray(&o.dg, &delta, &p.mount, &point(*i), direction, *sigma),
-        Kind::Aerial { point: i, measured, whitening } => model::aerial(&point(*i), measured, whitening),
+        Kind::Aerial { point: i, measured, whitening, bias } => {
+            // The measured height carries the frame set's bias: measured = true + b·e_z.
+            let b = bias.map_or(0.0, |h| x[p.bias_param(h)]);
+            model::aerial(&(point(*i) + Vector3::new(0.0, 0.0, b)), measured, whitening)
+        }
         Kind::Standstill { offset, sigma, heading } => model::standstill(&delta, offset, *sigma, *heading),
     }
 }
@@ -66,6 +70,12 @@ pub(crate) fn blocks(p: &Problem, o: &Obs, lin: &Linearized) -> Vec<(usize, Matr
         j.fixed_view_mut::<3, 3>(0, 0).copy_from(&lin.j_point);
         out.push((block, j));
     }
+    if let Kind::Aerial { bias: Some(h), whitening, .. } = &o.kind {
+        // ∂S(X + b e_z − z)/∂b = S e_z.
+        let mut j = Matrix3x6::zeros();
+        j.set_column(0, &whitening.column(2));
+        out.push((p.bias_block(*h), j));
+    }
     out
 }
 
@@ -74,11 +84,15 @@ pub(crate) struct Normal {
     pub values: Vec<f64>,
     pub gradient: Vec<f64>,
     pub cost: f64,
+    /// Whitened residual rows (chain terms, nuisance priors and active observations).
+    pub rows: usize,
 }
 
 /// Assemble N = Σ Jᵀ W J and g = Σ Jᵀ W e over the chain terms and the active observations.
 pub(crate) fn assemble(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) -> Normal {
-    let mut n = Normal { values: vec![0.0; p.pattern.nnz()], gradient: vec![0.0; p.pattern.dim()], cost: 0.0 };
+    let chain_rows = 6 * (p.relative_sigma.len() + p.prior_sigma.len()) + p.nuisance_priors().count();
+    let (values, gradient) = (vec![0.0; p.pattern.nnz()], vec![0.0; p.pattern.dim()]);
+    let mut n = Normal { values, gradient, cost: 0.0, rows: chain_rows };
     assemble_chain(p, x, &mut n);
     // A tie point whose observations were all rejected keeps an identity block: decoupled, it stays put.
     let mut observed = vec![false; p.points.len()];
@@ -95,6 +109,7 @@ pub(crate) fn assemble(p: &Problem, x: &[f64], active: &[bool], huber: Option<f6
     let lins = parallel::map(p.par, p.obs.len(), |i| active[i].then(|| linearize(p, &p.obs[i], x)));
     for (o, lin) in p.obs.iter().zip(lins) {
         let Some(lin) = lin else { continue };
+        n.rows += lin.dim;
         let s = lin.e.norm();
         n.cost += huber_loss(s, huber);
         let w = huber_weight(s, huber);
@@ -139,24 +154,17 @@ fn assemble_chain(p: &Problem, x: &[f64], n: &mut Normal) {
         }
         p.pattern.add_diagonal(&mut n.values, k, k, &wgt);
     }
-    for (g, sigma) in p.offset_sigma.iter().enumerate() {
-        let off = p.offset_param(g);
-        for c in 0..2 {
-            let wgt = 1.0 / (sigma * sigma);
-            n.cost += 0.5 * x[off + c] * x[off + c] * wgt;
-            n.gradient[off + c] += x[off + c] * wgt;
-            n.values[p.pattern.diagonal(off + c)] += wgt;
-        }
+    for (i, sigma) in p.nuisance_priors() {
+        let wgt = 1.0 / (sigma * sigma);
+        n.cost += 0.5 * x[i] * x[i] * wgt;
+        n.gradient[i] += x[i] * wgt;
+        n.values[p.pattern.diagonal(i)] += wgt;
     }
 }
 
-/// ½ Σ (o_g / σ_g)² over the cadastre objects' offsets (their prior).
-pub(crate) fn offset_prior(p: &Problem, x: &[f64]) -> f64 {
-    let squared = |g: usize, s: f64| {
-        let off = p.offset_param(g);
-        (x[off] * x[off] + x[off + 1] * x[off + 1]) / (s * s)
-    };
-    0.5 * p.offset_sigma.iter().enumerate().map(|(g, s)| squared(g, *s)).sum::<f64>()
+/// ½ Σ (v / σ_v)² over the nuisance parameters (cadastre offsets, height biases): their priors.
+pub(crate) fn nuisance_prior(p: &Problem, x: &[f64]) -> f64 {
+    0.5 * p.nuisance_priors().map(|(i, s)| (x[i] / s).powi(2)).sum::<f64>()
 }
 
 /// The objective at `x` (chain terms + Huber loss of the active observations).
@@ -169,5 +177,5 @@ pub(crate) fn cost(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) 
     let obs = parallel::sum(p.par, p.obs.len(), |i| {
         if active[i] { huber_loss(linearize(p, &p.obs[i], x).e.norm(), huber) } else { 0.0 }
     });
-    relative + prior + obs + offset_prior(p, x)
+    relative + prior + obs + nuisance_prior(p, x)
 }

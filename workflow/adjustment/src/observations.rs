@@ -38,6 +38,11 @@ pub struct ObservationSetV1 {
     /// GNSS antenna positions.
     #[serde(default)]
     pub gnss: Vec<GnssPosition>,
+    /// Which tie points' aerial coordinates come from the same aerial frames (they share those frames'
+    /// orientation errors, so their heights share one bias). Optional: sets written before this field
+    /// existed parse unchanged, and their aerial heights are then weighted as independent.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aerial_frame_sets: Vec<AerialFrameSet>,
 }
 
 impl ObservationSetV1 {
@@ -46,7 +51,21 @@ impl ObservationSetV1 {
         self.ties.extend(other.ties);
         self.poles.extend(other.poles);
         self.gnss.extend(other.gnss);
+        self.aerial_frame_sets.extend(other.aerial_frame_sets);
     }
+}
+
+/// Tie points whose aerial coordinates were triangulated from one set of aerial frames (paper 000 §3.9).
+/// With the base-to-height ratio of a few per cent of nadir frames, a small error in the frames' relative
+/// orientation moves every height triangulated from them by the same decimetres: the adjustment gives each
+/// set one height bias (a nuisance parameter) instead of trusting those heights as independent.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AerialFrameSet {
+    /// The aerial frame ids, sorted.
+    pub frames: Vec<String>,
+    /// The tie points (with aerial coordinates) triangulated from these frames.
+    pub ties: Vec<TiePointId>,
 }
 
 /// Identifier of a tie point, unique within a campaign.
@@ -266,11 +285,24 @@ mod tests {
             }],
             poles: vec![pole()],
             gnss: vec![GnssPosition { time: 2.0, position: [1.0; 3], sigma: [0.02; 3], lever_arm: [0.0; 3] }],
+            aerial_frame_sets: vec![AerialFrameSet {
+                frames: vec!["a1".into(), "a2".into()],
+                ties: vec![TiePointId("t1".into())],
+            }],
         });
         let json = serde_json::to_string(&set).unwrap();
         assert!(json.starts_with(r#"{"version":"1""#), "{json}");
         assert_eq!(serde_json::from_str::<ObservationSet>(&json).unwrap(), set);
         assert!(serde_json::from_str::<ObservationSet>(r#"{"version":"9"}"#).is_err());
+    }
+
+    #[test]
+    fn sets_without_frame_sets_still_parse() {
+        let old = r#"{"version":"1","ties":[],"poles":[],"gnss":[]}"#;
+        let set = serde_json::from_str::<ObservationSet>(old).unwrap().into_latest();
+        assert!(set.aerial_frame_sets.is_empty());
+        let json = serde_json::to_string(&ObservationSet::V1(set)).unwrap();
+        assert!(!json.contains("aerial_frame_sets"), "an empty list is not written: {json}");
     }
 
     #[test]

@@ -1,8 +1,8 @@
 //! The block sparsity pattern of the normal matrix and its upper-triangular compressed-column layout.
 //!
-//! Parameter blocks are the node corrections (6 columns each), the tie points (3 each), then the cadastre
-//! objects' nuisance offsets (2 each). The
-//! pattern is fixed once (chain links + the block pairs every observation touches), so the symbolic
+//! Parameter blocks are the node corrections (6 columns each), then the other unknowns in the widths given:
+//! tie points (3 each), cadastre objects' nuisance offsets (2 each), aerial frame sets' height biases (1
+//! each). The pattern is fixed once (chain links + the block pairs every observation touches), so the symbolic
 //! factorisation is reused for every Gauss–Newton iteration; values are accumulated straight into the
 //! compressed-column value array.
 
@@ -23,21 +23,15 @@ pub(crate) struct Pattern {
 }
 
 impl Pattern {
-    /// The pattern for `n_nodes` node blocks, `n_points` point blocks, `n_offsets` pole-offset blocks and the
-    /// given coupled block pairs (each pair in any order; the diagonal and the chain links are always present).
-    pub fn new(n_nodes: usize, n_points: usize, n_offsets: usize, mut pairs: Vec<(usize, usize)>) -> Self {
-        let n_blocks = n_nodes + n_points + n_offsets;
+    /// The pattern for `n_nodes` node blocks followed by blocks of the given `widths`, and the given coupled
+    /// block pairs (each pair in any order; the diagonal and the chain links are always present).
+    pub fn new(n_nodes: usize, widths: &[usize], mut pairs: Vec<(usize, usize)>) -> Self {
+        let n_blocks = n_nodes + widths.len();
         let mut offsets = Vec::with_capacity(n_blocks + 1);
         let mut acc = 0;
-        for b in 0..n_blocks {
+        for width in std::iter::repeat_n(6, n_nodes).chain(widths.iter().copied()) {
             offsets.push(acc);
-            acc += if b < n_nodes {
-                6
-            } else if b < n_nodes + n_points {
-                3
-            } else {
-                2
-            };
+            acc += width;
         }
         offsets.push(acc);
         pairs.extend((0..n_blocks).map(|b| (b, b)));
@@ -135,7 +129,7 @@ mod tests {
 
     #[test]
     fn layout_holds_every_upper_entry_once_with_the_diagonal_last() {
-        let p = Pattern::new(3, 1, 0, vec![(3, 0), (2, 3)]);
+        let p = Pattern::new(3, &[3], vec![(3, 0), (2, 3)]);
         assert_eq!(p.dim(), 21);
         for col in 0..p.dim() {
             let rows = &p.row_idx[p.col_ptr[col]..p.col_ptr[col + 1]];

@@ -49,10 +49,12 @@ pub(crate) enum Kind {
         direction: Vector3<f64>,
         sigma: f64,
     },
+    /// `bias`: the aerial frame set's height-bias block.
     Aerial {
         point: usize,
         measured: Vector3<f64>,
         whitening: Matrix3<f64>,
+        bias: Option<usize>,
     },
     Standstill {
         offset: Vector3<f64>,
@@ -94,6 +96,8 @@ pub(crate) struct Problem {
     pub point_init: Vec<Vector3<f64>>,
     /// Prior σ (the cadastre accuracy) of each cadastre object's 2-D offset.
     pub offset_sigma: Vec<f64>,
+    /// The aerial frame sets' height biases.
+    pub biases: Vec<crate::heights::BiasBlock>,
     pub relative_sigma: Vec<Vector6<f64>>,
     pub prior_sigma: Vec<Vector6<f64>>,
     pub pattern: Pattern,
@@ -123,6 +127,11 @@ impl Problem {
             if config.pole_offsets { crate::offsets::share_pole_offsets(&mut b.raw) } else { Vec::new() };
         b.gnss();
         b.ties();
+        let sets = &input.observations.aerial_frame_sets;
+        let biases = config
+            .height_biases
+            .map(|c| crate::heights::share_height_biases(&mut b.raw, sets, &b.points, &c))
+            .unwrap_or_default();
         let span = input.trajectory.span();
         let standstills = config.standstill.map(|c| detect_standstills(input.trajectory, &c)).unwrap_or_default();
         // Inside a standstill the zero-velocity constraint replaces the DG's relative motion.
@@ -152,14 +161,19 @@ impl Problem {
         let breaks = crate::chain::breaks(input, &standstills, config);
         let links = crate::chain::Links { all: &links, flagged: &flagged, still: &still, standstills: &standstills };
         let (relative_sigma, prior_sigma) = crate::chain::chain(&nodes, input.trajectory, &links, &breaks, config, par);
-        let pairs = pairs(&obs, nodes.len(), b.points.len());
-        let pattern = Pattern::new(nodes.len(), b.points.len(), offset_sigma.len(), pairs);
+        let layout = Layout { nodes: nodes.len(), points: b.points.len(), offsets: offset_sigma.len() };
+        let widths: Vec<usize> = [(layout.points, 3), (layout.offsets, 2), (biases.len(), 1)]
+            .iter()
+            .flat_map(|(n, w)| std::iter::repeat_n(*w, *n))
+            .collect();
+        let pattern = Pattern::new(nodes.len(), &widths, pairs(&obs, &layout));
         Self {
             nodes,
             obs,
             points: b.points,
             point_init: b.point_init,
             offset_sigma,
+            biases,
             relative_sigma,
             prior_sigma,
             pattern,
@@ -183,6 +197,25 @@ impl Problem {
     /// Parameter index of the first coordinate of cadastre object `g`'s offset.
     pub fn offset_param(&self, g: usize) -> usize {
         self.pattern.offsets[self.offset_block(g)]
+    }
+
+    /// Block index of aerial frame set `h`'s height bias.
+    pub fn bias_block(&self, h: usize) -> usize {
+        self.offset_block(self.offset_sigma.len()) + h
+    }
+
+    /// Parameter index of aerial frame set `h`'s height bias.
+    pub fn bias_param(&self, h: usize) -> usize {
+        self.pattern.offsets[self.bias_block(h)]
+    }
+
+    /// Every nuisance parameter (pole offset coordinates, height biases) with its prior σ.
+    pub fn nuisance_priors(&self) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let offsets = self.offset_sigma.iter().enumerate().flat_map(|(g, s)| {
+            let first = self.offset_param(g);
+            [(first, *s), (first + 1, *s)]
+        });
+        offsets.chain(self.biases.iter().enumerate().map(|(h, b)| (self.bias_param(h), b.prior_sigma)))
     }
 }
 
@@ -227,14 +260,24 @@ fn standstill_obs<'a>(
         .flatten()
 }
 
-/// Block pairs coupled by observations (node–node, node–point, node–offset).
-fn pairs(obs: &[Obs], n_nodes: usize, n_points: usize) -> Vec<(usize, usize)> {
+/// Block counts: nodes, then tie points, cadastre offsets and height biases.
+struct Layout {
+    nodes: usize,
+    points: usize,
+    offsets: usize,
+}
+
+/// Block pairs coupled by observations (node–node, node–point, node–offset, point–bias).
+fn pairs(obs: &[Obs], l: &Layout) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     for o in obs {
         let mut blocks: Vec<usize> = o.parts.iter().map(|(k, _)| *k).collect();
         match o.kind {
-            Kind::Ray { point, .. } | Kind::Aerial { point, .. } => blocks.push(n_nodes + point),
-            Kind::Pole { offset: Some(g), .. } => blocks.push(n_nodes + n_points + g),
+            Kind::Ray { point, .. } | Kind::Aerial { point, bias: None, .. } => blocks.push(l.nodes + point),
+            Kind::Aerial { point, bias: Some(h), .. } => {
+                blocks.extend([l.nodes + point, l.nodes + l.points + l.offsets + h]);
+            }
+            Kind::Pole { offset: Some(g), .. } => blocks.push(l.nodes + l.points + g),
             _ => {}
         }
         for (i, a) in blocks.iter().enumerate() {
@@ -331,7 +374,7 @@ impl Builder<'_, '_> {
             let whitening = aerial_whitening(&a.covariance).unwrap_or_else(Matrix3::identity);
             let dg = DgPose { p: Vector3::zeros(), r: Matrix3::identity() };
             let time = tie.rays.first().map_or(0.0, |r| r.time);
-            let kind = Kind::Aerial { point, measured: Vector3::from(a.position), whitening };
+            let kind = Kind::Aerial { point, measured: Vector3::from(a.position), whitening, bias: None };
             let parts = Vec::new();
             self.raw.push(Obs { item: Item::Observation(item), time, until: time, dg, parts, kind, pole_sigmas: None });
         }

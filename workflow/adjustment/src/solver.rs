@@ -204,7 +204,7 @@ mod tests {
     #[test]
     fn solve_and_selected_inverse_match_dense_linear_algebra() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
-        let pattern = Pattern::new(5, 1, 1, vec![(5, 0), (5, 4), (6, 2), (1, 3)]);
+        let pattern = Pattern::new(5, &[3, 2], vec![(5, 0), (5, 4), (6, 2), (1, 3)]);
         let n = pattern.dim();
         let mut values = vec![0.0; pattern.nnz()];
         let pairs = [(0, 0), (1, 1), (2, 2), (3, 3), (4, 4), (5, 5), (6, 6), (0, 1), (1, 2), (2, 3), (3, 4)];

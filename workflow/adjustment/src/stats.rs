@@ -10,32 +10,53 @@ use nalgebra::{DMatrix, Matrix6};
 use serde::{Deserialize, Serialize};
 
 use crate::config::Snooping;
+use crate::jumps;
 use crate::normal::{blocks, linearize, node};
 use crate::problem::{Kind, Problem};
 use crate::solver::SelectedInverse;
 
-/// Observations to reject this round: (index, |w|), the largest first, at most one per time window (spans
-/// closer than the window to a chosen one's span are left for the next round).
+/// What a w-test blames: an observation, or the relative constraint between node k and k+1 (a DG jump).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) enum Suspect {
+    Observation(usize),
+    Link(usize),
+}
+
+/// What to reject (or widen) this round: (suspect, |w|), the largest first, at most one per time window
+/// (spans closer than the window to a chosen one's span are left for the next round). `links` marks the
+/// relative constraints still tested (None: no jump detection).
 pub(crate) fn w_tests(
     p: &Problem,
     x: &[f64],
     active: &[bool],
     sel: &SelectedInverse,
     snoop: &Snooping,
-) -> Vec<(usize, f64)> {
+    links: Option<&[bool]>,
+) -> Vec<(Suspect, f64)> {
     let w = crate::parallel::map(p.par, p.obs.len(), |i| if active[i] { max_w(p, i, x, sel) } else { None });
-    let mut candidates: Vec<(usize, f64)> = w
-        .into_iter()
-        .enumerate()
-        .filter_map(|(i, w)| w.filter(|w| *w > snoop.critical_value).map(|w| (i, w)))
+    let observations = w.into_iter().enumerate().map(|(i, w)| (Suspect::Observation(i), w));
+    let tested = links.unwrap_or(&[]);
+    let link_w =
+        crate::parallel::map(p.par, tested.len(), |k| tested[k].then(|| jumps::link_w(p, x, sel, k)).flatten());
+    let links = link_w.into_iter().enumerate().map(|(k, w)| (Suspect::Link(k), w));
+    let mut candidates: Vec<(Suspect, f64)> = observations
+        .chain(links)
+        .filter_map(|(s, w)| w.filter(|w| *w > snoop.critical_value).map(|w| (s, w)))
         .collect();
     candidates.sort_by(|a, b| b.1.total_cmp(&a.1));
-    let mut chosen: Vec<(usize, f64)> = Vec::new();
-    for (i, w) in candidates {
-        // Distance between the time spans (a standstill spans its whole interval).
-        let (a, b) = (&p.obs[i], |j: usize| &p.obs[j]);
-        if chosen.iter().all(|(j, _)| (b(*j).time - a.until).max(a.time - b(*j).until) > snoop.window) {
-            chosen.push((i, w));
+    let span = |s: &Suspect| match *s {
+        // A standstill spans its whole interval.
+        Suspect::Observation(i) => (p.obs[i].time, p.obs[i].until),
+        Suspect::Link(k) => (p.nodes.times[k], p.nodes.times[k + 1]),
+    };
+    let mut chosen: Vec<(Suspect, f64)> = Vec::new();
+    for (s, w) in candidates {
+        let (a0, a1) = span(&s);
+        if chosen.iter().all(|(c, _)| {
+            let (b0, b1) = span(c);
+            (b0 - a1).max(a0 - b1) > snoop.window
+        }) {
+            chosen.push((s, w));
         }
     }
     chosen
@@ -118,8 +139,8 @@ pub(crate) fn sigma0(p: &Problem, x: &[f64], active: &[bool]) -> (f64, f64) {
         sum += lin.e.norm_squared();
         rows += lin.dim;
     }
-    sum += 2.0 * crate::normal::offset_prior(p, x);
-    rows += 2 * p.offset_sigma.len();
+    sum += 2.0 * crate::normal::nuisance_prior(p, x);
+    rows += p.nuisance_priors().count();
     let redundancy = rows as f64 - p.pattern.dim() as f64;
     ((sum / redundancy.max(1.0)).sqrt(), redundancy)
 }

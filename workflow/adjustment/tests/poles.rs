@@ -6,7 +6,9 @@ mod common;
 
 use common::*;
 use faer::Par;
-use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, ObservationRef, ObservationSetV1, WeakLink, adjust};
+use plumbline_adjustment::{
+    AdjustmentConfig, AdjustmentInput, ObservationRef, ObservationSetV1, WeakLink, adjust, adjust_observed,
+};
 use rand::SeedableRng;
 
 fn run(
@@ -49,23 +51,6 @@ fn exact_cupts_pull_a_drifting_jumping_trajectory_onto_the_truth() {
     let stiff = run(&s, &obs, &[], &config).apply(&s.dg).unwrap();
     let smeared = inner(&horizontal_errors(&stiff, &s.truth));
     assert!(max(&smeared) > 0.05, "max {}", max(&smeared));
-}
-
-/// Truth correction as a realisation of the model's own random walk (DG σ 0.05 m, τ = 10 s).
-fn random_walk_truth(seed: u64) -> impl Fn(f64) -> nalgebra::Vector6<f64> {
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let cfg = AdjustmentConfig::default().random_walk;
-    let pos = (cfg.position_floor.powi(2) + 0.05f64.powi(2) / cfg.correlation_time).sqrt();
-    let mut state = nalgebra::Vector6::new(0.2, -0.1, 0.05, 0.0, 0.0, 0.0);
-    let mut path = vec![state];
-    for _ in 0..1300 {
-        // 0.1 s steps; attitude held constant so only position carries the walk.
-        for c in 0..3 {
-            state[c] += gauss(&mut rng) * pos * 0.1f64.sqrt();
-        }
-        path.push(state);
-    }
-    move |t: f64| path[((t * 10.0).round() as usize).min(path.len() - 1)]
 }
 
 #[test]
@@ -249,4 +234,24 @@ fn control_decides_between_flagged_jumps_where_the_dg_sigma_is_optimistic() {
     // 20 poles of σ 0.3 m fix the offset to ~7 cm; the tight prior keeps most of the 0.8 m.
     assert!(floored < 0.15, "with the floor: {floored}");
     assert!(held > 0.4, "without: {held}");
+}
+
+#[test]
+fn every_iteration_is_reported_and_the_last_one_has_the_final_sigma0() {
+    let s = scene(120.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(9);
+    let mut obs = ObservationSetV1 { poles: poles(&s, 30, 0.03, 0.05, &mut rng), ..Default::default() };
+    obs.poles[17].cadastre[0] += 0.8;
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
+    let mut seen = Vec::new();
+    let result = adjust_observed(&input, &AdjustmentConfig::default(), Par::Seq, &mut |it| seen.push(*it)).unwrap();
+    assert_eq!(seen.len(), result.iterations);
+    assert!(seen.iter().enumerate().all(|(i, it)| it.iteration == i + 1), "{seen:?}");
+    assert!(seen.windows(2).all(|w| w[0].round <= w[1].round && w[0].rejected <= w[1].rejected), "{seen:?}");
+    // Round 0 is the Huber solution, then one snooping round rejected the bad pole, then a clean one.
+    let last = seen.last().unwrap();
+    assert_eq!((seen[0].round, last.round, last.rejected, result.rejected.len()), (0, 2, 1, 1), "{seen:?}");
+    assert!((last.sigma0 - result.sigma0).abs() < 1e-6 * result.sigma0, "{} vs {}", last.sigma0, result.sigma0);
+    assert_eq!(last.note(), format!("iteration {}: σ0 {:.2}, 1 rejected", result.iterations, result.sigma0));
 }

@@ -15,7 +15,9 @@ fn observation_schema_is_current() {
 fn golden_example_parses_and_has_no_problems() {
     let text = plumbline_testkit::schemas::example("observations.v1.example.json");
     let set = serde_json::from_str::<ObservationSet>(&text).expect("example parses").into_latest();
-    assert_eq!((set.ties.len(), set.poles.len(), set.gnss.len()), (2, 1, 1));
+    assert_eq!((set.ties.len(), set.poles.len(), set.gnss.len(), set.aerial_frame_sets.len()), (2, 1, 1, 1));
+    let listed = &set.aerial_frame_sets[0].ties;
+    assert!(listed.iter().all(|id| set.ties.iter().any(|t| &t.id == id && t.aerial.is_some())), "{listed:?}");
     let problems: Vec<_> = set
         .ties
         .iter()

@@ -1,5 +1,6 @@
 //! Tie points and GNSS: a street driven out and back where only the outbound pass has control, the return
-//! pass corrected through tie points seen from both passes; aerial-triangulated ties and GNSS as control.
+//! pass corrected through tie points seen from both passes; aerial-triangulated ties and GNSS as control;
+//! aerial heights sharing their frame set's bias.
 #![allow(clippy::unwrap_used)]
 
 mod common;
@@ -7,7 +8,7 @@ mod common;
 use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
-use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, AerialPoint, ObservationSetV1, adjust};
+use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, AerialFrameSet, AerialPoint, ObservationSetV1, adjust};
 use rand::SeedableRng;
 
 /// Outbound 0–60 s with a smooth drift; the return pass (60–120 s) picks up a different, larger offset.
@@ -53,11 +54,17 @@ fn the_return_pass_is_corrected_through_tie_points_to_the_controlled_pass() {
     assert!(rms(&untied[back.clone()]) > 0.3, "without ties the return pass keeps its offset");
     assert!(rms(&tied[back.clone()]) < 0.04, "rms {}", rms(&tied[back.clone()]));
     assert!(max(&tied[back]) < 0.1);
-    // The tie points themselves land on the truth.
+    // The correction's 0.5 m ramp over 5 s at the uncontrolled turnaround is 5.6σ of the DG random walk:
+    // snooping widens that link as a jump (and nothing else).
+    assert_eq!(result.jumps.len(), 1, "{:?}", result.jumps);
+    assert!(result.jumps[0].start >= 55.0 && result.jumps[0].end <= 65.0, "{:?}", result.jumps);
+    // The tie points themselves land on the truth; the one seen across the widened link (t28, at 56 s and
+    // 63 s) rests on two short-base rays at each end and lands within 0.15 m.
     assert_eq!(result.points.len(), 28);
-    for (p, x) in result.points.iter().zip(&truth_points) {
-        assert!((Vector3::from(p.position) - x).norm() < 0.1, "{p:?} vs {x}");
-    }
+    let errors: Vec<f64> =
+        result.points.iter().zip(&truth_points).map(|(p, x)| (Vector3::from(p.position) - x).norm()).collect();
+    assert!(errors[..27].iter().all(|e| *e < 0.1), "{errors:?}");
+    assert!(errors[27] < 0.15, "{errors:?}");
 }
 
 #[test]
@@ -130,4 +137,66 @@ fn a_tie_point_left_undetermined_by_snooping_is_rejected_whole() {
     assert_eq!(tie_items.last(), Some(&whole), "{:?}", result.rejected);
     let after = horizontal_errors(&result.apply(&s.dg).unwrap(), &s.truth);
     assert!(rms(&after[15..586]) < 0.03, "rms {}", rms(&after[15..586]));
+}
+
+/// Aerial tie points every 1 s beside a 60 s drive, triangulated from two frame sets whose orientation errors
+/// shift every height by +0.6 m (first half) and −0.4 m (second half); each height's own σ 0.5 m, its noise
+/// 5 cm; poles for the horizontal.
+fn biased_aerial_heights(s: &Scene, rng: &mut impl rand::Rng) -> ObservationSetV1 {
+    let (sh, sv) = (0.03, 0.5);
+    let mut sets = vec![
+        AerialFrameSet { frames: vec!["f1".into(), "f2".into()], ties: Vec::new() },
+        AerialFrameSet { frames: vec!["f2".into(), "f3".into()], ties: Vec::new() },
+    ];
+    let ties = (1..59)
+        .map(|j| {
+            let i = j * 10;
+            let tr = &s.truth[i];
+            let x = tr.position.p + tr.attitude.to_rotation().matrix() * Vector3::new(8.0, 4.0, 2.5);
+            let mut t = tie(s, &format!("h{j}"), x, &[i - 3, i + 3], 5e-4, rng);
+            let (set, bias) = if j < 30 { (0, 0.6) } else { (1, -0.4) };
+            let noise = Vector3::new(gauss(rng) * sh, gauss(rng) * sh, gauss(rng) * 0.05 + bias);
+            let covariance = [[sh * sh, 0.0, 0.0], [0.0, sh * sh, 0.0], [0.0, 0.0, sv * sv]];
+            t.aerial = Some(AerialPoint { position: (x + noise).into(), covariance });
+            sets[set].ties.push(t.id.clone());
+            t
+        })
+        .collect();
+    ObservationSetV1 { ties, poles: poles(s, 30, 0.02, 0.02, rng), aerial_frame_sets: sets, ..Default::default() }
+}
+
+#[test]
+fn a_height_bias_per_aerial_frame_set_keeps_the_shared_error_out_of_the_trajectory() {
+    let s = scene(60.0, 10.0, None, drift_and_jump(1e9), 0.05);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(12);
+    let obs = biased_aerial_heights(&s, &mut rng);
+    let m = mount();
+    let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
+    let run = |config: &AdjustmentConfig| adjust(&input, config, Par::Seq).unwrap();
+    // How far the adjustment moved the trajectory's height from the DG's (the DG's own height error is a
+    // few centimetres of smooth drift; the aerial heights would say +0.6 m and −0.4 m).
+    let pull = |r: &plumbline_adjustment::Adjustment| -> Vec<f64> {
+        let corrected = r.apply(&s.dg).unwrap();
+        corrected.records().iter().zip(s.dg.records()).map(|(a, b)| a.position.p.z - b.position.p.z).collect()
+    };
+    let with = run(&AdjustmentConfig::default());
+    let without = run(&AdjustmentConfig { height_biases: None, ..AdjustmentConfig::default() });
+    let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+    let halves = |v: &[f64]| (mean(&v[20..290]), mean(&v[310..580]));
+    let (independent, shared) = (halves(&pull(&without)), halves(&pull(&with)));
+    eprintln!("height pull by half: independent {independent:?}, with biases {shared:?}");
+    eprintln!("biases {:?}", with.height_biases);
+    // Independent, the 29 heights of a set pull the trajectory towards their common error.
+    assert!(independent.0 > 0.07 && independent.1 < -0.03, "independent heights: {independent:?}");
+    // With one bias per set the trajectory keeps the DG's height and the biases come out.
+    assert!(shared.0.abs() < 0.02 && shared.1.abs() < 0.02, "with biases: {shared:?}");
+    assert_eq!(with.height_biases.len(), 2);
+    for (bias, truth) in with.height_biases.iter().zip([0.6, -0.4]) {
+        assert_eq!(bias.points, 29);
+        assert!((bias.prior_sigma - 0.5).abs() < 1e-9, "{bias:?}");
+        assert!((bias.bias - truth).abs() < 3.0 * bias.sigma && bias.sigma < 0.15, "{bias:?} vs {truth}");
+    }
+    // Horizontal control is untouched by the height model.
+    let horizontal = horizontal_errors(&with.apply(&s.dg).unwrap(), &s.truth);
+    assert!(rms(&horizontal[20..580]) < 0.03, "rms {}", rms(&horizontal[20..580]));
 }

@@ -84,7 +84,7 @@ fn main() {
     for (profile, canyon) in [("open", Canyon::OPEN), ("urban", URBAN_STREET), ("canyon", DEEP_CANYON)] {
         let case = build(profile, canyon, seed);
         row(&case, "DG", &case.dg, None, "");
-        let with_ties = ObservationSetV1 { ties: case.ties.clone(), poles: case.poles.clone(), gnss: Vec::new() };
+        let with_ties = ObservationSetV1 { ties: case.ties.clone(), poles: case.poles.clone(), ..Default::default() };
         let poles_only = ObservationSetV1 { poles: case.poles.clone(), ..Default::default() };
         for (name, obs, target) in
             [("aerial + poles", &with_ties, "RMSE 0.05, max 0.15"), ("poles only", &poles_only, "99 % 0.30")]

@@ -141,8 +141,9 @@ fn rejected(merged: &Merged, result: &Adjustment) -> Vec<RejectedObservation> {
         .collect()
 }
 
-/// Flagged epochs: the consistency check's pairs (at the pair's start; the DG blamed) and the standstills
-/// whose zero-velocity constraint data snooping rejected (the vehicle moved although the DG says it stood).
+/// Flagged epochs: the consistency check's pairs (at the pair's start; the DG blamed), the standstills
+/// whose zero-velocity constraint data snooping rejected (the vehicle moved although the DG says it stood)
+/// and the DG jumps snooping found on the chain (`jump`, at the widened link's start).
 pub fn flags(solved: &Solved) -> Vec<FlaggedEpoch> {
     let consistency = solved.consistency.flags.iter().map(|f| FlaggedEpoch {
         time: f.link.start,
@@ -154,5 +155,10 @@ pub fn flags(solved: &Solved) -> Vec<FlaggedEpoch> {
         test: "standstill".into(),
         sensor: "dg".into(),
     });
-    consistency.chain(standstills).collect()
+    let jumps = solved.adjustment.jumps.iter().map(|j| FlaggedEpoch {
+        time: j.start,
+        test: "jump".into(),
+        sensor: "dg".into(),
+    });
+    consistency.chain(standstills).chain(jumps).collect()
 }

@@ -137,12 +137,27 @@ pub fn diagnostic(
         "transform": null,
         "corners": {"detected": 0, "candidates": 0, "matched": 0, "triangulated": 0, "rejected_geometry": 0,
                     "rejected_miss": 0, "rejected_off_ground": 0},
-        "aerial_images": [],
+        "aerial_images": aerial_images(time, discarded.is_none()),
         "aerial_points": if discarded.is_none() { 4 } else { 0 },
         "discarded": discarded,
         "motion": motion,
     }))
     .unwrap()
+}
+
+/// Seconds of drive whose panoramas are matched in the same pair of aerial frames.
+pub const FRAME_SPAN: f64 = 20.0;
+
+/// The aerial frames a panorama at `time` overlaps: `aerial{n}` and `aerial{n+1}`, n = time / FRAME_SPAN;
+/// both gave correspondences when it was matched, neither when not.
+fn aerial_images(time: f64, matched: bool) -> serde_json::Value {
+    let n = (time / FRAME_SPAN).floor() as i64;
+    let frame = |k: i64| {
+        serde_json::json!({"frame": format!("aerial{k:04}"), "passed": matched, "rejection": null,
+            "initial_inliers": 20, "fallback_ncc": null, "offset_m": 0.1, "candidates": 20, "matched": 12,
+            "correspondences": if matched { 10 } else { 0 }})
+    };
+    serde_json::json!([frame(n), frame(n + 1)])
 }
 
 /// Index of the panorama a tie starts at (`tie-{i:06}-{k}`).

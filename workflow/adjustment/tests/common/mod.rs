@@ -82,6 +82,23 @@ pub fn drift_and_jump(jump_at: f64) -> impl Fn(f64) -> Vector6<f64> {
     }
 }
 
+/// Truth correction as a realisation of the model's own random walk (DG σ 0.05 m, τ = 10 s).
+pub fn random_walk_truth(seed: u64) -> impl Fn(f64) -> Vector6<f64> {
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(seed);
+    let cfg = plumbline_adjustment::AdjustmentConfig::default().random_walk;
+    let pos = (cfg.position_floor.powi(2) + 0.05f64.powi(2) / cfg.correlation_time).sqrt();
+    let mut state = Vector6::new(0.2, -0.1, 0.05, 0.0, 0.0, 0.0);
+    let mut path = vec![state];
+    for _ in 0..1300 {
+        // 0.1 s steps; attitude held constant so only position carries the walk.
+        for c in 0..3 {
+            state[c] += gauss(&mut rng) * pos * 0.1f64.sqrt();
+        }
+        path.push(state);
+    }
+    move |t: f64| path[((t * 10.0).round() as usize).min(path.len() - 1)]
+}
+
 /// Poles seen every `every` records, alternately left and right, 8 m ahead and 6 m aside, measured with
 /// noise σ_cam (cadastre exact, reported σ_pole).
 pub fn poles(s: &Scene, every: usize, sigma_cam: f64, sigma_pole: f64, rng: &mut impl Rng) -> Vec<PoleUpdate> {
