@@ -8,9 +8,19 @@
 //! - when done + failed == total the state becomes `adjusting`, every done tile's output is read from the
 //!   store, [`finish`] writes the outputs, and the state becomes `done` with the report's URL (or `failed`
 //!   with the error);
+//! - dead-lettered tiles do not hold a campaign back: it is adjusted from the tiles it has and ends `done`,
+//!   with the tiles listed in the state's `dead_lettered` (the job API and `plumbline status` show them with
+//!   their errors) and in the report's skipped inputs (stage `tiles`, reason `dead-lettered`). Only a
+//!   campaign without any processed tile ends `failed`;
+//! - a store failure while adjusting (S3 unreachable, [`StoreError::is_retryable`]) leaves the campaign
+//!   `adjusting` and naks the result with a growing delay, so the adjustment runs again once the store is
+//!   back (up to [`MAX_FINISH_DELIVERIES`] deliveries); any other error marks the campaign `failed`;
 //! - the message is acked after the state is written (a failure to write it naks it for redelivery).
 //!
 //! Restart-safe: everything lives in KV; on start, campaigns found `adjusting` are finished again.
+//!
+//! With an ops listener the adjuster answers `/healthz`, `/readyz` and `/metrics` (families
+//! [`ADJUSTER_FAMILIES`]).
 
 use std::future::Future;
 use std::time::Duration;
@@ -19,22 +29,42 @@ use async_nats::jetstream::{self, AckKind, consumer::PullConsumer, kv};
 use futures::StreamExt as _;
 use plumbline_campaign::progress::NoProgress;
 use plumbline_geo::tiling::TileId;
-use plumbline_runtime::Files;
+use plumbline_runtime::{Files, StoreError};
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
 use plumbline_scheduler::{SkippedInput, load_campaign};
-use plumbline_worker::service::{reply, with_heartbeat};
+use plumbline_worker::service::metrics::Registry;
+use plumbline_worker::service::ops::{Probe, serve_ops};
+use plumbline_worker::service::{Ops, reply, with_heartbeat};
 use plumbline_worker::{TileOutput, TileOutputV1, tile_key};
 use serde::{Deserialize, Serialize};
 
 use crate::{AdjusterConfig, finish};
 
+mod probe;
+
+pub use probe::ADJUSTER_FAMILIES;
+use probe::kind_of;
+
 /// The KV bucket of the tiles counted per campaign run.
 pub const TALLY_BUCKET: &str = "plumbline-adjuster";
 /// Interval of the in-progress acks while a result (or the adjustment it triggers) is handled.
 const HEARTBEAT: Duration = Duration::from_secs(30);
-/// Delay asked for when a result is nakked.
-const RETRY_DELAY: Duration = Duration::from_secs(5);
+/// Delay asked for when a result is nakked the first time (doubling with each delivery, up to a minute).
+const RETRY_DELAY: Duration = Duration::from_secs(2);
+/// Deliveries of the result that completes a campaign before a store failure while adjusting is given up.
+pub const MAX_FINISH_DELIVERIES: i64 = 30;
+
+/// The delay before delivery `delivered + 1`.
+fn retry_delay(delivered: i64) -> Duration {
+    let doublings = u32::try_from(delivered.clamp(1, 6) - 1).unwrap_or(0);
+    (RETRY_DELAY * 2u32.pow(doublings)).min(Duration::from_secs(60))
+}
+
+/// Whether `error` is a store failure that may pass (the store unreachable or erring).
+fn store_unavailable(error: &anyhow::Error) -> bool {
+    error.chain().any(|c| c.downcast_ref::<StoreError>().is_some_and(StoreError::is_retryable))
+}
 
 /// The tiles of one campaign run that have been counted.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
@@ -92,10 +122,14 @@ struct Adjuster {
     bus: Bus,
     files: Files,
     tallies: kv::Store,
+    metrics: Registry,
+    consumer: PullConsumer,
+    store_probe: Option<String>,
 }
 
-/// Handle results until `shutdown` completes (the result in hand is finished first).
-pub async fn serve(bus: Bus, files: Files, shutdown: impl Future<Output = ()>) -> anyhow::Result<()> {
+/// Handle results until `shutdown` completes (the result in hand is finished first); answer probes and
+/// scrapes on `ops` when given.
+pub async fn serve(bus: Bus, files: Files, ops: Option<Ops>, shutdown: impl Future<Output = ()>) -> anyhow::Result<()> {
     let stream =
         bus.js.get_stream(RESULTS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {RESULTS_STREAM}: {e}"))?;
     let consumer: PullConsumer = stream
@@ -113,7 +147,17 @@ pub async fn serve(bus: Bus, files: Files, shutdown: impl Future<Output = ()>) -
         })
         .await
         .map_err(|e| anyhow::anyhow!("KV bucket {TALLY_BUCKET}: {e}"))?;
-    let adjuster = Adjuster { bus, files, tallies };
+    let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
+    let metrics = Registry::new(&ADJUSTER_FAMILIES);
+    let adjuster =
+        std::sync::Arc::new(Adjuster { bus, files, tallies, metrics, consumer: consumer.clone(), store_probe });
+    let (stop_ops, ops_stopped) = tokio::sync::oneshot::channel::<()>();
+    if let Some(listener) = listener {
+        let probe: std::sync::Arc<dyn Probe> = adjuster.clone();
+        tokio::spawn(serve_ops(listener, probe, async {
+            let _ = ops_stopped.await;
+        }));
+    }
     adjuster.resume().await?;
     tracing::info!("adjuster ready");
     tokio::pin!(shutdown);
@@ -137,6 +181,7 @@ pub async fn serve(bus: Bus, files: Files, shutdown: impl Future<Output = ()>) -
             }
         }
     }
+    let _ = stop_ops.send(());
     tracing::info!("adjuster stopped");
     Ok(())
 }
@@ -147,7 +192,10 @@ impl Adjuster {
         for state in self.bus.campaigns.list().await? {
             if state.status == CampaignStatus::Adjusting {
                 tracing::info!(campaign = state.id.as_str(), run = state.run, "finishing an interrupted adjustment");
-                self.finish_campaign(&state).await?;
+                if let Err(e) = self.finish_campaign(&state, 1).await {
+                    // The result that completed it is not acked yet: its redelivery tries again.
+                    tracing::warn!(campaign = state.id.as_str(), error = %format!("{e:#}"), "adjustment deferred");
+                }
             }
         }
         Ok(())
@@ -160,17 +208,20 @@ impl Adjuster {
             reply(message, AckKind::Term).await;
             return;
         };
-        match with_heartbeat(message, HEARTBEAT, self.record(&outcome)).await {
+        let delivered = message.info().map_or(1, |i| i.delivered);
+        match with_heartbeat(message, HEARTBEAT, self.record(&outcome, delivered)).await {
             Ok(()) => reply(message, AckKind::Ack).await,
             Err(e) => {
-                tracing::warn!(error = %format!("{e:#}"), "recording a result failed; retrying later");
-                reply(message, AckKind::Nak(Some(RETRY_DELAY))).await;
+                let delay = retry_delay(delivered);
+                self.metrics.add("plumbline_adjuster_retries_total", &[("kind", kind_of(&e))], 1.0);
+                tracing::warn!(error = %format!("{e:#}"), delivered, ?delay, "recording a result failed; retrying later");
+                reply(message, AckKind::Nak(Some(delay))).await;
             }
         }
     }
 
     /// Count the result into the tally and the state; finish the campaign when every tile is handled.
-    async fn record(&self, outcome: &Outcome) -> anyhow::Result<()> {
+    async fn record(&self, outcome: &Outcome, delivered: i64) -> anyhow::Result<()> {
         let (id, run) = outcome.campaign_run();
         let Some((state, _)) = self.bus.campaigns.get(id).await? else {
             tracing::warn!(campaign = id.as_str(), "result of an unknown campaign dropped");
@@ -179,7 +230,11 @@ impl Adjuster {
         if state.run != run || state.status.is_terminal() {
             return Ok(());
         }
-        let tally = self.add_to_tally(&format!("{}.{run}", id.as_str()), outcome).await?;
+        let (tally, counted_now) = self.add_to_tally(&format!("{}.{run}", id.as_str()), outcome).await?;
+        if counted_now {
+            let kind = if matches!(outcome, Outcome::Done(_)) { "done" } else { "failed" };
+            self.metrics.add("plumbline_adjuster_results_total", &[("outcome", kind)], 1.0);
+        }
         let counted = tally.clone();
         let written = self
             .bus
@@ -200,13 +255,16 @@ impl Adjuster {
             })
             .await?;
         match written {
-            Some(s) if s.status == CampaignStatus::Adjusting && s.run == run => self.finish_campaign(&s).await,
+            Some(s) if s.status == CampaignStatus::Adjusting && s.run == run => {
+                self.finish_campaign(&s, delivered).await
+            }
             _ => Ok(()),
         }
     }
 
-    /// Add the result to the run's tally (revision-checked, retried on a lost race); the tally as written.
-    async fn add_to_tally(&self, key: &str, outcome: &Outcome) -> anyhow::Result<Tally> {
+    /// Add the result to the run's tally (revision-checked, retried on a lost race); the tally as written
+    /// and whether this call counted the tile.
+    async fn add_to_tally(&self, key: &str, outcome: &Outcome) -> anyhow::Result<(Tally, bool)> {
         for _ in 0..64 {
             let entry = self.tallies.entry(key).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
             let (mut tally, revision) = match entry {
@@ -217,7 +275,7 @@ impl Adjuster {
                 _ => (Tally::default(), 0),
             };
             if !tally.record(outcome) {
-                return Ok(tally);
+                return Ok((tally, false));
             }
             let bytes = serde_json::to_vec(&tally)?;
             let written = if revision == 0 {
@@ -226,19 +284,29 @@ impl Adjuster {
                 self.tallies.update(key, bytes.into(), revision).await.map(|_| ()).map_err(|e| e.to_string())
             };
             match written {
-                Ok(()) => return Ok(tally),
+                Ok(()) => return Ok((tally, true)),
                 Err(e) => tracing::debug!(key, error = e, "tally write lost a race; reading again"),
             }
         }
         anyhow::bail!("tally {key}: still contended after 64 rounds")
     }
 
-    /// Adjust the campaign from its done tiles and set `done` (or `failed`).
-    async fn finish_campaign(&self, state: &CampaignState) -> anyhow::Result<()> {
+    /// Adjust the campaign from its done tiles and set `done` (or `failed`). A store failure on delivery
+    /// `delivered` < [`MAX_FINISH_DELIVERIES`] is returned instead, leaving the campaign `adjusting`.
+    #[tracing::instrument(skip_all, fields(campaign = state.id.as_str(), run = state.run, delivered))]
+    async fn finish_campaign(&self, state: &CampaignState, delivered: i64) -> anyhow::Result<()> {
+        tracing::info!(campaign = state.id.as_str(), run = state.run, delivered, "adjustment started");
+        let started = std::time::Instant::now();
         let result = self.adjust(state).await;
+        self.metrics.observe("plumbline_adjuster_adjustment_seconds", &[], started.elapsed().as_secs_f64());
         let run = state.run;
         let (status, report, error) = match result {
             Ok(report) => (CampaignStatus::Done, Some(report), None),
+            Err(e) if store_unavailable(&e) && delivered < MAX_FINISH_DELIVERIES => {
+                tracing::warn!(campaign = state.id.as_str(), delivered, error = %format!("{e:#}"),
+                    "adjustment interrupted by the store; retrying later");
+                return Err(e.context(format!("adjusting campaign {}", state.id.as_str())));
+            }
             Err(e) => {
                 tracing::error!(campaign = state.id.as_str(), error = %format!("{e:#}"), "adjustment failed");
                 (CampaignStatus::Failed, None, Some(format!("adjustment: {e:#}")))
@@ -256,6 +324,7 @@ impl Adjuster {
                 true
             })
             .await?;
+        self.metrics.add("plumbline_adjuster_campaigns_total", &[("status", status.as_str())], 1.0);
         tracing::info!(campaign = state.id.as_str(), run, status = status.as_str(), "campaign finished");
         Ok(())
     }
@@ -308,6 +377,15 @@ mod tests {
             result: format!("s3://b/results/tiles/{col}_0.json"),
             attempts: 1,
         })
+    }
+
+    #[test]
+    fn the_retry_delay_doubles_per_delivery_up_to_a_minute_and_only_store_errors_wait() {
+        let delays: Vec<u64> = (1..=8).map(|d| retry_delay(d).as_secs()).collect();
+        assert_eq!(delays, [2, 4, 8, 16, 32, 60, 60, 60]);
+        assert_eq!(retry_delay(0).as_secs(), 2);
+        assert!(!store_unavailable(&plumbline_runtime::invalid("manifest: bad")));
+        assert!(!store_unavailable(&anyhow::anyhow!("adjustment: singular normal matrix")));
     }
 
     #[test]

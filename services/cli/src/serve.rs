@@ -43,11 +43,33 @@ pub struct Connection {
     pub connect_timeout_s: u64,
 }
 
+/// The ops listener of the worker and adjuster.
+#[derive(Debug, ClapArgs)]
+pub struct OpsArgs {
+    /// Address of the ops HTTP listener (`/healthz`, `/readyz`, `/metrics`), e.g. 0.0.0.0:9090; off unless
+    /// given. Port 0 picks a free one; the address is logged as `ops listening`.
+    #[arg(long, env = "PLUMBLINE_OPS_LISTEN", value_name = "ADDR")]
+    pub ops_listen: Option<String>,
+}
+
+impl OpsArgs {
+    /// Bind the listener, if asked for.
+    async fn bind(&self, store: &str) -> anyhow::Result<Option<plumbline_worker::service::Ops>> {
+        let Some(addr) = &self.ops_listen else { return Ok(None) };
+        let listener = tokio::net::TcpListener::bind(addr).await.or_invalid(&format!("--ops-listen {addr}"))?;
+        tracing::info!(addr = %listener.local_addr()?, "ops listening");
+        let store_probe = format!("{}/.readyz", store.trim_end_matches('/'));
+        Ok(Some(plumbline_worker::service::Ops { listener, store_probe }))
+    }
+}
+
 /// Arguments of `serve worker`.
 #[derive(Debug, ClapArgs)]
 pub struct WorkerArgs {
     #[command(flatten)]
     pub connection: Connection,
+    #[command(flatten)]
+    pub ops: OpsArgs,
     /// Tile tasks in flight at once (each tile already uses every core).
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u16).range(1..=64))]
     pub concurrency: u16,
@@ -59,6 +81,9 @@ pub struct WorkerArgs {
     /// the consumer to the defaults (60 s); do not use in production.
     #[arg(long, value_name = "S", value_parser = clap::value_parser!(u64).range(1..=3600))]
     pub ack_wait_s: Option<u64>,
+    /// Seconds a task waits before its next delivery after a retryable error (store or NATS unavailable).
+    #[arg(long, default_value_t = 10, value_parser = clap::value_parser!(u64).range(1..=3600))]
+    pub retry_delay_s: u64,
 }
 
 /// Arguments of `serve adjuster`.
@@ -66,6 +91,8 @@ pub struct WorkerArgs {
 pub struct AdjusterArgs {
     #[command(flatten)]
     pub connection: Connection,
+    #[command(flatten)]
+    pub ops: OpsArgs,
 }
 
 /// Arguments of `serve scheduler`.
@@ -90,33 +117,57 @@ pub async fn run(ctx: &Context, command: Command) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Connect and bind the JetStream resources.
-async fn bus(connection: &Connection) -> anyhow::Result<Bus> {
+/// Connect (logging every later disconnection and reconnection) and bind the JetStream resources. The
+/// client reconnects without limit; stream, consumer and bucket handles are names on the server, so they
+/// work again once it is back (a restarted server keeps them in its store directory).
+async fn bus(connection: &Connection, role: &str) -> anyhow::Result<Bus> {
     let token = nats_token(connection.nats_token_file.as_ref())?;
+    let started = std::time::Instant::now();
     let wait = Duration::from_secs(connection.connect_timeout_s);
-    let client = service::connect(&connection.nats, token.as_ref(), wait).await?;
+    let client = loop {
+        let mut options =
+            async_nats::ConnectOptions::new().name(format!("plumbline-{role}")).event_callback(|event| async move {
+                match event {
+                    async_nats::Event::Connected => tracing::info!(%event, "NATS connection event"),
+                    _ => tracing::warn!(%event, "NATS connection event"),
+                }
+            });
+        if let Some(token) = &token {
+            options = options.token(token.expose().to_owned());
+        }
+        match options.connect(&connection.nats).await {
+            Ok(client) => break client,
+            Err(e) if started.elapsed() < wait => {
+                tracing::warn!(url = connection.nats, error = %e, "NATS not reachable yet; retrying");
+                tokio::time::sleep(Duration::from_millis(500)).await;
+            }
+            Err(e) => anyhow::bail!("connecting to NATS at {}: {e}", connection.nats),
+        }
+    };
     Ok(ensure(async_nats::jetstream::new(client)).await?)
 }
 
 async fn worker(ctx: &Context, args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    let bus = bus(&args.connection).await?;
+    let bus = bus(&args.connection, "worker").await?;
     if let Some(seconds) = args.ack_wait_s {
         shorten_ack_wait(&bus, Duration::from_secs(seconds)).await?;
     }
     let config = plumbline_worker::service::ServiceConfig {
         concurrency: usize::from(args.concurrency),
         heartbeat: Duration::from_secs(args.heartbeat_s),
-        ..Default::default()
+        retry_delay: Duration::from_secs(args.retry_delay_s),
     };
     tracing::info!(store = args.connection.store, "worker starting");
-    plumbline_worker::service::serve(bus, ctx.files().clone(), config, shutdown_signal()).await?;
+    let ops = args.ops.bind(&args.connection.store).await?;
+    plumbline_worker::service::serve(bus, ctx.files().clone(), config, ops, shutdown_signal()).await?;
     Ok(ExitCode::SUCCESS)
 }
 
 async fn adjuster(ctx: &Context, args: AdjusterArgs) -> anyhow::Result<ExitCode> {
-    let bus = bus(&args.connection).await?;
+    let bus = bus(&args.connection, "adjuster").await?;
     tracing::info!(store = args.connection.store, "adjuster starting");
-    plumbline_adjuster::service::serve(bus, ctx.files().clone(), shutdown_signal()).await?;
+    let ops = args.ops.bind(&args.connection.store).await?;
+    plumbline_adjuster::service::serve(bus, ctx.files().clone(), ops, shutdown_signal()).await?;
     Ok(ExitCode::SUCCESS)
 }
 

@@ -3,7 +3,8 @@
 //! `plumbline serve worker` processes and adjusted by a `plumbline serve adjuster` process; its corrected
 //! trajectory must equal the one `plumbline run` computes from the same files. A second submission of the
 //! campaign (another id) loses a worker to `kill -9` in the middle of a tile: the tile is redelivered to the
-//! other worker and the campaign completes with the same trajectory.
+//! other worker and the campaign completes with the same trajectory. The roles' ops listeners are scraped
+//! after the first campaign: their counters must match what happened.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -50,6 +51,22 @@ impl Role {
 
     fn log(&self) -> String {
         std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// The ops listener's address, from the `ops listening` log line (waits up to 60 s).
+    fn ops_addr(&self) -> String {
+        let start = Instant::now();
+        loop {
+            let log = self.log();
+            // `ops listening, addr: 127.0.0.1:PORT` (pretty) or `addr=…` or `"addr":"…"` (json).
+            if let Some(line) = log.lines().find(|l| l.contains("ops listening")) {
+                let from = line.find("127.0.0.1:").expect("a loopback address in the ops line");
+                let port: String = line[from + 10..].chars().take_while(char::is_ascii_digit).collect();
+                return format!("127.0.0.1:{port}");
+            }
+            assert!(start.elapsed() < Duration::from_secs(60), "no ops listener logged:\n{log}");
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     /// SIGKILL (`kill -9`).
@@ -122,6 +139,57 @@ async fn wait_terminal(
     }
 }
 
+/// `GET path` on the ops listener at `addr`: status line and body.
+fn get(addr: &str, path: &str) -> (String, String) {
+    use std::io::{Read as _, Write as _};
+    let mut stream = std::net::TcpStream::connect(addr).unwrap();
+    write!(stream, "GET {path} HTTP/1.1\r\nHost: {addr}\r\n\r\n").unwrap();
+    let mut text = String::new();
+    stream.read_to_string(&mut text).unwrap();
+    let (head, body) = text.split_once("\r\n\r\n").unwrap();
+    (head.lines().next().unwrap().to_owned(), body.to_owned())
+}
+
+/// The value of the sample `name{labels}` (`name` alone when unlabelled) in an exposition text, 0 if absent.
+fn sample(text: &str, series: &str) -> f64 {
+    text.lines().find_map(|l| l.strip_prefix(series)?.strip_prefix(' ')?.parse().ok()).unwrap_or(0.0)
+}
+
+/// Scrape the roles after campaign (a): probes answer and the counters match what happened.
+fn assert_metrics(workers: &[&Role], adjuster: &Role, tiles: u64) {
+    let tiles = tiles as f64;
+    let mut done = 0.0;
+    for role in workers.iter().chain([&adjuster]) {
+        let addr = role.ops_addr();
+        assert_eq!(get(&addr, "/healthz").0, "HTTP/1.1 200 OK");
+        let (status, body) = get(&addr, "/readyz");
+        assert_eq!((status.as_str(), body.as_str()), ("HTTP/1.1 200 OK", "{\"nats\":true,\"store\":true}"));
+    }
+    for w in workers {
+        // The worker counts a tile as it acks it, which may be a moment after the adjuster has seen its result.
+        let scrape = || get(&w.ops_addr(), "/metrics").1;
+        let start = Instant::now();
+        let mut text = scrape();
+        while sample(&text, "plumbline_worker_tasks_in_flight") != 0.0 && start.elapsed() < Duration::from_secs(10) {
+            std::thread::sleep(Duration::from_millis(200));
+            text = scrape();
+        }
+        let finished = sample(&text, "plumbline_worker_tasks_total{outcome=\"done\"}");
+        done += finished + sample(&text, "plumbline_worker_tasks_total{outcome=\"resumed\"}");
+        assert_eq!(sample(&text, "plumbline_worker_stage_seconds_count{stage=\"total\"}"), finished, "{text}");
+        assert!(sample(&text, "plumbline_worker_stage_seconds_sum{stage=\"total\"}") > 0.0 || finished == 0.0);
+        assert_eq!(sample(&text, "plumbline_worker_tasks_in_flight"), 0.0, "{text}");
+        assert_eq!(sample(&text, "plumbline_worker_tasks_total{outcome=\"dead_lettered\"}"), 0.0, "{text}");
+        assert!(text.contains("plumbline_worker_queue_pending 0\n"), "{text}");
+    }
+    assert_eq!(done, tiles, "tiles done over both workers");
+    let text = get(&adjuster.ops_addr(), "/metrics").1;
+    assert_eq!(sample(&text, "plumbline_adjuster_results_total{outcome=\"done\"}"), tiles, "{text}");
+    assert_eq!(sample(&text, "plumbline_adjuster_campaigns_total{status=\"done\"}"), 1.0, "{text}");
+    assert_eq!(sample(&text, "plumbline_adjuster_adjustment_seconds_count"), 1.0, "{text}");
+    assert!(text.contains("plumbline_adjuster_queue_pending 0\n"), "{text}");
+}
+
 /// The corrected SBET records must match the reference to 1e-9 in every field.
 fn assert_same_trajectory(found: &[formats::SbetRecord], expected: &[formats::SbetRecord], what: &str) {
     assert_eq!(found.len(), expected.len(), "{what}: record count");
@@ -170,8 +238,9 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
 
     // (a) Two workers and an adjuster; the adjuster first, since the workers shorten the ack wait after it.
     let logs = dir.path();
-    let adjuster = Role::start("adjuster", &nats, &moto, logs.join("adjuster.log"), &[]);
-    let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4"];
+    let ops = ["--ops-listen", "127.0.0.1:0"];
+    let adjuster = Role::start("adjuster", &nats, &moto, logs.join("adjuster.log"), &ops);
+    let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4", "--ops-listen", "127.0.0.1:0"];
     let mut w1 = Role::start("worker", &nats, &moto, logs.join("w1.log"), &knobs);
     let w2 = Role::start("worker", &nats, &moto, logs.join("w2.log"), &knobs);
     let started = Instant::now();
@@ -186,6 +255,7 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     assert_eq!(report["campaign"]["id"], id.as_str());
     let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
     assert_same_trajectory(&formats::parse_sbet(&found, "distributed").unwrap(), &expected, "distributed");
+    assert_metrics(&[&w1, &w2], &adjuster, view.campaign.tiles_total);
 
     // (b) The same campaign under another id; worker 1 is killed as soon as it works on a tile.
     let killed_manifest = manifest.replacen(&format!("id = \"{id}\""), &format!("id = \"{killed_id}\""), 1);

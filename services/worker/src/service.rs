@@ -1,5 +1,5 @@
 //! The worker service (`plumbline serve worker`): pulls [`TileTask`]s from the durable `workers` consumer
-//! and processes them with [`run_tile`], following the protocol of [`plumbline_scheduler::bus`]:
+//! and processes them with [`crate::run_tile`], following the protocol of [`plumbline_scheduler::bus`]:
 //!
 //! - a task of a cancelled or failed campaign, of a run other than the state's, or of an unknown campaign
 //!   is acked and dropped;
@@ -9,10 +9,13 @@
 //!   recomputed), [`TileDone`] is published to the results stream, and the task is acked;
 //! - invalid input ([`plumbline_runtime::is_invalid`]), or any error on the last delivery
 //!   ([`MAX_DELIVER`]): [`TileFailed`] to results and dead letters, then `AckKind::Term`;
-//! - other errors (store, NATS): `AckKind::Nak` with [`ServiceConfig::retry_delay`].
+//! - other errors (store, NATS): `AckKind::Nak` with [`ServiceConfig::retry_delay`]. Inputs the store failed
+//!   to deliver (skipped with reason `read`) count as such an error on every delivery but the last, so a
+//!   store outage delays a tile instead of leaving holes in it (see `attempt`).
 //!
 //! [`ServiceConfig::concurrency`] slots each fetch one task at a time, so a worker never holds tasks it
-//! is not working on.
+//! is not working on. With an [`Ops`] listener the worker answers `/healthz`, `/readyz` and `/metrics`
+//! ([`ops`], families [`metrics::WORKER_FAMILIES`]).
 
 use std::collections::HashMap;
 use std::future::Future;
@@ -24,12 +27,30 @@ use futures::StreamExt as _;
 use futures::future::BoxFuture;
 use plumbline_campaign::CampaignId;
 use plumbline_runtime::Files;
-use plumbline_scheduler::bus::{self, Bus, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
+use plumbline_scheduler::bus::{self, Bus, BusError, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
 use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
 use plumbline_scheduler::{Campaign, load_campaign};
 use tracing::Instrument as _;
 
-use crate::{WorkerConfig, run_tile, tile_key};
+use crate::{WorkerConfig, tile_key};
+
+mod attempt;
+pub mod metrics;
+pub mod ops;
+mod probe;
+
+use metrics::{Registry, WORKER_FAMILIES};
+use ops::Probe;
+pub use probe::{error_kind, ready};
+
+/// The ops listener of a service: where to answer probes and scrapes, and a URL in the store to probe.
+#[derive(Debug)]
+pub struct Ops {
+    /// The bound listener.
+    pub listener: tokio::net::TcpListener,
+    /// A URL in the store (its absence is fine; an error means the store does not answer).
+    pub store_probe: String,
+}
 
 /// How the worker service runs.
 #[derive(Clone, Copy, Debug)]
@@ -57,28 +78,50 @@ struct Worker {
     files: Files,
     config: ServiceConfig,
     campaigns: Cache,
+    metrics: Registry,
+    consumer: PullConsumer,
+    store_probe: Option<String>,
 }
 
 /// What became of one task.
 enum Handled {
     /// Dropped: stale run, cancelled/failed or unknown campaign.
     Skipped(&'static str),
-    /// The output is written at this URL.
-    Done(String),
+    /// The output is written at this URL; read back from an earlier delivery when `resumed`.
+    Done { result: String, resumed: bool },
 }
 
-/// Process tasks until `shutdown` completes (tasks in flight are finished first).
+/// Process tasks until `shutdown` completes (tasks in flight are finished first); answer probes and
+/// scrapes on `ops` when given.
 pub async fn serve(
     bus: Bus,
     files: Files,
     config: ServiceConfig,
+    ops: Option<Ops>,
     shutdown: impl Future<Output = ()> + Send,
 ) -> anyhow::Result<()> {
     let stream = bus.js.get_stream(TASKS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {TASKS_STREAM}: {e}"))?;
     let consumer: PullConsumer =
         stream.get_consumer(WORKERS_CONSUMER).await.map_err(|e| anyhow::anyhow!("consumer {WORKERS_CONSUMER}: {e}"))?;
-    let worker = Arc::new(Worker { bus, files, config, campaigns: Mutex::new(HashMap::new()) });
+    let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
+    let metrics = Registry::new(&WORKER_FAMILIES);
+    let worker = Arc::new(Worker {
+        bus,
+        files,
+        config,
+        campaigns: Mutex::new(HashMap::new()),
+        metrics,
+        consumer: consumer.clone(),
+        store_probe,
+    });
     let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    if let Some(listener) = listener {
+        let mut stop = stop_rx.clone();
+        let probe: Arc<dyn Probe> = worker.clone();
+        tokio::spawn(ops::serve_ops(listener, probe, async move {
+            let _ = stop.wait_for(|s| *s).await;
+        }));
+    }
     let slots: Vec<_> = (0..config.concurrency.max(1))
         .map(|slot| tokio::spawn(run_slot(worker.clone(), consumer.clone(), slot, stop_rx.clone())))
         .collect();
@@ -131,18 +174,23 @@ impl Worker {
 
     /// Process a parsed task and answer it.
     async fn finish_task(&self, message: &jetstream::Message, task: &TileTask, delivered: i64) {
-        let outcome = with_heartbeat(message, self.config.heartbeat, self.process(task)).await;
+        const IN_FLIGHT: &str = "plumbline_worker_tasks_in_flight";
+        self.metrics.add(IN_FLIGHT, &[], 1.0);
+        let outcome =
+            with_heartbeat(message, self.config.heartbeat, self.process(task, delivered >= MAX_DELIVER)).await;
         let attempts = u32::try_from(delivered).unwrap_or(u32::MAX);
         match outcome {
             Ok(Handled::Skipped(why)) => {
                 tracing::info!(why, "task dropped");
                 reply(message, AckKind::Ack).await;
+                self.count("dropped");
             }
-            Ok(Handled::Done(result)) => {
+            Ok(Handled::Done { result, resumed }) => {
                 let done =
                     TileDone { campaign: task.campaign.clone(), run: task.run, tile: task.tile, result, attempts };
                 match self.publish_result(&task.campaign, done.to_json()).await {
                     Ok(()) => {
+                        self.count(if resumed { "resumed" } else { "done" });
                         if let Err(e) = message.double_ack().await {
                             tracing::warn!(error = %e, "ack lost; the task will be redelivered and read back");
                         }
@@ -152,6 +200,17 @@ impl Worker {
             }
             Err(e) => self.retry_or_give_up(message, task, delivered, attempts, e).await,
         }
+        self.metrics.add(IN_FLIGHT, &[], -1.0);
+    }
+
+    fn count(&self, outcome: &str) {
+        self.metrics.add("plumbline_worker_tasks_total", &[("outcome", outcome)], 1.0);
+    }
+
+    fn count_error(&self, error: &anyhow::Error, action: &str) {
+        let kind = error_kind(error);
+        self.metrics.add("plumbline_worker_task_errors_total", &[("kind", kind), ("action", action)], 1.0);
+        self.count(action);
     }
 
     /// Nak a retryable error with deliveries left; give up on anything else.
@@ -165,8 +224,9 @@ impl Worker {
     ) {
         let permanent = plumbline_runtime::is_invalid(&error);
         if !permanent && delivered < MAX_DELIVER {
-            tracing::warn!(error = %format!("{error:#}"), delivered, "tile failed; retrying later");
+            tracing::warn!(error = %format!("{error:#}"), delivered, kind = error_kind(&error), "tile failed; retrying later");
             reply(message, AckKind::Nak(Some(self.config.retry_delay))).await;
+            self.count_error(&error, "retried");
             return;
         }
         let kind = if permanent { FailureKind::Permanent } else { FailureKind::Retryable };
@@ -184,7 +244,10 @@ impl Worker {
             Err(e) => Err(e),
         };
         match published {
-            Ok(()) => reply(message, AckKind::Term).await,
+            Ok(()) => {
+                reply(message, AckKind::Term).await;
+                self.count_error(&error, "dead_lettered");
+            }
             Err(e) => {
                 tracing::warn!(error = %format!("{e:#}"), "reporting the failure failed; retrying later");
                 reply(message, AckKind::Nak(Some(self.config.retry_delay))).await;
@@ -193,7 +256,7 @@ impl Worker {
     }
 
     /// Check the state, load the campaign, process (or read back) the tile.
-    async fn process(&self, task: &TileTask) -> anyhow::Result<Handled> {
+    async fn process(&self, task: &TileTask, last: bool) -> anyhow::Result<Handled> {
         let Some((mut state, revision)) = self.bus.campaigns.get(&task.campaign).await? else {
             return Ok(Handled::Skipped("unknown campaign"));
         };
@@ -213,15 +276,38 @@ impl Worker {
         tracing::info!("tile started");
         let config = WorkerConfig::from_manifest(&campaign.manifest);
         let (files, owned, tile) = (self.files.clone(), campaign.clone(), task.tile);
-        // `run_tile`'s future is not `Send` for every lifetime (closures over references inside), so it is
-        // driven on a blocking thread of its own; its CPU work goes to rayon as before.
-        let runtime = tokio::runtime::Handle::current();
-        let (_, resumed) =
-            tokio::task::spawn_blocking(move || runtime.block_on(run_tile(&files, &owned, &tile, &config)))
-                .await
-                .map_err(|e| anyhow::anyhow!("tile task: {e}"))??;
-        tracing::info!(resumed, "tile written");
-        Ok(Handled::Done(format!("{}{}", campaign.output, tile_key(&task.tile))))
+        // `process_tile`'s future is not `Send` for every lifetime (closures over references inside), so it
+        // is driven on a blocking thread of its own; its CPU work goes to rayon as before.
+        // The current span goes along, so the tile's spans stay children of this task's span.
+        let (runtime, span) = (tokio::runtime::Handle::current(), tracing::Span::current());
+        let done = tokio::task::spawn_blocking(move || {
+            span.in_scope(|| runtime.block_on(attempt::attempt(&files, &owned, &tile, &config, last)))
+        })
+        .await
+        .map_err(|e| anyhow::anyhow!("tile task: {e}"))??;
+        tracing::info!(resumed = done.resumed, "tile written");
+        if !done.resumed {
+            self.observe_stages(&done);
+        }
+        Ok(Handled::Done { result: format!("{}{}", campaign.output, tile_key(&task.tile)), resumed: done.resumed })
+    }
+
+    /// Stage durations of a processed tile: fetch (reading and decoding every input), registration, poles,
+    /// write, total.
+    fn observe_stages(&self, done: &attempt::Attempt) {
+        let seconds = |names: &[&str]| -> f64 {
+            done.output.seconds.iter().filter(|(s, _)| names.contains(&s.as_str())).map(|(_, t)| t).sum()
+        };
+        let stages = [
+            ("fetch", seconds(&["read", "decode", "poles_read"])),
+            ("registration", seconds(&["registration"])),
+            ("poles", seconds(&["poles"])),
+            ("write", done.write_s),
+            ("total", seconds(&["total"]) + done.write_s),
+        ];
+        for (stage, s) in stages {
+            self.metrics.observe("plumbline_worker_stage_seconds", &[("stage", stage)], s);
+        }
     }
 
     /// The task's campaign, loaded once per campaign and run.
@@ -241,9 +327,9 @@ impl Worker {
     /// Publish a result message and wait for the stream's ack.
     async fn publish_result(&self, campaign: &CampaignId, payload: Vec<u8>) -> anyhow::Result<()> {
         let subject = bus::result_subject(campaign);
-        let ack = self.bus.js.publish(subject.clone(), payload.into()).await;
-        let ack = ack.map_err(|e| anyhow::anyhow!("publishing to {subject} ({RESULTS_STREAM}): {e}"))?;
-        ack.await.map_err(|e| anyhow::anyhow!("publishing to {subject} ({RESULTS_STREAM}): {e}"))?;
+        let failed = |e: String| BusError::Publish { subject: format!("{subject} ({RESULTS_STREAM})"), detail: e };
+        let ack = self.bus.js.publish(subject.clone(), payload.into()).await.map_err(|e| failed(e.to_string()))?;
+        ack.await.map_err(|e| failed(e.to_string()))?;
         Ok(())
     }
 }

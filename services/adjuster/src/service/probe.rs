@@ -1,0 +1,48 @@
+//! The adjuster's metric families, its answers to the ops listener (readiness, metrics with the consumer's
+//! lag read at scrape time) and the error kinds of the results it naks.
+
+use futures::future::BoxFuture;
+use plumbline_worker::service::metrics::{Family, Kind};
+use plumbline_worker::service::ops::Probe;
+use plumbline_worker::service::{error_kind, ready};
+
+use super::{Adjuster, store_unavailable};
+
+/// The adjuster's metric families.
+pub const ADJUSTER_FAMILIES: [Family; 6] = [
+    ("plumbline_adjuster_results_total", Kind::Counter, "Tile results counted, by outcome (done, failed)."),
+    (
+        "plumbline_adjuster_campaigns_total",
+        Kind::Counter,
+        "Campaigns finished by the adjuster, by status (done, failed).",
+    ),
+    ("plumbline_adjuster_adjustment_seconds", Kind::Summary, "Seconds per campaign adjustment (finished or not)."),
+    (
+        "plumbline_adjuster_retries_total",
+        Kind::Counter,
+        "Results nakked for a later retry, by error kind (store, nats, invalid_input, other).",
+    ),
+    ("plumbline_adjuster_queue_pending", Kind::Gauge, "Tile results not yet delivered to the adjuster."),
+    ("plumbline_adjuster_queue_ack_pending", Kind::Gauge, "Tile results delivered and not yet answered."),
+];
+
+impl Probe for Adjuster {
+    fn ready(&self) -> BoxFuture<'_, (bool, bool)> {
+        Box::pin(ready(&self.bus, &self.files, self.store_probe.as_deref()))
+    }
+
+    fn metrics(&self) -> BoxFuture<'_, String> {
+        Box::pin(async {
+            if let Ok(info) = self.consumer.clone().info().await {
+                self.metrics.set("plumbline_adjuster_queue_pending", &[], info.num_pending as f64);
+                self.metrics.set("plumbline_adjuster_queue_ack_pending", &[], info.num_ack_pending as f64);
+            }
+            self.metrics.render()
+        })
+    }
+}
+
+/// The error kind of a nakked result, for the metrics.
+pub(super) fn kind_of(error: &anyhow::Error) -> &'static str {
+    if store_unavailable(error) { "store" } else { error_kind(error) }
+}

@@ -1,0 +1,432 @@
+//! Fault tests of the distributed path on real servers (nats-server, moto S3), one short simulated campaign
+//! shared by three scenarios that run in parallel, each with its own servers, one `plumbline serve worker`
+//! and one `plumbline serve adjuster` process and an in-process scheduler:
+//!
+//! - **poison tile**: one tile's input is bad for good (the terrain model that stands in for the missing
+//!   camera height has no data under the tile's first panorama) → the worker terminates the task at its
+//!   first delivery and dead-letters it; the job API and `plumbline status` list the tile with the reason;
+//!   the campaign is adjusted from the other tiles and ends `done`, its report naming the missing tile;
+//! - **S3 outage**: the store goes away while a tile reads its inputs and again while the campaign is
+//!   adjusted → the worker naks and retries, the adjuster keeps the campaign `adjusting` and retries → the
+//!   campaign ends with the same trajectory as `plumbline run`. moto keeps its objects in memory, so
+//!   stopping it would lose them: the roles reach it through a [`FlakyProxy`] that goes down and up instead;
+//! - **NATS restart**: nats-server is killed (SIGKILL) while a tile is in progress and started again on the
+//!   same port and store → workers and adjuster reconnect, the campaign ends with the same trajectory.
+//!
+//! Every fault is triggered by what the services log (not by a fixed sleep), and each test asserts that the
+//! fault was hit and that the services logged their retry or reconnection.
+//!
+//! The campaign (`simulate --preset tiny --length 120`, 2–3 tiles) and its `plumbline run` reference are
+//! made once per test build: nextest runs every test in its own process, so the processes agree through the
+//! file system (lock file + rename into place, as in `worker.rs`).
+
+#![allow(clippy::unwrap_used, clippy::expect_used)]
+
+mod support;
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::sync::OnceLock;
+use std::time::{Duration, Instant};
+
+use plumbline_geo::formats;
+use plumbline_runtime::{Files, S3Options, Secret};
+use plumbline_scheduler::api::CampaignView;
+use plumbline_scheduler::bus::{DEAD_STREAM, dead_subject};
+use plumbline_scheduler::client::Client;
+use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileFailed};
+use plumbline_scheduler::service::{self, Scheduler, Tokens};
+use plumbline_testkit::{FlakyProxy, MotoServer, NatsServer};
+use support::plumbline;
+
+const TOKEN: &str = "hh-token-0123456789abcdef";
+const STORE: &str = "s3://plumbline/pl";
+const LIMIT: Duration = Duration::from_secs(600);
+
+/// The simulated campaign and the trajectory `plumbline run` corrects it to.
+struct Shared {
+    dir: PathBuf,
+    id: String,
+    expected: Vec<formats::SbetRecord>,
+}
+
+/// Simulated once per test build (see the module doc).
+fn shared() -> &'static Shared {
+    static SHARED: OnceLock<Shared> = OnceLock::new();
+    SHARED.get_or_init(|| {
+        let dir = simulated();
+        let manifest = std::fs::read_to_string(dir.join("campaign.toml")).unwrap();
+        let id = manifest.lines().find_map(|l| l.strip_prefix("id = \"")).unwrap().trim_end_matches('"').to_owned();
+        let expected =
+            formats::parse_sbet(&std::fs::read(dir.join("results/trajectory.sbet")).unwrap(), "run").unwrap();
+        Shared { dir, id, expected }
+    })
+}
+
+fn simulated() -> PathBuf {
+    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("faults-e2e");
+    std::fs::create_dir_all(&root).unwrap();
+    let exe = std::env::current_exe().unwrap();
+    let built = std::fs::metadata(exe).unwrap().modified().unwrap();
+    let stamp = built.duration_since(std::time::UNIX_EPOCH).unwrap().as_millis();
+    let (done, lock) = (root.join(format!("camp-{stamp}")), root.join(format!("lock-{stamp}")));
+    let waited = Instant::now();
+    loop {
+        if done.join("results/trajectory.sbet").exists() {
+            return done;
+        }
+        let stale = std::fs::metadata(&lock)
+            .and_then(|m| m.modified())
+            .is_ok_and(|t| t.elapsed().is_ok_and(|e| e.as_secs() > 900));
+        if stale {
+            let _ = std::fs::remove_file(&lock);
+        }
+        if std::fs::OpenOptions::new().write(true).create_new(true).open(&lock).is_ok() {
+            simulate_into(&root, &done);
+            let _ = std::fs::remove_file(&lock);
+            return done;
+        }
+        assert!(waited.elapsed().as_secs() < 1200, "waited 20 min for another test process to simulate");
+        std::thread::sleep(Duration::from_millis(500));
+    }
+}
+
+/// Simulate and run the campaign in a private directory, then rename it to `done`; remove older ones.
+fn simulate_into(root: &Path, done: &Path) {
+    for entry in std::fs::read_dir(root).unwrap().flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        if (name.starts_with("camp-") || name.starts_with("tmp-")) && entry.path() != done {
+            let _ = std::fs::remove_dir_all(entry.path());
+        }
+    }
+    let out = root.join(format!("tmp-{}", std::process::id()));
+    let t0 = Instant::now();
+    plumbline(&["simulate", "--preset", "tiny", "--length", "120", "--out", out.to_str().unwrap()]).run().success();
+    plumbline(&["run", out.join("campaign.toml").to_str().unwrap(), "--quiet"]).run().success();
+    eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
+    std::fs::rename(&out, done).unwrap();
+}
+
+/// A `plumbline serve` child process, killed when dropped; its stderr goes to `log`.
+struct Role {
+    child: Child,
+    log: PathBuf,
+}
+
+impl Role {
+    fn start(role: &str, nats: &str, s3: &str, log: PathBuf, extra: &[&str]) -> Self {
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plumbline"));
+        cmd.args(["serve", role, "--nats", nats, "--store", STORE]).args(extra);
+        for (key, _) in std::env::vars() {
+            if key.starts_with("PLUMBLINE_") {
+                cmd.env_remove(key);
+            }
+        }
+        cmd.env("PLUMBLINE_S3_ENDPOINT", s3)
+            .env("PLUMBLINE_S3_ACCESS_KEY_ID", "test")
+            .env("PLUMBLINE_S3_SECRET_ACCESS_KEY", "test")
+            .env("PLUMBLINE_LOG_FILTER", "info")
+            .stdout(Stdio::null())
+            .stderr(std::fs::File::create(&log).unwrap());
+        Self { child: cmd.spawn().expect("plumbline serve starts"), log }
+    }
+
+    fn log(&self) -> String {
+        std::fs::read_to_string(&self.log).unwrap_or_default()
+    }
+
+    /// Wait until the log holds `needle` at least `count` times.
+    fn wait_for(&self, needle: &str, count: usize, limit: Duration) {
+        let start = Instant::now();
+        while self.log().matches(needle).count() < count {
+            assert!(start.elapsed() < limit, "no {count}× {needle:?} within {limit:?}:\n{}", self.log());
+            std::thread::sleep(Duration::from_millis(20));
+        }
+    }
+}
+
+impl Drop for Role {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// One scenario's servers, scheduler, API client and roles.
+struct Rig {
+    dir: tempfile::TempDir,
+    nats: NatsServer,
+    moto: MotoServer,
+    files: Files,
+    api: Client,
+    server: String,
+    _stop: tokio::sync::oneshot::Sender<()>,
+}
+
+impl Rig {
+    /// Servers, the campaign's inputs uploaded (after `edit` changed a private copy), a scheduler.
+    async fn start(edit: impl FnOnce(&Path)) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let copy = dir.path().join("campaign");
+        copy_dir(&shared().dir, &copy);
+        edit(&copy);
+        let moto = MotoServer::start();
+        moto.create_bucket("plumbline");
+        let files = Files::new(S3Options {
+            endpoint: Some(moto.endpoint()),
+            access_key_id: Some("test".into()),
+            secret_access_key: Some(Secret::new("test")),
+            ..S3Options::default()
+        });
+        upload(&files, &copy, &shared().id).await;
+        let nats = NatsServer::start();
+        let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
+        let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).unwrap();
+        let scheduler = Scheduler::start(client, files.clone(), STORE, tokens).await.unwrap();
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+        let server = format!("http://{}", listener.local_addr().unwrap());
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        tokio::spawn(service::serve(listener, scheduler, async {
+            let _ = stopped.await;
+        }));
+        let api = Client::new(&server, Secret::new(TOKEN)).unwrap();
+        Self { dir, nats, moto, files, api, server, _stop: stop }
+    }
+
+    /// An adjuster and a worker (1 s heartbeats, 4 s ack wait, 2 s retry delay) reaching S3 at `s3`.
+    fn roles(&self, s3: &str) -> (Role, Role) {
+        let adjuster = Role::start("adjuster", &self.nats.url(), s3, self.dir.path().join("adjuster.log"), &[]);
+        let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4", "--retry-delay-s", "2"];
+        let worker = Role::start("worker", &self.nats.url(), s3, self.dir.path().join("worker.log"), &knobs);
+        (adjuster, worker)
+    }
+
+    /// Submit the (stored) manifest; the number of tiles.
+    async fn submit(&self) -> u64 {
+        let manifest = std::fs::read(self.dir.path().join("campaign/campaign.toml")).unwrap();
+        let submitted = self.api.submit(manifest, false).await.unwrap();
+        assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");
+        submitted.campaign.tiles_total
+    }
+
+    /// Poll the campaign until it is terminal; panics with the roles' logs after [`LIMIT`].
+    async fn wait_terminal(&self, roles: &[&Role]) -> CampaignView {
+        let (id, start) = (&shared().id, Instant::now());
+        loop {
+            // The API may be briefly unable to answer (NATS restarting): poll again.
+            if let Ok(view) = self.api.status(id).await
+                && view.campaign.status.is_terminal()
+            {
+                return view;
+            }
+            let logs: Vec<String> = roles.iter().map(|r| r.log()).collect();
+            assert!(
+                start.elapsed() < LIMIT,
+                "campaign {id} not finished after {LIMIT:?}; logs:\n{}",
+                logs.join("\n----\n")
+            );
+            tokio::time::sleep(Duration::from_millis(500)).await;
+        }
+    }
+
+    /// The campaign's corrected trajectory must equal `plumbline run`'s.
+    async fn assert_same_trajectory(&self, view: &CampaignView, what: &str) {
+        let found = self.files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
+        let found = formats::parse_sbet(&found, what).unwrap();
+        let expected = &shared().expected;
+        assert_eq!(found.len(), expected.len(), "{what}: record count");
+        for (i, (f, e)) in found.iter().zip(expected).enumerate() {
+            for (a, b) in f.to_array().iter().zip(e.to_array()) {
+                assert!((a - b).abs() <= 1e-9, "{what}: record {i} differs: {a} vs {b}");
+            }
+        }
+    }
+}
+
+fn copy_dir(src: &Path, dst: &Path) {
+    std::fs::create_dir_all(dst).unwrap();
+    for entry in std::fs::read_dir(src).unwrap() {
+        let entry = entry.unwrap();
+        let to = dst.join(entry.file_name());
+        if entry.file_type().unwrap().is_dir() {
+            copy_dir(&entry.path(), &to);
+        } else {
+            std::fs::copy(entry.path(), to).unwrap();
+        }
+    }
+}
+
+/// Upload the campaign's inputs (not its `results/`) under agency hamburg's prefix.
+async fn upload(files: &Files, campaign: &Path, id: &str) {
+    fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, base, out);
+            } else {
+                out.push(path.strip_prefix(base).unwrap().to_string_lossy().replace('\\', "/"));
+            }
+        }
+    }
+    let mut names = Vec::new();
+    walk(campaign, campaign, &mut names);
+    for name in names.iter().filter(|n| !n.starts_with("results/")) {
+        let url = format!("{STORE}/agencies/hamburg/campaigns/{id}/{name}");
+        files.write(&url, std::fs::read(campaign.join(name)).unwrap()).await.unwrap();
+    }
+}
+
+/// Where in `log` a field `name` with `value` was logged first (pretty `name: value`, `name=value` or json).
+fn field(log: &str, name: &str, value: &str) -> Option<usize> {
+    [format!("{name}: {value}"), format!("{name}={value}"), format!("\"{name}\":\"{value}\"")]
+        .iter()
+        .filter_map(|needle| {
+            log.match_indices(needle.as_str())
+                .find(|(i, _)| !log[i + needle.len()..].starts_with(|c: char| c.is_alphanumeric()))
+                .map(|(i, _)| i)
+        })
+        .min()
+}
+
+/// The tile to poison and where its first panorama (by time, owned or context) was taken: the tile whose
+/// first panorama is the latest of all tiles' first panoramas and lies > 40 m from every other's.
+async fn poison_target(dir: &Path) -> (plumbline_geo::tiling::TileId, f64, f64) {
+    let campaign = plumbline_scheduler::load_campaign(&Files::default(), dir.join("campaign.toml").to_str().unwrap())
+        .await
+        .unwrap();
+    let firsts: Vec<_> = campaign
+        .plan
+        .tiles
+        .tiles()
+        .iter()
+        .map(|t| {
+            let images = t.owned.iter().chain(&t.context).map(|id| &campaign.plan.panoramas[id.0 as usize]);
+            let first = images.min_by(|a, b| a.time.total_cmp(&b.time)).unwrap();
+            (t.id, first.time, first.east, first.north)
+        })
+        .collect();
+    let target = *firsts.iter().max_by(|a, b| a.1.total_cmp(&b.1)).unwrap();
+    for other in firsts.iter().filter(|f| f.0 != target.0) {
+        let d = (other.2 - target.2).hypot(other.3 - target.3);
+        assert!(d > 40.0, "the tiles' first panoramas lie {d:.1} m apart: {firsts:?}");
+    }
+    (target.0, target.2, target.3)
+}
+
+/// Drop `camera_height_m` from the manifest (the terrain model stands in) and blank the terrain model
+/// (no data) within 15 m of (`east`, `north`).
+fn poison(dir: &Path, east: f64, north: f64) {
+    let manifest = dir.join("campaign.toml");
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    assert!(text.contains("camera_height_m") && text.contains("terrain = \"aerial/terrain.tif\""), "{text}");
+    let edited: String = text.lines().filter(|l| !l.starts_with("camera_height_m")).map(|l| format!("{l}\n")).collect();
+    std::fs::write(&manifest, edited).unwrap();
+    let options = gdal::DatasetOptions { open_flags: gdal::GdalOpenFlags::GDAL_OF_UPDATE, ..Default::default() };
+    let ds = gdal::Dataset::open_ex(dir.join("aerial/terrain.tif"), options).unwrap();
+    let gt = ds.geo_transform().unwrap();
+    let mut band = ds.rasterband(1).unwrap();
+    let nodata = band.no_data_value().unwrap_or(-9999.0);
+    band.set_no_data_value(Some(nodata)).unwrap();
+    let (w, h) = band.size();
+    let mut buffer = band.read_as::<f64>((0, 0), (w, h), (w, h), None).unwrap();
+    let mut blanked = 0;
+    for r in 0..h {
+        for c in 0..w {
+            let e = gt[0] + (c as f64 + 0.5) * gt[1];
+            let n = gt[3] + (r as f64 + 0.5) * gt[5];
+            if (e - east).hypot(n - north) < 15.0 {
+                buffer.data_mut()[r * w + c] = nodata;
+                blanked += 1;
+            }
+        }
+    }
+    assert!(blanked > 0, "the terrain model does not cover ({east}, {north})");
+    band.write((0, 0), (w, h), &mut buffer).unwrap();
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
+    let (tile, east, north) = poison_target(&shared().dir).await;
+    let rig = Rig::start(|dir| poison(dir, east, north)).await;
+    let (adjuster, worker) = rig.roles(&rig.moto.endpoint());
+    let total = rig.submit().await;
+    let view = rig.wait_terminal(&[&adjuster, &worker]).await;
+    let c = &view.campaign;
+    // Done with the tiles it has; the poisoned tile listed with its reason.
+    assert_eq!(c.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    assert_eq!((c.tiles_done, c.tiles_failed, c.tiles_total), (total - 1, 1, total), "{view:#?}");
+    assert_eq!(c.dead_lettered.len(), 1, "{view:#?}");
+    assert_eq!(c.dead_lettered[0].tile, tile);
+    assert!(c.dead_lettered[0].error.contains("terrain model"), "{:?}", c.dead_lettered[0]);
+    // Terminated at its first delivery (permanent), and in the dead-letter stream.
+    assert_eq!(worker.log().matches("tile given up").count(), 1, "{}", worker.log());
+    let client = service::connect(&rig.nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let js = async_nats::jetstream::new(client);
+    let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
+    let mut dead = js.get_stream(DEAD_STREAM).await.unwrap();
+    assert_eq!(dead.info().await.unwrap().state.messages, 1);
+    let letter = dead.get_last_raw_message_by_subject(&dead_subject(&id)).await.unwrap();
+    let letter = TileFailed::from_json(&letter.payload).unwrap();
+    assert_eq!((letter.tile, letter.kind, letter.attempts), (tile, FailureKind::Permanent, 1));
+    // The report names the missing tile; `plumbline status` shows it with its reason.
+    let report = rig.api.report(&shared().id).await.unwrap().to_string();
+    assert!(report.contains(&format!("tile {tile}")) && report.contains("dead-lettered"), "{report}");
+    let token = support::write(&rig.dir, "token", TOKEN);
+    let status = plumbline(&["status", &shared().id, "--server", &rig.server, "--token-file", &token]).run();
+    status.success();
+    assert!(status.stdout.contains(": done") && status.stdout.contains(&format!("dead-lettered tile {tile}: ")));
+    assert!(status.stdout.contains("terrain model"), "{}", status.stdout);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn an_s3_outage_while_tiles_and_the_adjustment_run_is_retried_to_the_same_trajectory() {
+    let rig = Rig::start(|_| {}).await;
+    let proxy = FlakyProxy::start(&rig.moto.endpoint().replace("http://", ""));
+    let (adjuster, worker) = rig.roles(&proxy.endpoint());
+    rig.submit().await;
+    // Outage 1: while the first tile reads its inputs, until the worker has given the attempt up for later.
+    worker.wait_for("tile inputs being read", 1, LIMIT);
+    proxy.down();
+    let log = worker.log();
+    assert!(log.matches("tile started").count() > log.matches("tile written").count(), "no tile in progress");
+    worker.wait_for("retrying later", 1, LIMIT);
+    let refused = proxy.refused();
+    proxy.up();
+    // Outage 2: as soon as the adjustment starts, until the adjuster has deferred it.
+    adjuster.wait_for("adjustment started", 1, LIMIT);
+    proxy.down();
+    adjuster.wait_for("adjustment interrupted by the store", 1, LIMIT);
+    proxy.up();
+    let view = rig.wait_terminal(&[&adjuster, &worker]).await;
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total, "{view:#?}");
+    assert!(refused > 0 && proxy.refused() > refused, "the outages refused no connection ({refused})");
+    // The inputs the outage kept from the worker failed the attempt instead of leaving holes in the tile.
+    assert!(worker.log().contains("input(s) could not be read from the store"), "{}", worker.log());
+    assert!(adjuster.log().matches("adjustment started").count() >= 2, "{}", adjuster.log());
+    rig.assert_same_trajectory(&view, "after S3 outages").await;
+    let retry = worker.log().lines().find(|l| l.contains("retrying later")).unwrap_or_default().to_owned();
+    eprintln!("S3 outages: {} connections refused, {} cut; worker: {retry}", proxy.refused(), proxy.cut());
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_nats_restart_mid_campaign_is_survived_to_the_same_trajectory() {
+    let mut rig = Rig::start(|_| {}).await;
+    let (adjuster, worker) = rig.roles(&rig.moto.endpoint());
+    rig.submit().await;
+    worker.wait_for("tile started", 1, LIMIT);
+    rig.nats.kill();
+    let log = worker.log();
+    assert!(log.matches("tile started").count() > log.matches("tile written").count(), "no tile in progress");
+    worker.wait_for("NATS connection event", 1, Duration::from_secs(30));
+    std::thread::sleep(Duration::from_secs(2));
+    rig.nats.restart();
+    let view = rig.wait_terminal(&[&adjuster, &worker]).await;
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total, "{view:#?}");
+    for (role, log) in [("worker", worker.log()), ("adjuster", adjuster.log())] {
+        let back = field(&log, "event", "disconnected").and_then(|lost| field(&log[lost..], "event", "connected"));
+        assert!(back.is_some(), "{role} did not reconnect:\n{log}");
+    }
+    rig.assert_same_trajectory(&view, "after a NATS restart").await;
+}
