@@ -2,8 +2,9 @@
 # Offline checks of the deployment files (no Docker engine, no cluster): the compose file against the
 # compose-spec schema, the Kubernetes manifests against the Kubernetes OpenAPI schemas (strict) plus a
 # kustomize build, the NATS config with `nats-server -t`, YAML/JSON parsing of the rest, and consistency with
-# the code: stream/consumer names from services/scheduler/src/bus.rs, metric names from
-# services/scheduler/src/service/metrics.rs. Installs its own tools when missing. Exits non-zero on any failure.
+# the code: stream/consumer names from services/scheduler/src/bus.rs, metric names from the scheduler's,
+# workers' and adjuster's metrics (deploy/check_consistency.py), probe paths from their routes. Installs its
+# own tools when missing. Exits non-zero on any failure.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -51,7 +52,7 @@ else
 fi
 
 # --- everything else, and consistency with the code ------------------------------------------------------
-run "YAML/JSON parse; bind mounts exist; names match bus.rs; dashboard metrics exist in metrics.rs" \
+run "YAML/JSON parse; bind mounts exist; names match bus.rs; dashboard metrics exported by the services" \
     python3 deploy/check_consistency.py
 
 if [ "$failures" -gt 0 ]; then

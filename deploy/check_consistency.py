@@ -2,7 +2,8 @@
 deploy/check.sh): every YAML/JSON/TOML file parses; compose bind mounts exist; the `plumbline serve <role>`
 flags used in compose and k8s exist in services/cli/src/serve.rs; the KEDA trigger names the stream and
 consumer of services/scheduler/src/bus.rs; every plumbline_* metric the dashboard and docs query is one
-services/scheduler/src/service/metrics.rs exports; probe paths are routes of the scheduler; example tokens
+services/scheduler/src/service/metrics.rs, services/worker/src/service/metrics.rs or
+services/adjuster/src/service/probe.rs exports; probe paths are routes of the scheduler or of the ops listener; example tokens
 satisfy the scheduler's rules. Prints each problem and exits 1 if there is any."""
 
 import json
@@ -103,14 +104,24 @@ def check_k8s(roles, bus):
             if doc.get("kind") == "Deployment":
                 deployments[doc["metadata"]["name"]] = doc
     routes = read("services/scheduler/src/service/routes.rs")
+    ops_routes = read("services/worker/src/service/ops.rs")
     for name, dep in deployments.items():
         for c in dep["spec"]["template"]["spec"]["containers"]:
             if c.get("image") == "plumbline":
                 check_serve_args(f"deploy/k8s: {name}", c.get("args", []), roles)
+            args = c.get("args", [])
+            role = args[1] if len(args) > 1 else ""
             for probe in ("livenessProbe", "readinessProbe"):
                 path = c.get(probe, {}).get("httpGet", {}).get("path")
-                if path and c.get("image") == "plumbline" and f'.route("{path}"' not in routes:
+                if not path or c.get("image") != "plumbline":
+                    continue
+                if role == "scheduler" and f'.route("{path}"' not in routes:
                     problem(f"deploy/k8s: {name} {probe} path {path} is not a scheduler route")
+                if role in ("worker", "adjuster"):
+                    if f'"{path}" =>' not in ops_routes:
+                        problem(f"deploy/k8s: {name} {probe} path {path} is not an ops route (worker/service/ops.rs)")
+                    if "--ops-listen" not in args:
+                        problem(f"deploy/k8s: {name} has a {probe} but no --ops-listen")
     scaled = [d for _, d in objects if d.get("kind") == "ScaledObject"]
     if len(scaled) != 1:
         problem(f"deploy/k8s: expected one ScaledObject, found {len(scaled)}")
@@ -134,11 +145,30 @@ def check_k8s(roles, bus):
         problem("deploy/nats.conf: monitoring port 8222 not enabled")
 
 
+METRIC_SOURCES = {
+    # file: families written with header(&mut out, "name", ...) (scheduler) or declared as
+    # ("name", Kind::…, "help") (worker and adjuster registries; a summary exports name_sum and name_count)
+    "services/scheduler/src/service/metrics.rs": "header",
+    "services/worker/src/service/metrics.rs": "family",
+    "services/adjuster/src/service/probe.rs": "family",
+}
+
+
 def exported_metrics():
-    src = read("services/scheduler/src/service/metrics.rs")
-    names = set(re.findall(r'header\(&mut out, "(plumbline_\w+)"', src))
-    if not names:
-        problem("services/scheduler/src/service/metrics.rs: no metric headers found")
+    names = set()
+    for rel, style in METRIC_SOURCES.items():
+        src = read(rel)
+        if style == "header":
+            found = set(re.findall(r'header\(&mut out, "(plumbline_\w+)"', src))
+        else:
+            found = set()
+            for name, kind in re.findall(r'\(\s*"(plumbline_\w+)",\s*Kind::(\w+)', src):
+                found.add(name)
+                if kind == "Summary":
+                    found |= {name + "_sum", name + "_count"}
+        if not found:
+            problem(f"{rel}: no metric families found")
+        names |= found
     return names
 
 
@@ -163,7 +193,7 @@ def check_dashboard(metrics, compose):
             expr = t.get("expr", "")
             for m in re.findall(r"\bplumbline_\w+", expr):
                 if m not in metrics:
-                    problem(f"plumbline.json: panel {p['title']!r} queries {m}, which metrics.rs does not export")
+                    problem(f"plumbline.json: panel {p['title']!r} queries {m}, which no service exports")
             for job in re.findall(r'job="([^"]+)"', expr):
                 if job not in jobs:
                     problem(f"plumbline.json: panel {p['title']!r} uses job {job}, not in deploy/prometheus.yml")

@@ -6,19 +6,22 @@ use std::path::Path;
 use anyhow::Context as _;
 use bytes::Bytes;
 pub use plumbline_runtime::file_name;
-use plumbline_runtime::{Files, RuntimeConfig};
+use plumbline_runtime::{Files, OtlpExport, RuntimeConfig, TracingGuard};
 
 use crate::exit::invalid;
 
-/// What every command needs from the runtime: how to reach object stores.
+/// What every command needs from the runtime: how to reach object stores; it also holds the span
+/// exporter, which sends its last spans when the context is dropped.
 #[derive(Debug)]
 pub struct Context {
     files: Files,
+    _tracing: TracingGuard,
 }
 
 impl Context {
-    /// Load the runtime config (an optional TOML file plus the environment map) and start logging to stderr.
-    pub fn load(config: Option<&Path>, env: &HashMap<String, String>) -> anyhow::Result<Self> {
+    /// Load the runtime config (an optional TOML file plus the environment map) and start logging to stderr,
+    /// and exporting spans as `service` (e.g. `plumbline-worker`) when `otlp_endpoint` is configured.
+    pub fn load(config: Option<&Path>, env: &HashMap<String, String>, service: &str) -> anyhow::Result<Self> {
         let bytes = match config {
             Some(path) => std::fs::read(path).with_context(|| format!("reading config file {}", path.display()))?,
             None => Vec::new(),
@@ -27,9 +30,11 @@ impl Context {
             let origin = config.map_or_else(|| "environment".to_owned(), |p| p.display().to_string());
             invalid(format!("runtime config ({origin}): {e}"))
         })?;
-        plumbline_runtime::init_tracing(&config.log, env.get("RUST_LOG").map(String::as_str))
-            .map_err(|e| invalid(format!("logging: {e}")))?;
-        Ok(Self { files: Files::new(config.store.s3) })
+        let otlp = config.otlp_endpoint.map(|endpoint| OtlpExport { endpoint, service_name: service.to_owned() });
+        let tracing =
+            plumbline_runtime::init_tracing(&config.log, env.get("RUST_LOG").map(String::as_str), otlp.as_ref())
+                .map_err(|e| invalid(format!("logging: {e}")))?;
+        Ok(Self { files: Files::new(config.store.s3), _tracing: tracing })
     }
 
     /// The file access the services' libraries take.

@@ -71,7 +71,7 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let env: HashMap<String, String> = std::env::vars().collect();
-    let ctx = match io::Context::load(cli.config.as_deref(), &env) {
+    let ctx = match io::Context::load(cli.config.as_deref(), &env, service_name(&cli.command)) {
         Ok(ctx) => ctx,
         Err(e) => return report(&e),
     };
@@ -98,6 +98,18 @@ fn main() -> ExitCode {
     match result {
         Ok(code) => code,
         Err(e) => report(&e),
+    }
+}
+
+/// The OpenTelemetry `service.name` spans are exported under: the role for `serve`, else the command.
+fn service_name(command: &Command) -> &'static str {
+    match command {
+        Command::Serve(serve::Command::Scheduler(_)) => "plumbline-scheduler",
+        Command::Serve(serve::Command::Worker(_)) => "plumbline-worker",
+        Command::Serve(serve::Command::Adjuster(_)) => "plumbline-adjuster",
+        Command::Run(_) => "plumbline-run",
+        Command::Demo(_) => "plumbline-demo",
+        _ => "plumbline-cli",
     }
 }
 

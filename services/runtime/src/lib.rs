@@ -12,7 +12,8 @@
 //! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding.
 //! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`InvalidInput`] (exit code 2).
 //! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
-//! - [`logging`] — [`init_tracing`]; [`progress`] — bars, log lines or JSON lines for long work.
+//! - [`logging`] — [`init_tracing`], with OTLP span export through [`telemetry`]; [`progress`] — bars, log
+//!   lines or JSON lines for long work.
 
 pub mod cadastre;
 pub mod config;
@@ -25,14 +26,16 @@ pub mod logging;
 pub mod progress;
 pub mod secret;
 pub mod store;
+pub mod telemetry;
 pub mod trajectory;
 
 pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
 pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, is_projected, meridian_convergence};
 pub use errors::{InvalidInput, OrInvalid, invalid, is_invalid};
 pub use files::{Files, file_name};
-pub use logging::{TracingError, init_tracing};
+pub use logging::{TracingError, TracingGuard, init_tracing};
 pub use secret::Secret;
 pub use store::{
     S3Options, StoreError, StoreErrorKind, StoreRoot, get_bytes, head_url, open_store, put_bytes, read_url, write_url,
 };
+pub use telemetry::{OtlpExport, Telemetry, TelemetryError};

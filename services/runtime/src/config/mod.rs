@@ -1,7 +1,7 @@
 //! The services' runtime config: one loader from TOML bytes plus an environment map, validated once.
 //!
 //! ```toml
-//! otlp_endpoint = "http://otel-collector:4317"   # optional
+//! otlp_endpoint = "http://otel-collector:4318"   # optional: OTLP/HTTP traces
 //!
 //! [store]
 //! url = "s3://plumbline/campaigns"               # default "./plumbline-data" (a local directory)

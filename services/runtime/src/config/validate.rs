@@ -16,7 +16,7 @@ pub(super) fn validate(config: &RuntimeConfig) -> Result<(), ConfigError> {
     EnvFilter::try_new(&config.log.filter)
         .map_err(|e| ConfigError::invalid("log.filter", format!("`{}`: {e}", config.log.filter)))?;
     if let Some(endpoint) = &config.otlp_endpoint {
-        check_url("otlp_endpoint", endpoint, &["http", "https", "grpc"])?;
+        check_url("otlp_endpoint", endpoint, &["http", "https"])?; // OTLP/HTTP only: see crate::telemetry
     }
     Ok(())
 }

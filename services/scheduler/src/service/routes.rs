@@ -11,6 +11,7 @@ use axum::response::{IntoResponse, Response};
 use axum::routing::get;
 use axum::{Json, Router};
 use plumbline_campaign::CampaignId;
+use tracing::Instrument as _;
 
 use super::auth::Agency;
 use super::error::ApiError;
@@ -34,10 +35,18 @@ pub(super) fn router(scheduler: Arc<Scheduler>) -> Router {
         .with_state(scheduler)
 }
 
-/// Count every answer by route template and status.
+/// Count every answer by route template and status, each request in a span (`info` for the job API,
+/// `debug` for the probes and scrapes, so that they do not flood the traces).
 async fn count(State(s): Shared, request: Request, next: Next) -> Response {
     let route = request.extensions().get::<MatchedPath>().map_or("unmatched", MatchedPath::as_str).to_owned();
-    let response = next.run(request).await;
+    let method = request.method().clone();
+    let span = if route.starts_with("/v1/") {
+        tracing::info_span!("request", %method, route = route.as_str(), status = tracing::field::Empty)
+    } else {
+        tracing::debug_span!("request", %method, route = route.as_str(), status = tracing::field::Empty)
+    };
+    let response = next.run(request).instrument(span.clone()).await;
+    span.record("status", response.status().as_u16());
     s.metrics.request(&route, response.status().as_u16());
     response
 }

@@ -3,6 +3,7 @@
 
 use axum::http::StatusCode;
 use plumbline_campaign::{Manifest, ManifestV1, ParseError, Problem};
+use tracing::field::Empty;
 
 use super::Scheduler;
 use super::auth::Agency;
@@ -20,6 +21,7 @@ struct Submission {
 }
 
 /// Handle a submission; the status is 201 for a new campaign or run, 200 for a resubmission.
+#[tracing::instrument(name = "submit", skip_all, fields(agency = agency.as_str(), campaign = Empty, run = Empty, tiles = Empty))]
 pub(super) async fn submit(
     s: &Scheduler,
     agency: &Agency,
@@ -28,6 +30,8 @@ pub(super) async fn submit(
 ) -> Result<(StatusCode, CampaignState), ApiError> {
     let sub = parse(s, agency, json, body)?;
     let id = sub.manifest.campaign.id.clone();
+    let span = tracing::Span::current();
+    span.record("campaign", id.as_str());
     let existing = s.bus.campaigns.get(&id).await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
     let (run, revision) = match existing {
         Some((state, _)) if state.agency != agency.as_str() => {
@@ -37,11 +41,13 @@ pub(super) async fn submit(
         Some((state, revision)) => (state.run + 1, Some(revision)),
         None => (1, None),
     };
+    span.record("run", run);
     s.files.write(&sub.url, sub.bytes.clone()).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
     let campaign = load(s, &sub.url).await?;
     let plan_url = format!("{}plan.json", campaign.output);
     s.files.write(&plan_url, campaign.plan.to_json()).await.map_err(|e| ApiError::unavailable("store", &e))?;
     let state = initial_state(agency, run, &sub.url, &campaign);
+    span.record("tiles", state.tiles_total);
     let written = match revision {
         None => s.bus.campaigns.create(&state).await,
         Some(revision) => s.bus.campaigns.update(&state, revision).await,
@@ -91,8 +97,9 @@ fn problem(p: &Problem) -> FieldProblem {
 }
 
 /// Load and plan the stored manifest; unusable inputs are the client's problem (422).
+#[tracing::instrument(name = "load campaign", skip_all, fields(stage = "load", manifest = url, tiles = Empty, panoramas = Empty))]
 async fn load(s: &Scheduler, url: &str) -> Result<Campaign, ApiError> {
-    load_campaign(&s.files, url).await.map_err(|e| {
+    let campaign = load_campaign(&s.files, url).await.map_err(|e| {
         let message = format!("{e:#}");
         if plumbline_runtime::is_invalid(&e) {
             let problems = message
@@ -107,7 +114,11 @@ async fn load(s: &Scheduler, url: &str) -> Result<Campaign, ApiError> {
         } else {
             ApiError::unavailable("loading the campaign", &message)
         }
-    })
+    })?;
+    let span = tracing::Span::current();
+    span.record("tiles", campaign.plan.tiles.tiles().len());
+    span.record("panoramas", campaign.plan.panoramas.len());
+    Ok(campaign)
 }
 
 fn initial_state(agency: &Agency, run: u32, manifest: &str, campaign: &Campaign) -> CampaignState {
@@ -156,6 +167,9 @@ async fn resubmit(
 }
 
 /// One task per planned tile, de-duplicated by `Nats-Msg-Id`.
+#[tracing::instrument(name = "publish tasks", skip_all, fields(
+    stage = "publish", campaign = state.id.as_str(), run = state.run, stored = Empty, duplicates = Empty
+))]
 async fn publish(s: &Scheduler, state: &CampaignState, campaign: &Campaign) -> Result<(), ApiError> {
     let (mut stored, mut duplicates) = (0, 0);
     for tile in campaign.plan.tiles.tiles() {
@@ -176,6 +190,7 @@ async fn publish(s: &Scheduler, state: &CampaignState, campaign: &Campaign) -> R
         }
     }
     s.metrics.tasks(stored, duplicates);
+    tracing::Span::current().record("stored", stored).record("duplicates", duplicates);
     tracing::info!(campaign = state.id.as_str(), stored, duplicates, "tasks published");
     Ok(())
 }
