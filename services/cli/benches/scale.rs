@@ -14,18 +14,23 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark: a failed step ends it with its message
 
-use std::path::{Path, PathBuf};
+/// The tests' S3 helpers (store layout, credentials, upload); its `Role` is the tests', this bench has its own
+/// (another binary can be named, and it reads the process's CPU time).
+#[path = "../tests/support/services.rs"]
+#[allow(dead_code)]
+mod services;
+
+use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
-use futures::StreamExt as _;
-use plumbline_runtime::{Files, S3Options, Secret};
+use plumbline_runtime::{Files, Secret};
 use plumbline_scheduler::client::Client;
 use plumbline_scheduler::service::{self, Scheduler, Tokens};
 use plumbline_testkit::{MotoServer, NatsServer};
 
 const TOKEN: &str = "scale-token-0123456789abcdef";
-const STORE: &str = "s3://plumbline/pl";
+use services::STORE;
 const AGENCY: &str = "hamburg";
 /// How long one campaign may take before the benchmark gives up.
 const CAMPAIGN_LIMIT: Duration = Duration::from_secs(3 * 3600);
@@ -170,40 +175,6 @@ fn clock_ticks() -> f64 {
     String::from_utf8_lossy(&out.stdout).trim().parse().expect("CLK_TCK is a number")
 }
 
-fn s3_files(moto: &MotoServer) -> Files {
-    Files::new(S3Options {
-        endpoint: Some(moto.endpoint()),
-        access_key_id: Some("test".into()),
-        secret_access_key: Some(Secret::new("test")),
-        ..S3Options::default()
-    })
-}
-
-/// Every file under `dir` (recursively), relative paths with `/`.
-fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            walk(&path, base, out);
-        } else {
-            out.push(path.strip_prefix(base).unwrap().to_string_lossy().replace('\\', "/"));
-        }
-    }
-}
-
-/// Uploads the campaign's inputs where a manifest of campaign `id` finds them; returns the bytes sent.
-async fn upload(files: &Files, campaign: &Path, id: &str) -> u64 {
-    let mut names = Vec::new();
-    walk(campaign, campaign, &mut names);
-    let uploads = names.into_iter().filter(|n| !n.starts_with("results/")).map(|name| async move {
-        let bytes = std::fs::read(campaign.join(&name)).unwrap();
-        let size = bytes.len() as u64;
-        files.write(&format!("{STORE}/agencies/{AGENCY}/campaigns/{id}/{name}"), bytes).await.unwrap();
-        size
-    });
-    futures::stream::iter(uploads).buffer_unordered(8).fold(0, |sum, size| async move { sum + size }).await
-}
-
 /// One measured campaign.
 #[derive(Debug)]
 struct Row {
@@ -239,7 +210,7 @@ impl Bench {
     async fn measure(&self, n: usize) -> Row {
         let id = format!("{}-w{n}", self.id);
         let started = Instant::now();
-        let bytes = upload(&self.files, &self.campaign, &id).await;
+        let bytes = services::upload(&self.files, &self.campaign, &id).await;
         eprintln!("uploaded {:.0} MB for {id} in {:.0} s", bytes as f64 / 1e6, started.elapsed().as_secs_f64());
         let concurrency = self.concurrency.to_string();
         let workers: Vec<Role> = (0..n)
@@ -318,7 +289,7 @@ async fn start(options: &Options) -> Bench {
     let id = manifest.lines().find_map(|l| l.strip_prefix("id = \"")).unwrap().trim_end_matches('"').to_owned();
     let moto = MotoServer::start();
     moto.create_bucket("plumbline");
-    let files = s3_files(&moto);
+    let files = services::s3_files(moto.endpoint());
     let nats = NatsServer::start();
     let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
     let tokens = Tokens::from_pairs(&[(TOKEN, AGENCY)]).unwrap();

@@ -10,109 +10,18 @@
 
 mod support;
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use plumbline_geo::formats;
-use plumbline_runtime::{Files, S3Options, Secret};
+use plumbline_runtime::Secret;
 use plumbline_scheduler::client::Client;
 use plumbline_scheduler::messages::CampaignStatus;
 use plumbline_scheduler::service::{self, Scheduler, Tokens};
 use plumbline_testkit::{MotoServer, NatsServer};
 use support::plumbline;
+use support::services::{Role, STORE, s3_files, upload};
 
 const TOKEN: &str = "hh-token-0123456789abcdef";
-const STORE: &str = "s3://plumbline/pl";
-
-/// A `plumbline serve` child process, killed when dropped; its stderr goes to `log`.
-struct Role {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Role {
-    fn start(role: &str, nats: &NatsServer, moto: &MotoServer, log: PathBuf, extra: &[&str]) -> Self {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plumbline"));
-        cmd.args(["serve", role, "--nats", &nats.url(), "--store", STORE]).args(extra);
-        for (key, _) in std::env::vars() {
-            if key.starts_with("PLUMBLINE_") {
-                cmd.env_remove(key);
-            }
-        }
-        cmd.env("PLUMBLINE_S3_ENDPOINT", moto.endpoint())
-            .env("PLUMBLINE_S3_ACCESS_KEY_ID", "test")
-            .env("PLUMBLINE_S3_SECRET_ACCESS_KEY", "test")
-            .env("PLUMBLINE_LOG_FILTER", "info")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap());
-        Self { child: cmd.spawn().expect("plumbline serve starts"), log }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    /// The ops listener's address, from the `ops listening` log line (waits up to 60 s).
-    fn ops_addr(&self) -> String {
-        let start = Instant::now();
-        loop {
-            let log = self.log();
-            // `ops listening, addr: 127.0.0.1:PORT` (pretty) or `addr=…` or `"addr":"…"` (json).
-            if let Some(line) = log.lines().find(|l| l.contains("ops listening")) {
-                let from = line.find("127.0.0.1:").expect("a loopback address in the ops line");
-                let port: String = line[from + 10..].chars().take_while(char::is_ascii_digit).collect();
-                return format!("127.0.0.1:{port}");
-            }
-            assert!(start.elapsed() < Duration::from_secs(60), "no ops listener logged:\n{log}");
-            std::thread::sleep(Duration::from_millis(50));
-        }
-    }
-
-    /// SIGKILL (`kill -9`).
-    fn kill(&mut self) {
-        self.child.kill().unwrap();
-        self.child.wait().unwrap();
-    }
-}
-
-impl Drop for Role {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
-
-fn s3_files(moto: &MotoServer) -> Files {
-    Files::new(S3Options {
-        endpoint: Some(moto.endpoint()),
-        access_key_id: Some("test".into()),
-        secret_access_key: Some(Secret::new("test")),
-        ..S3Options::default()
-    })
-}
-
-/// Every file under `dir` (recursively), relative paths with `/`.
-fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
-    for entry in std::fs::read_dir(dir).unwrap() {
-        let path = entry.unwrap().path();
-        if path.is_dir() {
-            walk(&path, base, out);
-        } else {
-            out.push(path.strip_prefix(base).unwrap().to_string_lossy().replace('\\', "/"));
-        }
-    }
-}
-
-/// Upload the simulated campaign's inputs where a manifest of campaign `id` of agency hamburg finds them.
-async fn upload(files: &Files, campaign: &Path, id: &str) {
-    let mut names = Vec::new();
-    walk(campaign, campaign, &mut names);
-    for name in names.iter().filter(|n| !n.starts_with("results/")) {
-        let url = format!("{STORE}/agencies/hamburg/campaigns/{id}/{name}");
-        files.write(&url, std::fs::read(campaign.join(name)).unwrap()).await.unwrap();
-    }
-}
 
 /// Poll the campaign until it is terminal; panics with the roles' logs after `limit`.
 async fn wait_terminal(
@@ -213,7 +122,7 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
 
     let moto = MotoServer::start();
     moto.create_bucket("plumbline");
-    let files = s3_files(&moto);
+    let files = s3_files(moto.endpoint());
     let killed_id = format!("{id}-kill");
     upload(&files, &campaign, &id).await;
     upload(&files, &campaign, &killed_id).await;
@@ -239,10 +148,10 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     // (a) Two workers and an adjuster; the adjuster first, since the workers shorten the ack wait after it.
     let logs = dir.path();
     let ops = ["--ops-listen", "127.0.0.1:0"];
-    let adjuster = Role::start("adjuster", &nats, &moto, logs.join("adjuster.log"), &ops);
+    let adjuster = Role::start("adjuster", &nats.url(), &moto.endpoint(), logs.join("adjuster.log"), &ops);
     let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4", "--ops-listen", "127.0.0.1:0"];
-    let mut w1 = Role::start("worker", &nats, &moto, logs.join("w1.log"), &knobs);
-    let w2 = Role::start("worker", &nats, &moto, logs.join("w2.log"), &knobs);
+    let mut w1 = Role::start("worker", &nats.url(), &moto.endpoint(), logs.join("w1.log"), &knobs);
+    let w2 = Role::start("worker", &nats.url(), &moto.endpoint(), logs.join("w2.log"), &knobs);
     let started = Instant::now();
     let submitted = api.submit(manifest.clone().into_bytes(), false).await.unwrap();
     assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");

@@ -25,12 +25,11 @@
 mod support;
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use plumbline_geo::formats;
-use plumbline_runtime::{Files, S3Options, Secret};
+use plumbline_runtime::{Files, Secret};
 use plumbline_scheduler::api::CampaignView;
 use plumbline_scheduler::bus::{DEAD_STREAM, dead_subject};
 use plumbline_scheduler::client::Client;
@@ -38,9 +37,9 @@ use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileFailed};
 use plumbline_scheduler::service::{self, Scheduler, Tokens};
 use plumbline_testkit::{FlakyProxy, MotoServer, NatsServer};
 use support::plumbline;
+use support::services::{Role, STORE, s3_files, upload};
 
 const TOKEN: &str = "hh-token-0123456789abcdef";
-const STORE: &str = "s3://plumbline/pl";
 const LIMIT: Duration = Duration::from_secs(600);
 
 /// The simulated campaign and the trajectory `plumbline run` corrects it to.
@@ -64,92 +63,13 @@ fn shared() -> &'static Shared {
 }
 
 fn simulated() -> PathBuf {
-    let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("faults-e2e");
-    std::fs::create_dir_all(&root).unwrap();
-    let exe = std::env::current_exe().unwrap();
-    let built = std::fs::metadata(exe).unwrap().modified().unwrap();
-    let stamp = built.duration_since(std::time::UNIX_EPOCH).unwrap().as_millis();
-    let (done, lock) = (root.join(format!("camp-{stamp}")), root.join(format!("lock-{stamp}")));
-    let waited = Instant::now();
-    loop {
-        if done.join("results/trajectory.sbet").exists() {
-            return done;
-        }
-        let stale = std::fs::metadata(&lock)
-            .and_then(|m| m.modified())
-            .is_ok_and(|t| t.elapsed().is_ok_and(|e| e.as_secs() > 900));
-        if stale {
-            let _ = std::fs::remove_file(&lock);
-        }
-        if std::fs::OpenOptions::new().write(true).create_new(true).open(&lock).is_ok() {
-            simulate_into(&root, &done);
-            let _ = std::fs::remove_file(&lock);
-            return done;
-        }
-        assert!(waited.elapsed().as_secs() < 1200, "waited 20 min for another test process to simulate");
-        std::thread::sleep(Duration::from_millis(500));
-    }
-}
-
-/// Simulate and run the campaign in a private directory, then rename it to `done`; remove older ones.
-fn simulate_into(root: &Path, done: &Path) {
-    for entry in std::fs::read_dir(root).unwrap().flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if (name.starts_with("camp-") || name.starts_with("tmp-")) && entry.path() != done {
-            let _ = std::fs::remove_dir_all(entry.path());
-        }
-    }
-    let out = root.join(format!("tmp-{}", std::process::id()));
-    let t0 = Instant::now();
-    plumbline(&["simulate", "--preset", "tiny", "--length", "120", "--out", out.to_str().unwrap()]).run().success();
-    plumbline(&["run", out.join("campaign.toml").to_str().unwrap(), "--quiet"]).run().success();
-    eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
-    std::fs::rename(&out, done).unwrap();
-}
-
-/// A `plumbline serve` child process, killed when dropped; its stderr goes to `log`.
-struct Role {
-    child: Child,
-    log: PathBuf,
-}
-
-impl Role {
-    fn start(role: &str, nats: &str, s3: &str, log: PathBuf, extra: &[&str]) -> Self {
-        let mut cmd = Command::new(env!("CARGO_BIN_EXE_plumbline"));
-        cmd.args(["serve", role, "--nats", nats, "--store", STORE]).args(extra);
-        for (key, _) in std::env::vars() {
-            if key.starts_with("PLUMBLINE_") {
-                cmd.env_remove(key);
-            }
-        }
-        cmd.env("PLUMBLINE_S3_ENDPOINT", s3)
-            .env("PLUMBLINE_S3_ACCESS_KEY_ID", "test")
-            .env("PLUMBLINE_S3_SECRET_ACCESS_KEY", "test")
-            .env("PLUMBLINE_LOG_FILTER", "info")
-            .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).unwrap());
-        Self { child: cmd.spawn().expect("plumbline serve starts"), log }
-    }
-
-    fn log(&self) -> String {
-        std::fs::read_to_string(&self.log).unwrap_or_default()
-    }
-
-    /// Wait until the log holds `needle` at least `count` times.
-    fn wait_for(&self, needle: &str, count: usize, limit: Duration) {
-        let start = Instant::now();
-        while self.log().matches(needle).count() < count {
-            assert!(start.elapsed() < limit, "no {count}× {needle:?} within {limit:?}:\n{}", self.log());
-            std::thread::sleep(Duration::from_millis(20));
-        }
-    }
-}
-
-impl Drop for Role {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
+    support::once_per_build("faults-e2e", "results/trajectory.sbet", |out| {
+        let t0 = Instant::now();
+        let path = out.to_str().unwrap();
+        plumbline(&["simulate", "--preset", "tiny", "--length", "120", "--out", path]).run().success();
+        plumbline(&["run", out.join("campaign.toml").to_str().unwrap(), "--quiet"]).run().success();
+        eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
+    })
 }
 
 /// One scenario's servers, scheduler, API client and roles.
@@ -172,12 +92,7 @@ impl Rig {
         edit(&copy);
         let moto = MotoServer::start();
         moto.create_bucket("plumbline");
-        let files = Files::new(S3Options {
-            endpoint: Some(moto.endpoint()),
-            access_key_id: Some("test".into()),
-            secret_access_key: Some(Secret::new("test")),
-            ..S3Options::default()
-        });
+        let files = s3_files(moto.endpoint());
         upload(&files, &copy, &shared().id).await;
         let nats = NatsServer::start();
         let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
@@ -253,26 +168,6 @@ fn copy_dir(src: &Path, dst: &Path) {
         } else {
             std::fs::copy(entry.path(), to).unwrap();
         }
-    }
-}
-
-/// Upload the campaign's inputs (not its `results/`) under agency hamburg's prefix.
-async fn upload(files: &Files, campaign: &Path, id: &str) {
-    fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
-        for entry in std::fs::read_dir(dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                walk(&path, base, out);
-            } else {
-                out.push(path.strip_prefix(base).unwrap().to_string_lossy().replace('\\', "/"));
-            }
-        }
-    }
-    let mut names = Vec::new();
-    walk(campaign, campaign, &mut names);
-    for name in names.iter().filter(|n| !n.starts_with("results/")) {
-        let url = format!("{STORE}/agencies/hamburg/campaigns/{id}/{name}");
-        files.write(&url, std::fs::read(campaign.join(name)).unwrap()).await.unwrap();
     }
 }
 

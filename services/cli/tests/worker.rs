@@ -22,50 +22,14 @@ use support::plumbline;
 /// Tile size and overlap the tests plan with, metres (the manifest's default is 250 m).
 const TILING: &str = "\n[tiling]\ntile_size_m = 25.0\noverlap_m = 10.0\n";
 
-/// The simulated campaign directory, shared by the tests of this binary. Nextest runs every test in its own
-/// process, so the processes agree through the file system: the first one to create the lock file simulates
-/// into a private directory and renames it into place; the others wait for it. The directory is keyed by the
-/// test binary's build time, and older ones are removed.
+/// The simulated campaign directory, shared by the tests of this binary ([`support::once_per_build`]).
 fn simulated() -> &'static Path {
     static DIR: OnceLock<PathBuf> = OnceLock::new();
-    DIR.get_or_init(|| {
-        let root = Path::new(env!("CARGO_TARGET_TMPDIR")).join("worker-e2e");
-        std::fs::create_dir_all(&root).unwrap();
-        let exe = std::env::current_exe().unwrap();
-        let built = std::fs::metadata(exe).unwrap().modified().unwrap();
-        let stamp = built.duration_since(std::time::UNIX_EPOCH).unwrap().as_millis();
-        let (done, lock) = (root.join(format!("camp-{stamp}")), root.join(format!("lock-{stamp}")));
-        let waited = std::time::Instant::now();
-        loop {
-            if done.join("campaign.toml").exists() {
-                return done;
-            }
-            let stale = std::fs::metadata(&lock)
-                .and_then(|m| m.modified())
-                .is_ok_and(|t| t.elapsed().is_ok_and(|e| e.as_secs() > 900));
-            if stale {
-                let _ = std::fs::remove_file(&lock);
-            }
-            if std::fs::OpenOptions::new().write(true).create_new(true).open(&lock).is_ok() {
-                simulate_into(&root, &done);
-                let _ = std::fs::remove_file(&lock);
-                return done;
-            }
-            assert!(waited.elapsed().as_secs() < 1200, "waited 20 min for another test process to simulate");
-            std::thread::sleep(std::time::Duration::from_millis(500));
-        }
-    })
+    DIR.get_or_init(|| support::once_per_build("worker-e2e", "campaign.toml", simulate_into))
 }
 
-/// Simulate the campaign (25 m tiles) into a private directory and rename it to `done`; remove older ones.
-fn simulate_into(root: &Path, done: &Path) {
-    for entry in std::fs::read_dir(root).unwrap().flatten() {
-        let name = entry.file_name().to_string_lossy().into_owned();
-        if (name.starts_with("camp-") || name.starts_with("tmp-")) && entry.path() != done {
-            let _ = std::fs::remove_dir_all(entry.path());
-        }
-    }
-    let out = root.join(format!("tmp-{}", std::process::id()));
+/// Simulate the campaign into `out` with 25 m tiles.
+fn simulate_into(out: &Path) {
     let start = std::time::Instant::now();
     plumbline(&["simulate", "--preset", "tiny", "--seed", "3", "--out", out.to_str().unwrap()]).run().success();
     eprintln!("simulate --preset tiny: {:.1} s", start.elapsed().as_secs_f64());
@@ -74,7 +38,6 @@ fn simulate_into(root: &Path, done: &Path) {
     assert!(!text.contains("[tiling]"), "the simulator now writes [tiling]; adapt the test");
     text.push_str(TILING);
     std::fs::write(&manifest, text).unwrap();
-    std::fs::rename(&out, done).unwrap();
 }
 
 /// A private copy of the simulated campaign (removed with the returned guard).
