@@ -4,3 +4,6 @@ pub use plumbline_runtime::errors::{OrInvalid, invalid};
 
 /// Exit code for invalid input.
 pub const INVALID: u8 = 2;
+
+/// Exit code of `status --watch` for a campaign that finished without some of its tiles (dead-lettered).
+pub const PARTIAL: u8 = 3;

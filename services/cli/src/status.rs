@@ -1,5 +1,6 @@
 //! `plumbline status ID`: a campaign's state from the scheduler's job API; `--watch` follows it with progress
-//! bars until it is done (exit 0), failed or cancelled (exit 1).
+//! bars until it is done (exit 0; exit 3 when it was adjusted without its dead-lettered tiles), failed or
+//! cancelled (exit 1).
 
 use std::io::IsTerminal as _;
 use std::process::ExitCode;
@@ -10,6 +11,7 @@ use plumbline_runtime::progress::{ProgressStyle, reporter};
 use plumbline_scheduler::api::CampaignView;
 use plumbline_scheduler::messages::CampaignStatus;
 
+use crate::exit;
 use crate::io::Context;
 use crate::submit::{ServerArgs, api_error};
 
@@ -66,7 +68,11 @@ pub async fn run(_ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         view = client.status(&args.id).await.map_err(api_error)?;
     }
     print_view(&view);
-    Ok(if view.campaign.status == CampaignStatus::Done { ExitCode::SUCCESS } else { ExitCode::FAILURE })
+    Ok(match view.campaign.status {
+        CampaignStatus::Done if view.campaign.dead_lettered.is_empty() => ExitCode::SUCCESS,
+        CampaignStatus::Done => ExitCode::from(exit::PARTIAL),
+        _ => ExitCode::FAILURE,
+    })
 }
 
 fn print_view(view: &CampaignView) {

@@ -271,6 +271,10 @@ async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
     status.success();
     assert!(status.stdout.contains(": done") && status.stdout.contains(&format!("dead-lettered tile {tile}: ")));
     assert!(status.stdout.contains("terrain model"), "{}", status.stdout);
+    let args = ["status", &shared().id, "--watch", "--server", &rig.server, "--token-file", &token];
+    let watched = plumbline(&args).run();
+    watched.failure_with(3);
+    assert!(watched.stdout.contains(&format!("dead-lettered tile {tile}: ")), "{}", watched.stdout);
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
