@@ -88,7 +88,7 @@ impl Rig {
     async fn start(edit: impl FnOnce(&Path)) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let copy = dir.path().join("campaign");
-        copy_dir(&shared().dir, &copy);
+        support::copy_dir(&shared().dir, &copy);
         edit(&copy);
         let moto = MotoServer::start();
         moto.create_bucket("plumbline");
@@ -154,19 +154,6 @@ impl Rig {
             for (a, b) in f.to_array().iter().zip(e.to_array()) {
                 assert!((a - b).abs() <= 1e-9, "{what}: record {i} differs: {a} vs {b}");
             }
-        }
-    }
-}
-
-fn copy_dir(src: &Path, dst: &Path) {
-    std::fs::create_dir_all(dst).unwrap();
-    for entry in std::fs::read_dir(src).unwrap() {
-        let entry = entry.unwrap();
-        let to = dst.join(entry.file_name());
-        if entry.file_type().unwrap().is_dir() {
-            copy_dir(&entry.path(), &to);
-        } else {
-            std::fs::copy(entry.path(), to).unwrap();
         }
     }
 }

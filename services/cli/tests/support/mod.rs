@@ -108,3 +108,17 @@ pub fn once_per_build(name: &str, marker: &str, make: impl FnOnce(&Path)) -> Pat
         std::thread::sleep(Duration::from_millis(500));
     }
 }
+
+/// Copy the directory tree `src` to `dst`.
+pub fn copy_dir(src: &Path, dst: &Path) {
+    std::fs::create_dir_all(dst).expect("create the copy's directory");
+    for entry in std::fs::read_dir(src).expect("read the directory to copy") {
+        let entry = entry.expect("a directory entry");
+        let to = dst.join(entry.file_name());
+        if entry.file_type().expect("its file type").is_dir() {
+            copy_dir(&entry.path(), &to);
+        } else {
+            std::fs::copy(entry.path(), to).expect("copy a file");
+        }
+    }
+}
