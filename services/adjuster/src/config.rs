@@ -15,17 +15,25 @@ pub struct AdjusterConfig {
     pub consistency: ConsistencyConfig,
     /// Detect standstills in the DG trajectory and constrain the corrected pose to stay put over them.
     pub standstills: bool,
+    /// Adjust with the image-derived motions as relative observations (they flag DG jumps either way).
+    pub image_motions: bool,
 }
 
 impl Default for AdjusterConfig {
     fn default() -> Self {
-        Self { adjustment: AdjustmentConfig::default(), consistency: ConsistencyConfig::default(), standstills: true }
+        Self {
+            adjustment: AdjustmentConfig::default(),
+            consistency: ConsistencyConfig::default(),
+            standstills: true,
+            image_motions: true,
+        }
     }
 }
 
 impl AdjusterConfig {
     /// The settings a manifest asks for: `loss`/`huber_k` → the Huber threshold (none for plain least
-    /// squares), `snooping_alpha` → the w-test's two-sided critical value, `max_iterations`; the rest default.
+    /// squares), `snooping_alpha` → the w-test's two-sided critical value, `max_iterations`, `image_motions`;
+    /// the rest default.
     pub fn from_manifest(manifest: &ManifestV1) -> Self {
         let p = &manifest.parameters.adjustment;
         let mut config = Self::default();
@@ -36,6 +44,7 @@ impl AdjusterConfig {
         let snooping = config.adjustment.snooping.unwrap_or_default();
         config.adjustment.snooping = Some(Snooping { critical_value: critical_value(p.snooping_alpha), ..snooping });
         config.adjustment.max_iterations = p.max_iterations as usize;
+        config.image_motions = p.image_motions;
         config
     }
 
@@ -80,6 +89,9 @@ mod tests {
         let c = AdjusterConfig::from_manifest(&manifest("[parameters.adjustment]\nhuber_k = 2.5\n")).adjustment;
         assert_eq!((c.huber, c.max_iterations), (Some(2.5), 20));
         assert!((c.snooping.unwrap().critical_value - 3.29).abs() < 1e-2);
+        assert!(AdjusterConfig::from_manifest(&manifest("")).image_motions);
+        let off = "[parameters.adjustment]\nimage_motions = false\n";
+        assert!(!AdjusterConfig::from_manifest(&manifest(off)).image_motions);
     }
 
     #[test]

@@ -3,7 +3,9 @@
 
 use std::time::Instant;
 
-use plumbline_adjustment::{Adjustment, AdjustmentError, AdjustmentInput, Iteration, WeakLink, adjust_observed};
+use plumbline_adjustment::{
+    Adjustment, AdjustmentError, AdjustmentInput, Iteration, RelativeMotion, WeakLink, adjust_observed,
+};
 use plumbline_geo::dg::CameraMount;
 use plumbline_geo::{Trajectory, TrajectoryError};
 use plumbline_navigation::{ConsistencyReport, NavError, check_consistency};
@@ -41,7 +43,8 @@ pub struct Solved {
 }
 
 /// Check the DG trajectory against the image motions (paper 001 §4), weaken the flagged links, adjust
-/// (standstills as `config.standstills` says) on rayon, and apply the corrections to every record.
+/// (standstills as `config.standstills` says, the image motions as relative observations when
+/// `config.image_motions`) on rayon, and apply the corrections to every record.
 pub fn solve(
     trajectory: &Trajectory,
     merged: &Merged,
@@ -62,7 +65,11 @@ pub fn solve_observed(
     let start = Instant::now();
     let consistency = check_consistency(trajectory, &merged.motions, &config.consistency)?;
     let weak_links = consistency.weak_links();
-    let input = AdjustmentInput { trajectory, observations: &merged.observations, mount, weak_links: &weak_links };
+    let mut observations = merged.observations.clone();
+    if config.image_motions {
+        observations.motions = merged.motions.iter().copied().map(RelativeMotion::from).collect();
+    }
+    let input = AdjustmentInput { trajectory, observations: &observations, mount, weak_links: &weak_links };
     let adjustment = adjust_observed(&input, &config.adjustment(), faer::Par::rayon(0), observer)?;
     let corrected = adjustment.apply(trajectory)?;
     Ok(Solved { consistency, weak_links, adjustment, corrected, seconds: start.elapsed().as_secs_f64() })

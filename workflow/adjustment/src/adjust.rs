@@ -10,7 +10,7 @@ use crate::heights::HeightBias;
 use crate::jumps::DetectedJump;
 use crate::lm::{Iteration, Observed, minimize};
 use crate::normal::{assemble, node};
-use crate::observations::{ObservationError, ObservationRef, TiePointId};
+use crate::observations::{MotionError, ObservationError, ObservationRef, TiePointId};
 use crate::problem::{AdjustmentInput, Item, Kind, Problem};
 use crate::solver::{Factorizer, SelectedInverse, SolverError, SolverTimings};
 use crate::standstill::Standstill;
@@ -49,6 +49,17 @@ impl NodeCorrection {
 pub struct RejectedObservation {
     /// Which observation.
     pub item: ObservationRef,
+    /// Its largest normalised residual |w| when rejected.
+    pub w: f64,
+    /// The snooping round (0-based) that rejected it.
+    pub round: usize,
+}
+
+/// An image-derived relative motion (`motions[index]`) rejected by data snooping.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct RejectedMotion {
+    /// Index in the observation set's `motions`.
+    pub index: usize,
     /// Its largest normalised residual |w| when rejected.
     pub w: f64,
     /// The snooping round (0-based) that rejected it.
@@ -114,6 +125,10 @@ pub struct Adjustment {
     pub jumps: Vec<DetectedJump>,
     /// Observations not used because they are broken or outside the trajectory.
     pub skipped: Vec<ObservationError>,
+    /// Relative motions rejected by data snooping.
+    pub rejected_motions: Vec<RejectedMotion>,
+    /// Relative motions not used because they are broken or outside the trajectory.
+    pub skipped_motions: Vec<MotionError>,
     /// A-posteriori standard deviation of unit weight.
     pub sigma0: f64,
     /// Redundancy (observation rows minus parameters).
@@ -186,6 +201,7 @@ pub fn adjust_observed(
     let mut out = finish(problem, &x, &active, &selected, snooped.rejected, iterations, fac.timings);
     out.standstills = snooped.standstills;
     out.jumps = snooped.jumps;
+    out.rejected_motions = snooped.motions;
     Ok(out)
 }
 
@@ -193,6 +209,7 @@ pub fn adjust_observed(
 /// and the relative constraints still under test.
 struct Snooped {
     rejected: Vec<RejectedObservation>,
+    motions: Vec<RejectedMotion>,
     standstills: Vec<StandstillOutcome>,
     jumps: Vec<DetectedJump>,
     /// The links still tested for jumps (one widened to the largest σ is not tested again).
@@ -203,6 +220,7 @@ impl Snooped {
     fn new(p: &Problem, config: &AdjustmentConfig) -> Self {
         Self {
             rejected: Vec::new(),
+            motions: Vec::new(),
             standstills: p.standstills.iter().map(|s| StandstillOutcome { standstill: *s, rejected: None }).collect(),
             jumps: Vec::new(),
             testable: vec![config.jump_detection.is_some(); p.relative_sigma.len()],
@@ -211,7 +229,8 @@ impl Snooped {
 
     /// Rejected observations and standstills, and detected jumps.
     fn count(&self) -> usize {
-        self.rejected.len() + self.standstills.iter().filter(|s| !s.accepted()).count() + self.jumps.len()
+        let standstills = self.standstills.iter().filter(|s| !s.accepted()).count();
+        self.rejected.len() + self.motions.len() + standstills + self.jumps.len()
     }
 
     /// Act on one suspect of snooping round `round`: reject an observation (a standstill's both parts, a tie
@@ -250,6 +269,7 @@ impl Snooped {
                 }
                 self.standstills[*s].rejected = Some((w, round));
             }
+            Item::Motion(index) => self.motions.push(RejectedMotion { index: *index, w, round }),
         }
     }
 }
@@ -357,6 +377,8 @@ fn finish(
         height_biases,
         jumps: Vec::new(),
         skipped: p.skipped,
+        rejected_motions: Vec::new(),
+        skipped_motions: p.skipped_motions,
         sigma0,
         redundancy,
         variance_factors,

@@ -33,6 +33,14 @@ pub(crate) struct Links<'a> {
     pub flagged: &'a [WeakLink],
     pub still: &'a [WeakLink],
     pub standstills: &'a [Standstill],
+    /// Spans where the DG's own motion is anomalous (`crate::kinematics`).
+    pub anomalous: &'a [(f64, f64)],
+}
+
+/// The DG chain of a problem: per link the relative constraint's σ, per node the weak prior's σ.
+pub(crate) struct Chain {
+    pub relative: Vec<Vector6<f64>>,
+    pub prior: Vec<Vector6<f64>>,
 }
 
 /// The σ of the relative constraint between each pair of consecutive nodes and of each node's weak prior.
@@ -43,7 +51,7 @@ pub(crate) fn chain(
     breaks: &[(f64, f64)],
     config: &AdjustmentConfig,
     par: Par,
-) -> (Vec<Vector6<f64>>, Vec<Vector6<f64>>) {
+) -> Chain {
     let stds = crate::parallel::map(par, nodes.len(), |k| dg_std(trajectory, nodes.times[k], config));
     let mut relative: Vec<Vector6<f64>> = nodes
         .times
@@ -51,12 +59,16 @@ pub(crate) fn chain(
         .zip(stds.windows(2))
         .map(|(t, s)| relative_sigma(t[1] - t[0], &s[0], &s[1], config, link_factor(links.all, t[0], t[1])))
         .collect();
+    if let Some(c) = config.kinematic_jumps.filter(|c| c.widen) {
+        crate::kinematics::widen(&mut relative, &nodes.times, trajectory, links.anomalous, &c);
+    }
     if let Some(c) = &config.jump_localization {
         for l in links.flagged {
             localize(&mut relative, l, nodes, &stds, trajectory, links, config, c);
         }
     }
-    (relative, priors(nodes, &stds, breaks, config))
+    let prior = priors(nodes, &stds, breaks, config);
+    Chain { relative, prior }
 }
 
 /// Replace the evenly weakened links inside flagged interval `l` by links widened where the DG jumped.

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::faults::FaultPrior;
 use crate::heights::HeightBiases;
 use crate::jumps::JumpDetection;
+use crate::kinematics::KinematicJumps;
 use crate::localize::JumpLocalization;
 use crate::standstill::StandstillConfig;
 
@@ -102,6 +103,14 @@ pub struct AdjustmentConfig {
     /// a DG jump the consistency check missed (`None`: only observations are tested).
     #[serde(default = "default_jump_detection")]
     pub jump_detection: Option<JumpDetection>,
+    /// Nodes (and optionally weakened links) where the DG's own motion breaks the vehicle's kinematics, i.e.
+    /// where it may have jumped unflagged (`None`: off).
+    #[serde(default = "default_kinematic_jumps")]
+    pub kinematic_jumps: Option<KinematicJumps>,
+}
+
+fn default_kinematic_jumps() -> Option<KinematicJumps> {
+    Some(KinematicJumps::default())
 }
 
 fn default_jump_detection() -> Option<JumpDetection> {
@@ -151,6 +160,7 @@ impl Default for AdjustmentConfig {
             jump_localization: default_localization(),
             height_biases: default_height_biases(),
             jump_detection: default_jump_detection(),
+            kinematic_jumps: default_kinematic_jumps(),
         }
     }
 }

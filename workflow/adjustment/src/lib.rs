@@ -11,7 +11,10 @@
 //! - **Cadastre objects**: the pole updates of one object share its cadastre error; an object seen more than
 //!   once gets a 2-D nuisance offset with prior σ_pole, its updates keep σ_cam (paper 002 eq. (1) split).
 //! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
-//!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]) and aerial coordinates.
+//!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]), aerial coordinates, and
+//!   the image-derived motion between consecutive panoramas ([`RelativeMotion`]: east/north displacement and
+//!   heading change between two node epochs, independent of the DG, so it bridges a DG jump; rejected ones
+//!   in [`Adjustment::rejected_motions`]).
 //! - **Aerial frame sets** ([`AerialFrameSet`]): the aerial heights triangulated from the same frames share
 //!   one height bias, a nuisance parameter with a prior as large as one point's height σ ([`HeightBiases`]),
 //!   estimated jointly and reported ([`Adjustment::height_biases`]).
@@ -19,6 +22,9 @@
 //!   corrected pose at the end equals the one at the start (a zero-velocity constraint, robust-weighted and
 //!   snooped like any observation) instead of following the DG's relative motion, so a DG jump while
 //!   standing is absorbed into the correction; [`Adjustment::apply`] holds the pose over the accepted ones.
+//! - **Jumps seen in the DG's own motion** ([`KinematicJumps`]): where the DG moves sideways (a car moves
+//!   along its heading), it jumped; those spans get nodes every 0.2 s, links widened by the sideways motion,
+//!   and count as DG breaks for the prior's floor — so a jump no image pair flagged is resolved where it rose.
 //! - **Jumps the consistency check missed** ([`JumpDetection`]): snooping tests the relative constraints'
 //!   position rows too; an inconsistent one is widened as a DG jump ([`Adjustment::jumps`]) instead of the
 //!   control after it being rejected one by one.
@@ -41,6 +47,7 @@ mod export;
 mod faults;
 mod heights;
 mod jumps;
+mod kinematics;
 mod lm;
 mod localize;
 mod model;
@@ -57,20 +64,21 @@ mod standstill;
 mod stats;
 
 pub use adjust::{
-    AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedObservation, RejectedStandstill,
-    StandstillOutcome, adjust, adjust_observed,
+    AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedMotion, RejectedObservation,
+    RejectedStandstill, StandstillOutcome, adjust, adjust_observed,
 };
 pub use config::{AdjustmentConfig, RandomWalk, Snooping};
 pub use export::{ExportedNode, ExportedPole, ExportedProblem, export};
 pub use faults::FaultPrior;
 pub use heights::{HeightBias, HeightBiases};
 pub use jumps::{DetectedJump, JumpDetection};
+pub use kinematics::KinematicJumps;
 pub use lm::Iteration;
 pub use localize::JumpLocalization;
 pub use nodes::WeakLink;
 pub use observations::{
-    AerialFrameSet, AerialPoint, GnssPosition, ObservationError, ObservationRef, ObservationSet, ObservationSetV1,
-    PoleUpdate, TiePoint, TiePointId, TieRay,
+    AerialFrameSet, AerialPoint, GnssPosition, MotionError, ObservationError, ObservationRef, ObservationSet,
+    ObservationSetV1, PoleUpdate, RelativeMotion, TiePoint, TiePointId, TieRay,
 };
 pub use problem::AdjustmentInput;
 pub use solver::{SolverError, SolverTimings};

@@ -145,6 +145,32 @@ pub(crate) fn standstill(delta: &Vector6<f64>, offset: &Vector3<f64>, sigma: f64
     out
 }
 
+/// An angle in (−π, π].
+pub(crate) fn wrap(a: f64) -> f64 {
+    let t = a.rem_euclid(std::f64::consts::TAU);
+    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
+}
+
+/// Image-derived motion between two panoramas (paper 000 §3.3 as the observation of paper 001 §4.1): with
+/// Δ = δ_end − δ_start (interpolation weights − at the start, + at the end), the corrected displacement
+/// east, north is `dg` + Δp, and the corrected heading change `dg`_z − Δθ_up (a rotation about up is
+/// counter-clockwise, the heading clockwise from north); residuals against `measured` over σ.
+pub(crate) fn motion(
+    delta: &Vector6<f64>,
+    dg: &Vector3<f64>,
+    measured: &Vector3<f64>,
+    sigma: &Vector3<f64>,
+) -> Linearized {
+    let mut out = Linearized::new(3);
+    for row in 0..2 {
+        out.e[row] = (dg[row] + delta[row] - measured[row]) / sigma[row];
+        out.j_pose[(row, row)] = 1.0 / sigma[row];
+    }
+    out.e[2] = wrap(dg.z - delta[5] - measured.z) / sigma.z;
+    out.j_pose[(2, 5)] = -1.0 / sigma.z;
+    out
+}
+
 /// Aerial-triangulated coordinates of a tie point: S (X − z) with Sᵀ S = C⁻¹.
 pub(crate) fn aerial(point: &Vector3<f64>, measured: &Vector3<f64>, whitening: &Matrix3<f64>) -> Linearized {
     let mut out = Linearized::new(3);
@@ -205,6 +231,8 @@ mod tests {
         for heading in [false, true] {
             check(|d, _| standstill(d, &offset, 0.005, heading), delta(), Vector3::zeros());
         }
+        let (dg_motion, measured) = (Vector3::new(4.0, 3.0, 0.2), Vector3::new(4.1, 2.9, 0.25));
+        check(|d, _| motion(d, &dg_motion, &measured, &Vector3::new(0.02, 0.03, 1e-3)), delta(), Vector3::zeros());
     }
 
     #[test]
@@ -231,5 +259,26 @@ mod tests {
         let body = MapFromBody::new(Rotation::from_matrix(&truth.r), Point3::from_vector(truth.p));
         let dir = mount.to_camera(&body, &Point3::from_vector(x)).v.normalize();
         assert!(ray(&dg(), &delta(), &mount, &x, &dir, 1e-3).e.norm() < 1e-9);
+    }
+
+    #[test]
+    fn a_motion_is_explained_by_the_true_corrections_at_its_ends() {
+        // Truth: 0.4 rad of turn over 6 m; the DG carries different position and heading errors at both ends.
+        let (h0, h1) = (1.1, 1.5);
+        let (p0, p1) = (Vector3::new(100.0, 200.0, 50.0), Vector3::new(105.0, 203.0, 50.2));
+        let (d0, d1) = (Vector6::new(0.3, -0.2, 0.1, 0.0, 0.0, 0.004), Vector6::new(-0.1, 0.5, 0.0, 0.0, 0.0, -0.006));
+        let dg_end = |p: Vector3<f64>, h: f64, d: &Vector6<f64>| {
+            let r = exp(&-d.fixed_rows::<3>(3).into_owned()) * Attitude::new(0.0, 0.0, h).to_rotation().matrix();
+            (p - d.fixed_rows::<3>(0), Attitude::from_rotation(&Rotation::from_matrix(&r)).heading)
+        };
+        let ((a, ha), (b, hb)) = (dg_end(p0, h0, &d0), dg_end(p1, h1, &d1));
+        let dg_motion = Vector3::new(b.x - a.x, b.y - a.y, wrap(hb - ha));
+        let measured = Vector3::new(p1.x - p0.x, p1.y - p0.y, h1 - h0);
+        let sigma = Vector3::new(0.02, 0.02, 1e-3);
+        let lin = motion(&(d1 - d0), &dg_motion, &measured, &sigma);
+        assert!(lin.e.norm() < 1e-6, "{}", lin.e);
+        // Without the corrections the residual shows the DG's relative error (0.7 m north, 10 mrad of turn).
+        let raw = motion(&Vector6::zeros(), &dg_motion, &measured, &sigma);
+        assert!((raw.e[1] * 0.02 + 0.7).abs() < 1e-9 && (raw.e[2] * 1e-3 + 0.01).abs() < 1e-6, "{}", raw.e);
     }
 }

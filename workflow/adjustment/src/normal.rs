@@ -49,6 +49,7 @@ pub(crate) fn linearize(p: &Problem, o: &Obs, x: &[f64]) -> Linearized {
             model::aerial(&(point(*i) + Vector3::new(0.0, 0.0, b)), measured, whitening)
         }
         Kind::Standstill { offset, sigma, heading } => model::standstill(&delta, offset, *sigma, *heading),
+        Kind::Motion { dg, measured, sigma } => model::motion(&delta, dg, measured, sigma),
     }
 }
 

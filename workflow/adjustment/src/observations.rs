@@ -1,5 +1,6 @@
 //! Observation messages shared by the registration and pole workers and the adjuster: tie points (panorama
-//! rays to aerial-triangulated points), pole coordinate updates and GNSS positions, versioned on the wire.
+//! rays to aerial-triangulated points), pole coordinate updates, GNSS positions and the image-derived motion
+//! between consecutive panoramas, versioned on the wire.
 //!
 //! All coordinates are in the campaign's mapping frame (`Map`: easting, northing, height, metres); ray
 //! directions are unit vectors in the panorama's camera frame (x right, y down, z centre column); times are
@@ -43,6 +44,10 @@ pub struct ObservationSetV1 {
     /// existed parse unchanged, and their aerial heights are then weighted as independent.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub aerial_frame_sets: Vec<AerialFrameSet>,
+    /// The motion between consecutive panoramas measured by the images (MM↔MM registration, paper 000
+    /// §3.3), a relative observation of the corrected trajectory. Optional: older sets parse unchanged.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub motions: Vec<RelativeMotion>,
 }
 
 impl ObservationSetV1 {
@@ -52,6 +57,7 @@ impl ObservationSetV1 {
         self.poles.extend(other.poles);
         self.gnss.extend(other.gnss);
         self.aerial_frame_sets.extend(other.aerial_frame_sets);
+        self.motions.extend(other.motions);
     }
 }
 
@@ -139,6 +145,24 @@ impl PoleUpdate {
     }
 }
 
+/// The motion of the body origin between two panoramas as the images measured it (the ortho-projected
+/// neighbouring panoramas registered to each other, paper 000 §3.3): it observes the corrected trajectory's
+/// relative motion independently of the DG, so it bridges a DG jump between them (paper 001 §4.1).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RelativeMotion {
+    /// Exposure time of the first panorama, s.
+    pub start: f64,
+    /// Exposure time of the second panorama, s.
+    pub end: f64,
+    /// Displacement of the body origin east and north, m.
+    pub displacement: [f64; 2],
+    /// Heading change (clockwise from north, Applanix), rad.
+    pub heading_change: f64,
+    /// σ of the east and north displacement (m) and of the heading change (rad).
+    pub std: [f64; 3],
+}
+
 /// A GNSS antenna position.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -221,6 +245,37 @@ impl GnssPosition {
     }
 }
 
+/// A defect of one relative motion (`motions[index]`), naming the field. (Motions are not in
+/// [`ObservationRef`], whose variants the services match exhaustively; they are reported on their own.)
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("motions[{index}]: field `{field}` {problem}")]
+pub struct MotionError {
+    /// Index in `motions`.
+    pub index: usize,
+    /// The offending field.
+    pub field: &'static str,
+    /// What is wrong with it.
+    pub problem: String,
+}
+
+impl RelativeMotion {
+    /// Every defect of this motion.
+    pub fn problems(&self, index: usize) -> Vec<MotionError> {
+        let mut out = Vec::new();
+        let mut check = |ok: bool, field: &'static str, problem: &str| {
+            if !ok {
+                out.push(MotionError { index, field, problem: problem.to_owned() });
+            }
+        };
+        check(finite(&[self.start, self.end]), "start", "is not finite");
+        check(self.end > self.start, "end", "must be after start");
+        check(finite(&self.displacement), "displacement", "is not finite");
+        check(self.heading_change.is_finite(), "heading_change", "is not finite");
+        check(self.std.iter().all(|s| *s > 0.0 && s.is_finite()), "std", "must be > 0 and finite");
+        out
+    }
+}
+
 impl TiePoint {
     /// Every defect of this tie point.
     pub fn problems(&self, index: usize) -> Vec<ObservationError> {
@@ -289,6 +344,13 @@ mod tests {
                 frames: vec!["a1".into(), "a2".into()],
                 ties: vec![TiePointId("t1".into())],
             }],
+            motions: vec![RelativeMotion {
+                start: 1.0,
+                end: 1.5,
+                displacement: [4.0, 3.0],
+                heading_change: 0.01,
+                std: [0.02, 0.02, 1e-3],
+            }],
         });
         let json = serde_json::to_string(&set).unwrap();
         assert!(json.starts_with(r#"{"version":"1""#), "{json}");
@@ -300,9 +362,10 @@ mod tests {
     fn sets_without_frame_sets_still_parse() {
         let old = r#"{"version":"1","ties":[],"poles":[],"gnss":[]}"#;
         let set = serde_json::from_str::<ObservationSet>(old).unwrap().into_latest();
-        assert!(set.aerial_frame_sets.is_empty());
+        assert!(set.aerial_frame_sets.is_empty() && set.motions.is_empty());
         let json = serde_json::to_string(&ObservationSet::V1(set)).unwrap();
         assert!(!json.contains("aerial_frame_sets"), "an empty list is not written: {json}");
+        assert!(!json.contains("motions"), "an empty list is not written: {json}");
     }
 
     #[test]
@@ -331,5 +394,11 @@ mod tests {
         let fields: Vec<_> = tie.problems(0).iter().map(|e| e.field).collect();
         assert_eq!(fields, ["rays.direction", "aerial.covariance"]);
         assert!(pole().problems(0).is_empty());
+        let motion =
+            RelativeMotion { start: 2.0, end: 1.0, displacement: [0.0; 2], heading_change: 0.0, std: [0.0; 3] };
+        let problems = motion.problems(3);
+        let fields: Vec<_> = problems.iter().map(|e| e.field).collect();
+        assert_eq!(fields, ["end", "std"]);
+        assert!(problems[0].to_string().starts_with("motions[3]: field `end`"), "{}", problems[0]);
     }
 }

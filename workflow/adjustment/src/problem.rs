@@ -11,7 +11,9 @@ use plumbline_geo::trajectory::PositionInterpolation;
 use crate::config::AdjustmentConfig;
 use crate::model::DgPose;
 use crate::nodes::{Nodes, WeakLink};
-use crate::observations::{ObservationError, ObservationRef, ObservationSetV1, TiePoint, TiePointId, aerial_whitening};
+use crate::observations::{
+    MotionError, ObservationError, ObservationRef, ObservationSetV1, TiePoint, TiePointId, aerial_whitening,
+};
 use crate::pattern::Pattern;
 use crate::standstill::{Standstill, StandstillConfig, detect_standstills};
 
@@ -61,6 +63,13 @@ pub(crate) enum Kind {
         sigma: f64,
         heading: bool,
     },
+    /// Image-derived motion between `time` and `until` (parts: −weights at the start, +weights at the end):
+    /// `dg` the DG's own east, north displacement and heading change, `measured` the images'.
+    Motion {
+        dg: Vector3<f64>,
+        measured: Vector3<f64>,
+        sigma: Vector3<f64>,
+    },
 }
 
 /// What an internal observation is, for reporting.
@@ -70,6 +79,8 @@ pub(crate) enum Item {
     Observation(ObservationRef),
     /// The zero-velocity constraint of a detected standstill (position or heading part).
     Standstill(usize),
+    /// `motions[index]` of the input set.
+    Motion(usize),
 }
 
 /// One observation ready to linearise.
@@ -103,6 +114,8 @@ pub(crate) struct Problem {
     pub pattern: Pattern,
     pub mount: CameraMount,
     pub skipped: Vec<ObservationError>,
+    /// Relative motions not used (broken, or outside the trajectory).
+    pub skipped_motions: Vec<MotionError>,
     /// The detected standstills.
     pub standstills: Vec<Standstill>,
     /// Parallelism for the per-observation work.
@@ -122,6 +135,7 @@ impl Problem {
     /// Validate, locate and wire up every observation.
     pub fn build(input: &AdjustmentInput<'_>, config: &AdjustmentConfig, par: Par) -> Self {
         let mut b = Builder { input, raw: Vec::new(), skipped: Vec::new(), points: Vec::new(), point_init: Vec::new() };
+        let skipped_motions = b.motions();
         b.poles();
         let offset_sigma =
             if config.pole_offsets { crate::offsets::share_pole_offsets(&mut b.raw) } else { Vec::new() };
@@ -147,20 +161,45 @@ impl Problem {
         // Weak-link and standstill boundaries are nodes too, so a jump is resolved where it happens.
         let bounds = links.iter().flat_map(|l| [l.start, l.end]);
         let inner = config.jump_localization.map(|c| crate::localize::sub_nodes(&flagged, &c)).unwrap_or_default();
-        let times = b.raw.iter().map(|o| o.time).chain(bounds).chain(inner).collect();
+        let anomalous = config
+            .kinematic_jumps
+            .map(|c| crate::kinematics::anomalous_spans(input.trajectory, &c))
+            .unwrap_or_default();
+        let kinematic = config.kinematic_jumps.map(|c| crate::kinematics::span_nodes(&anomalous, &c));
+        // A relative motion's both epochs are nodes.
+        let times = b
+            .raw
+            .iter()
+            .flat_map(|o| [o.time, o.until])
+            .chain(bounds)
+            .chain(inner)
+            .chain(kinematic.into_iter().flatten());
+        let times = times.collect();
         let nodes = Nodes::new(times, span, config);
         let mut obs = b.raw;
         for o in &mut obs {
-            if !matches!(o.kind, Kind::Aerial { .. }) {
-                o.parts = nodes.bracket(o.time);
+            match o.kind {
+                Kind::Aerial { .. } => {}
+                Kind::Motion { .. } => o.parts = difference_parts(&nodes, o.time, o.until),
+                _ => o.parts = nodes.bracket(o.time),
             }
         }
         if let Some(c) = &config.standstill {
             obs.extend(standstill_obs(input.trajectory, &nodes, &standstills, c));
         }
-        let breaks = crate::chain::breaks(input, &standstills, config);
-        let links = crate::chain::Links { all: &links, flagged: &flagged, still: &still, standstills: &standstills };
-        let (relative_sigma, prior_sigma) = crate::chain::chain(&nodes, input.trajectory, &links, &breaks, config, par);
+        let mut breaks = crate::chain::breaks(input, &standstills, config);
+        // Where the DG's own motion jumped (and the links are widened for it), it breaks like a flagged link.
+        if config.kinematic_jumps.is_some_and(|c| c.widen) {
+            breaks.extend(anomalous.iter().copied());
+        }
+        let links = crate::chain::Links {
+            all: &links,
+            flagged: &flagged,
+            still: &still,
+            standstills: &standstills,
+            anomalous: &anomalous,
+        };
+        let chain = crate::chain::chain(&nodes, input.trajectory, &links, &breaks, config, par);
         let layout = Layout { nodes: nodes.len(), points: b.points.len(), offsets: offset_sigma.len() };
         let widths: Vec<usize> = [(layout.points, 3), (layout.offsets, 2), (biases.len(), 1)]
             .iter()
@@ -174,11 +213,12 @@ impl Problem {
             point_init: b.point_init,
             offset_sigma,
             biases,
-            relative_sigma,
-            prior_sigma,
+            relative_sigma: chain.relative,
+            prior_sigma: chain.prior,
             pattern,
             mount: *input.mount,
             skipped: b.skipped,
+            skipped_motions,
             standstills,
             par,
         }
@@ -260,6 +300,19 @@ fn standstill_obs<'a>(
         .flatten()
 }
 
+/// The interpolation weights of δ(end) − δ(start), one entry per node.
+fn difference_parts(nodes: &Nodes, start: f64, end: f64) -> Vec<(usize, f64)> {
+    let mut parts: Vec<(usize, f64)> = nodes.bracket(start).into_iter().map(|(k, w)| (k, -w)).collect();
+    for (k, w) in nodes.bracket(end) {
+        match parts.iter_mut().find(|(j, _)| *j == k) {
+            Some(part) => part.1 += w,
+            None => parts.push((k, w)),
+        }
+    }
+    parts.retain(|(_, w)| *w != 0.0);
+    parts
+}
+
 /// Block counts: nodes, then tie points, cadastre offsets and height biases.
 struct Layout {
     nodes: usize,
@@ -332,6 +385,38 @@ impl Builder<'_, '_> {
                 o.pole_sigmas = Some((pole.sigma_camera, pole.sigma_pole));
             }
         }
+    }
+
+    /// The image-derived relative motions (their DG counterpart read off the trajectory); the broken ones
+    /// and those outside the trajectory are returned.
+    fn motions(&mut self) -> Vec<MotionError> {
+        let mut skipped = Vec::new();
+        let t = self.input.trajectory;
+        for (index, m) in self.input.observations.motions.iter().enumerate() {
+            let problems = m.problems(index);
+            if !problems.is_empty() {
+                skipped.extend(problems);
+                continue;
+            }
+            let at = |time: f64| t.interpolate(time, PositionInterpolation::Linear).ok();
+            let (Some(a), Some(b), Some(dg)) = (at(m.start), at(m.end), dg_pose(t, m.start)) else {
+                let problem = "lies outside the trajectory's time span".into();
+                skipped.push(MotionError { index, field: "start/end", problem });
+                continue;
+            };
+            let d = b.position.p - a.position.p;
+            let turn = crate::model::wrap(b.attitude.heading - a.attitude.heading);
+            let [e, n] = m.displacement;
+            let kind = Kind::Motion {
+                dg: Vector3::new(d.x, d.y, turn),
+                measured: Vector3::new(e, n, m.heading_change),
+                sigma: Vector3::from(m.std),
+            };
+            let item = Item::Motion(index);
+            let parts = Vec::new();
+            self.raw.push(Obs { item, time: m.start, until: m.end, dg, parts, kind, pole_sigmas: None });
+        }
+        skipped
     }
 
     fn gnss(&mut self) {

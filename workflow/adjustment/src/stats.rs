@@ -111,7 +111,7 @@ pub(crate) fn variance_factors(p: &Problem, x: &[f64], active: &[bool], sel: &Se
             Kind::Gnss { .. } => 1,
             Kind::Ray { .. } => 2,
             Kind::Aerial { .. } => 3,
-            Kind::Standstill { .. } => continue,
+            Kind::Standstill { .. } | Kind::Motion { .. } => continue,
         };
         for (e, r) in rows {
             sums[kind][0] += e * e;

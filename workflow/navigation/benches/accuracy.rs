@@ -1,6 +1,9 @@
 //! Accuracy report of the global adjustment on `district`-sized synthetic drives (~2 km), one per GNSS
 //! profile (open / urban / canyon), in paper 002's table form: DG before and adjusted after, for
-//! (a) aerial tie points + pole CUPTs and (b) pole CUPTs only, the issue's targets beside the figures.
+//! (a) aerial tie points + pole CUPTs and (b) pole CUPTs only, the issue's targets beside the figures; each
+//! also with the image-derived motion between consecutive panoramas as a relative observation ("+ image
+//! motion": measured by the MM↔MM registration, not control; simulated from the truth with σ 2 cm, 1 mrad).
+//! The rows without it are the paper-002 comparison.
 //!
 //! The observations are SIMULATED FROM THE TRUTH (`plumbline_synth::observations`), not produced by the
 //! registration and pole-detection pipelines (being built in parallel): tie rays from the true poses with
@@ -19,16 +22,18 @@
 //! Run: `cargo bench -p plumbline-navigation --bench accuracy [-- seed] [without=NAME ...]`. `without=` switches
 //! one improvement of the adjustment off to measure what it contributes: `offsets` (one nuisance offset per
 //! cadastre object), `fault-prior` (the prior's floor between DG breaks), `localization` (jumps localised inside
-//! flagged intervals); `prior-time` switches the per-time prior off where it is on. `ACC_DEBUG=<time>` prints
-//! the faults, flags, standstills, pole updates and errors within 40 s of that time to stderr.
+//! flagged intervals), `kinematic` (nodes where the DG's own motion breaks the vehicle's kinematics), `kinematic-widen`
+//! (those links widened by the anomaly); `prior-time` switches the per-time prior off where it is on; `prior-time=<s>` switches it on with that time. `ACC_DEBUG=<time>` prints
+//! the faults, flags, standstills, pole updates and errors within 40 s of that time to stderr (errors every
+//! `ACC_DEBUG_STEP` records within `ACC_DEBUG_SPAN` s).
 #![allow(clippy::unwrap_used)]
 
 use std::collections::HashMap;
 
 use faer::Par;
 use plumbline_adjustment::{
-    AdjustmentConfig, AdjustmentInput, AerialPoint, ObservationRef, ObservationSetV1, PoleUpdate, TiePoint, TiePointId,
-    TieRay, WeakLink, adjust,
+    AdjustmentConfig, AdjustmentInput, AerialPoint, ObservationRef, ObservationSetV1, PoleUpdate, RelativeMotion,
+    TiePoint, TiePointId, TieRay, WeakLink, adjust,
 };
 use plumbline_geo::metrics::{Comparison, Stats, compare};
 use plumbline_geo::{Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
@@ -54,7 +59,7 @@ struct Case {
     wrong: usize,
     ties: Vec<TiePoint>,
     links: Vec<WeakLink>,
-    motions: usize,
+    motions: Vec<RelativeMotion>,
     /// Per epoch: inside a DG fault (simulated jump/outage or the injected jump).
     faulty: Vec<bool>,
     /// The simulated faults: kind, start, end (seconds).
@@ -65,7 +70,11 @@ fn main() {
     let seed: u64 = std::env::args().skip(1).find_map(|a| a.parse().ok()).unwrap_or(1);
     let without: Vec<String> =
         std::env::args().skip(1).filter_map(|a| a.strip_prefix("without=").map(String::from)).collect();
-    let config = ablated(&without);
+    let mut config = ablated(&without);
+    if let Some(t) = std::env::args().skip(1).find_map(|a| a.strip_prefix("prior-time=").and_then(|v| v.parse().ok())) {
+        config.prior_time = Some(t);
+        println!("Prior counted once per {t} s (prior_time)\n");
+    }
     println!("# Adjustment accuracy, synthetic district (seed {seed}); observations simulated from truth\n");
     if !without.is_empty() {
         println!("Ablation: without {}\n", without.join(", "));
@@ -86,9 +95,15 @@ fn main() {
         row(&case, "DG", &case.dg, None, "");
         let with_ties = ObservationSetV1 { ties: case.ties.clone(), poles: case.poles.clone(), ..Default::default() };
         let poles_only = ObservationSetV1 { poles: case.poles.clone(), ..Default::default() };
-        for (name, obs, target) in
-            [("aerial + poles", &with_ties, "RMSE 0.05, max 0.15"), ("poles only", &poles_only, "99 % 0.30")]
-        {
+        let motions = case.motions.clone();
+        let with_motion = ObservationSetV1 { motions: motions.clone(), ..with_ties.clone() };
+        let poles_motion = ObservationSetV1 { motions, ..poles_only.clone() };
+        for (name, obs, target) in [
+            ("aerial + poles", &with_ties, "RMSE 0.05, max 0.15"),
+            ("aerial + poles + image motion", &with_motion, "RMSE 0.05, max 0.15"),
+            ("poles only", &poles_only, "99 % 0.30"),
+            ("poles + image motion", &poles_motion, "99 % 0.30"),
+        ] {
             let mount = Mount::PANORAMA.camera_mount();
             let input =
                 AdjustmentInput { trajectory: &case.dg, observations: obs, mount: &mount, weak_links: &case.links };
@@ -117,17 +132,19 @@ fn main() {
                     .fold(0.0, f64::max)
             };
             notes.push(format!(
-                "{profile}, {name}: {} poles + {} ties, {:.1} s; wrong pole (σ {:.2} m) rejected: {rejected} \
+                "{profile}, {name}: {} poles + {} ties + {} motions ({} rejected), {:.1} s; wrong pole (σ {:.2} m) rejected: {rejected} \
                  ({} rejections in all); {} of {} image pairs flagged; inside the injected jump (1.5 s from its \
                  edges) max 2D error {jump:.3} m (DG {dg_jump:.3} m); {} standstills ({seconds_still:.0} s), {accepted} \
                  kept, max 2D error inside them {:.3} m (DG {:.3} m); largest cross-track near control: {worst}",
                 obs.poles.len(),
                 obs.ties.len(),
+                obs.motions.len(),
+                result.rejected_motions.len(),
                 seconds,
                 case.poles[case.wrong].sigma(),
                 result.rejected.len(),
                 case.links.len(),
-                case.motions,
+                case.motions.len(),
                 still.len(),
                 inside(&corrected),
                 inside(&case.dg),
@@ -150,6 +167,12 @@ fn ablated(without: &[String]) -> AdjustmentConfig {
             "prior-time" => config.prior_time = None,
             "fault-prior" => config.fault_prior = None,
             "localization" => config.jump_localization = None,
+            "kinematic" => config.kinematic_jumps = None,
+            "kinematic-widen" => {
+                if let Some(k) = &mut config.kinematic_jumps {
+                    k.widen = false;
+                }
+            }
             other => panic!("unknown improvement {other}"),
         }
     }
@@ -206,8 +229,8 @@ fn build(profile: &'static str, canyon: Canyon, seed: u64) -> Case {
     let motions = image_motions(&drive, &config, seed);
     let report = check_consistency(&dg, &motions, &ConsistencyConfig::default()).unwrap();
     let links = report.weak_links();
-    let motions_len = motions.len();
-    Case { profile, truth: drive.trajectory, dg, jump, poles, wrong, ties, links, motions: motions_len, faulty, faults }
+    let motions = motions.into_iter().map(RelativeMotion::from).collect();
+    Case { profile, truth: drive.trajectory, dg, jump, poles, wrong, ties, links, motions, faulty, faults }
 }
 
 /// DG + 0.5 m north over [a, b), rising and falling within 1 s (a multipath jump, as the simulator's).
@@ -405,6 +428,13 @@ fn debug_around(
     for l in case.links.iter().filter(|l| near(l.start, l.end)) {
         eprintln!("flag {:.1}-{:.1}", l.start, l.end);
     }
+    for (i, m) in case.motions.iter().enumerate().filter(|(_, m)| near(m.start, m.end)) {
+        let rejected = result.rejected_motions.iter().any(|r| r.index == i);
+        eprintln!("motion {:.1}-{:.1} rejected {rejected}", m.start, m.end);
+    }
+    for j in result.jumps.iter().filter(|j| near(j.start, j.end)) {
+        eprintln!("detected jump {:.1}-{:.1} w {:.1} round {}", j.start, j.end, j.w, j.round);
+    }
     for s in result.standstills.iter().filter(|s| near(s.standstill.start, s.standstill.end)) {
         eprintln!("stop {:.1}-{:.1} {:?}", s.standstill.start, s.standstill.end, s.rejected);
     }
@@ -415,9 +445,12 @@ fn debug_around(
             p.cadastre_id, p.time, p.sigma_camera, p.sigma_pole
         );
     }
-    for r in corrected.records().iter().zip(case.dg.records()).zip(case.truth.records()).step_by(50) {
+    // ACC_DEBUG_STEP=<records> (default 50, one second) and ACC_DEBUG_SPAN=<seconds> (default 40) zoom in.
+    let env = |name: &str, default: f64| std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default);
+    let (step, span) = (env("ACC_DEBUG_STEP", 50.0).max(1.0) as usize, env("ACC_DEBUG_SPAN", 40.0));
+    for r in corrected.records().iter().zip(case.dg.records()).zip(case.truth.records()).step_by(step) {
         let ((c, d), t) = r;
-        if (c.time - t0).abs() <= 40.0 {
+        if (c.time - t0).abs() <= span {
             let e = c.position.p - t.position.p;
             let f = d.position.p - t.position.p;
             eprintln!("t {:.1} err {:+.3} {:+.3} dg {:+.3} {:+.3}", c.time, e.x, e.y, f.x, f.y);

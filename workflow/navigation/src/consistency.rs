@@ -30,6 +30,14 @@ pub struct ImageMotion {
     pub std: [f64; 3],
 }
 
+impl From<ImageMotion> for plumbline_adjustment::RelativeMotion {
+    /// The same motion as the adjustment's relative observation.
+    fn from(m: ImageMotion) -> Self {
+        let ImageMotion { start, end, displacement, heading_change, std } = m;
+        Self { start, end, displacement, heading_change, std }
+    }
+}
+
 /// Parameters of the check.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]

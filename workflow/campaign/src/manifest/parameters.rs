@@ -65,6 +65,10 @@ pub struct Adjustment {
     /// Gauss–Newton iterations at most.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
+    /// Use the image-derived motion between consecutive panoramas (paper 000 §3.3) as relative observations
+    /// of the trajectory, besides flagging DG jumps with it; `false` uses it for the flags only.
+    #[serde(default = "default_image_motions")]
+    pub image_motions: bool,
 }
 
 /// Robust loss of the adjustment.
@@ -99,6 +103,9 @@ fn default_snooping_alpha() -> f64 {
 fn default_max_iterations() -> u32 {
     20
 }
+fn default_image_motions() -> bool {
+    true
+}
 
 impl Default for Registration {
     fn default() -> Self {
@@ -124,6 +131,7 @@ impl Default for Adjustment {
             huber_k: default_huber_k(),
             snooping_alpha: default_snooping_alpha(),
             max_iterations: default_max_iterations(),
+            image_motions: default_image_motions(),
         }
     }
 }
