@@ -1,5 +1,5 @@
 //! The adjustment's accuracy on a finished campaign: the tiles of an earlier `plumbline run`/`demo` (its
-//! `tiles/*.json`) merged and adjusted again with the default settings and with single features switched
+//! `tiles/*.json`) merged (tie points sharing an image point joined, as `finish` does) and adjusted again with the default settings and with single features switched
 //! off, each compared with the campaign's reference trajectory in the paper-002 form. Only the adjustment
 //! runs (seconds), so variants can be compared on real-pipeline observations.
 //!
@@ -7,7 +7,7 @@
 //! (holding `campaign.toml`, outputs under `results/`); no VARIANT runs all of them.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-use plumbline_adjuster::{AdjusterConfig, Merged, merge, panorama_mount, solve};
+use plumbline_adjuster::{AdjusterConfig, Merged, join_shared_points, merge, panorama_mount, solve};
 use plumbline_geo::metrics::compare;
 use plumbline_runtime::Files;
 use plumbline_worker::{TileOutput, TileOutputV1};
@@ -105,6 +105,7 @@ fn main() {
     for v in VARIANTS.iter().filter(|v| wanted.is_empty() || wanted.contains(&v.name)) {
         let mut config = AdjusterConfig::from_manifest(&campaign.manifest);
         let mut merged = merge(&tiles);
+        join_shared_points(&mut merged);
         (v.apply)(&mut config, &mut merged);
         let solved = solve(dg, &merged, &mount, &config).unwrap();
         let a = &solved.adjustment;

@@ -16,6 +16,7 @@ use plumbline_worker::TileOutputV1;
 
 use crate::config::AdjusterConfig;
 use crate::corrections::corrections_csv;
+use crate::join::join_shared_points;
 use crate::layers::observation_layers;
 use crate::merge::{Merged, merge};
 use crate::report::build_report;
@@ -106,7 +107,9 @@ fn compute(
     config: &AdjusterConfig,
     observer: &mut dyn FnMut(&Iteration),
 ) -> anyhow::Result<Computed> {
-    let merged = merge(tiles);
+    let mut merged = merge(tiles);
+    let joined = join_shared_points(&mut merged);
+    tracing::info!(joined, ties = merged.observations.ties.len(), "tie points sharing an image point joined");
     let mount = panorama_mount(&campaign.manifest);
     let solved = solve_observed(&campaign.trajectory.trajectory, &merged, &mount, config, observer)
         .with_context(|| format!("adjusting campaign {}", campaign.manifest.campaign.id))?;

@@ -5,6 +5,7 @@
 //!
 //! ```text
 //! merge(&[TileOutputV1]) → Merged (observations, image motions, image outcomes, pole frames, tiles, skipped)
+//! join_shared_points(&mut merged) → tie points sharing an image point joined into one (count)
 //! solve(&dg, &merged, &mount, &AdjusterConfig) → Solved (consistency check, adjustment, corrected trajectory)
 //! solve_observed(…, &mut |iteration| …) → the same, each adjustment iteration reported as it ends
 //! build_report(&campaign, &merged, &solved, reference, &stages) → plumbline_report::Report
@@ -15,6 +16,7 @@
 mod config;
 mod corrections;
 mod finish;
+mod join;
 mod layers;
 mod merge;
 mod refs;
@@ -26,6 +28,7 @@ mod solve;
 pub use config::{AdjusterConfig, critical_value};
 pub use corrections::{CORRECTIONS_HEADER, corrections_csv};
 pub use finish::{Finished, STAGE, finish, stages};
+pub use join::{SAME_POINT_SIGMAS, join_shared_points};
 pub use layers::{LAYERS, observation_layers};
 pub use merge::{ImageOutcome, Merged, merge, motions_of, tile_name};
 pub use report::build_report;

@@ -165,3 +165,35 @@ fn geopackage_layers_carry_poles_and_panoramas() {
     assert_eq!(text(panoramas, common::DISCARD_EVERY - 1, "reason"), "no_neighbour");
     assert_eq!(layer("tie_points").features.len(), m.observations.ties.len());
 }
+
+/// A tie point without aerial coordinates seen by two rays, one of them 1° off: the w-test rejects one of
+/// its rays, which leaves the point undetermined, so the adjustment drops it whole untested. The report
+/// names the rejected ray the whole tie follows, and counts the tested rejections apart.
+#[test]
+fn a_tie_left_undetermined_names_the_ray_it_follows() {
+    let s = common::scenario(4);
+    let c = common::campaign(&s, "/tmp/unused/");
+    let mut tiles = tiles(&s);
+    let reg = tiles[0].registration.as_mut().unwrap();
+    let tie = reg.ties.iter_mut().find(|t| t.rays.len() >= 2).unwrap();
+    tie.aerial = None;
+    tie.rays.truncate(2);
+    let [x, y, z] = tie.rays[1].direction;
+    let a = 1f64.to_radians();
+    tie.rays[1].direction = [x * a.cos() + z * a.sin(), y, z * a.cos() - x * a.sin()];
+    let id = tie.id.0.clone();
+    let m = merge(&tiles);
+    let solved = solve(&s.dg, &m, &panorama_mount(&c.manifest), &AdjusterConfig::default()).unwrap();
+    let r = build_report(&c, &m, &solved, None, &[]);
+    let whole = r.rejected.iter().find(|o| o.id == id).unwrap_or_else(|| panic!("{id} not in {:?}", r.rejected));
+    let ray = whole.follows.clone().unwrap();
+    assert!([format!("{id}.rays[0]"), format!("{id}.rays[1]")].contains(&ray), "{ray}");
+    assert!(r.rejected.iter().any(|o| o.id == ray && o.follows.is_none()), "{ray} rejected by the test");
+    for o in r.rejected.iter().filter(|o| o.follows.is_some()) {
+        let part = o.follows.as_deref().unwrap();
+        assert!(part.starts_with(&format!("{}.", o.id)), "{o:?}");
+        assert!(r.rejected.iter().any(|p| p.id == part && p.follows.is_none()), "{o:?}");
+    }
+    let untested = r.rejected.iter().filter(|o| o.follows.is_some()).count();
+    assert!(untested >= 1 && r.rejected_by_test() == r.rejected.len() - untested);
+}

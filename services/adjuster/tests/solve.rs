@@ -96,4 +96,11 @@ fn aerial_frame_sets_reach_the_adjustment_as_height_biases() {
         assert!(b.points > 0 && b.sigma > 0.0 && b.sigma < b.prior_sigma, "{b:?}");
         assert!(b.bias.abs() < 3.0 * b.sigma, "{b:?}");
     }
+    // The report carries them, one line per set in the adjustment's order.
+    let report = build_report(&c, &merged, &solved, None, &[]);
+    assert_eq!(report.height_biases.len(), biases.len());
+    for (line, b) in report.height_biases.iter().zip(biases) {
+        assert_eq!((&line.frames, line.points), (&b.frames, b.points));
+        assert_eq!([line.bias_m, line.sigma_m, line.prior_sigma_m], [b.bias, b.sigma, b.prior_sigma]);
+    }
 }

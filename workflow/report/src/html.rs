@@ -38,6 +38,7 @@ pub fn render(report: &Report) -> String {
     accuracy(&mut s, report);
     plots(&mut s, report);
     stages_and_tiles(&mut s, report);
+    height_biases(&mut s, report);
     skipped(&mut s, report);
     events(&mut s, report);
     s.push_str("</body></html>\n");
@@ -58,7 +59,7 @@ fn summary(s: &mut String, r: &Report) {
         ("GNSS positions", m.gnss.to_string()),
         ("largest correction", format!("{:.3} m", m.max_correction_m)),
         ("σ0 a posteriori", format!("{:.2}", m.sigma0)),
-        ("rejected observations", r.rejected.len().to_string()),
+        ("rejected observations", rejected_card(r)),
         ("flagged epochs", r.flags.len().to_string()),
         ("skipped items", r.skipped.len().to_string()),
     ];
@@ -67,6 +68,15 @@ fn summary(s: &mut String, r: &Report) {
         let _ = write!(s, "<div class=\"card\"><span class=\"muted\">{name}</span><b>{}</b></div>", escape(&value));
     }
     s.push_str("</div>");
+}
+
+/// Rejections by the test, and the tie points they left undetermined.
+fn rejected_card(r: &Report) -> String {
+    let tested = r.rejected_by_test();
+    match r.rejected.len() - tested {
+        0 => tested.to_string(),
+        n => format!("{tested} (+{n} tie points left undetermined)"),
+    }
 }
 
 fn stats_row(s: &mut String, what: &str, st: &Stats) {
@@ -182,6 +192,30 @@ fn stages_and_tiles(s: &mut String, r: &Report) {
     }
 }
 
+/// One row per aerial frame set: its frames, bias ± σ (prior σ) and points.
+fn height_biases(s: &mut String, r: &Report) {
+    if r.height_biases.is_empty() {
+        return;
+    }
+    s.push_str(
+        "<h2>Aerial height biases</h2><p class=\"muted\">One common height bias per set of aerial frames the \
+         points were triangulated from (aerial height − adjusted height), metres.</p><table><tr><th>frame set</th>\
+         <th>bias [m]</th><th>σ [m]</th><th>prior σ [m]</th><th>points</th></tr>",
+    );
+    for b in &r.height_biases {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{:+.3}</td><td>{:.3}</td><td>{:.3}</td><td>{}</td></tr>",
+            escape(&b.frames.join(" + ")),
+            b.bias_m,
+            b.sigma_m,
+            b.prior_sigma_m,
+            b.points
+        );
+    }
+    s.push_str("</table>");
+}
+
 fn skipped(s: &mut String, r: &Report) {
     s.push_str("<h2>Skipped inputs</h2>");
     if r.skipped.is_empty() {
@@ -210,15 +244,19 @@ fn skipped(s: &mut String, r: &Report) {
 
 fn events(s: &mut String, r: &Report) {
     if !r.rejected.is_empty() {
-        s.push_str("<h2>Rejected observations (data snooping)</h2><table><tr><th>kind</th><th>id</th><th>time [s]</th><th>w-test</th></tr>");
+        s.push_str(
+            "<h2>Rejected observations (data snooping)</h2><table><tr><th>kind</th><th>id</th><th>time [s]</th>\
+             <th>w-test</th><th>left undetermined by</th></tr>",
+        );
         for o in r.rejected.iter().take(EVENTS_LISTED) {
             let _ = write!(
                 s,
-                "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.2}</td></tr>",
+                "<tr><td>{}</td><td>{}</td><td>{:.3}</td><td>{:.2}</td><td>{}</td></tr>",
                 escape(&o.kind),
                 escape(&o.id),
                 o.time,
-                o.w_test
+                o.w_test,
+                escape(o.follows.as_deref().unwrap_or(""))
             );
         }
         s.push_str("</table>");

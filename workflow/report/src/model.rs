@@ -43,6 +43,9 @@ pub struct Report {
     pub rejected: Vec<RejectedObservation>,
     /// Epochs flagged by the integrity and consistency tests.
     pub flags: Vec<FlaggedEpoch>,
+    /// The estimated height bias of each aerial frame set (absent in reports written before it existed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub height_biases: Vec<HeightBiasLine>,
 }
 
 /// Identity of the campaign.
@@ -298,6 +301,10 @@ pub struct RejectedObservation {
     pub time: f64,
     /// Baarda's w-test value at rejection.
     pub w_test: f64,
+    /// For a whole tie point: the id of its rejected part (`….rays[k]`, `….aerial`) that left it undetermined
+    /// — it was not tested itself. Absent for observations the test rejected.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub follows: Option<String>,
 }
 
 /// An epoch flagged by an integrity or consistency test.
@@ -312,7 +319,28 @@ pub struct FlaggedEpoch {
     pub sensor: String,
 }
 
+/// The common height bias of the aerial points triangulated from one set of aerial frames.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HeightBiasLine {
+    /// The set's aerial frames.
+    pub frames: Vec<String>,
+    /// Aerial heights of the set the adjustment used.
+    pub points: usize,
+    /// The bias (triangulated aerial height − adjusted height), metres.
+    pub bias_m: f64,
+    /// Its posterior σ, metres.
+    pub sigma_m: f64,
+    /// Its prior σ, metres.
+    pub prior_sigma_m: f64,
+}
+
 impl Report {
+    /// Rejected observations the w-test rejected itself (not left undetermined by another rejection).
+    pub fn rejected_by_test(&self) -> usize {
+        self.rejected.iter().filter(|r| r.follows.is_none()).count()
+    }
+
     /// Skipped items counted by (stage, reason), most frequent first.
     pub fn skipped_by_reason(&self) -> Vec<(String, String, usize)> {
         let mut counts: std::collections::BTreeMap<(String, String), usize> = Default::default();

@@ -2,8 +2,8 @@
 
 use plumbline_geo::metrics::Stats;
 use plumbline_report::{
-    Accuracy, CampaignInfo, CorrectionSeries, Figures, MapData, MapMark, MarkState, Report, ReportDoc, Residuals,
-    SkippedItem, Summary, TrackPoint, html,
+    Accuracy, CampaignInfo, CorrectionSeries, Figures, HeightBiasLine, MapData, MapMark, MarkState,
+    RejectedObservation, Report, ReportDoc, Residuals, SkippedItem, Summary, TrackPoint, html,
 };
 
 fn stats(median: f64) -> Stats {
@@ -81,6 +81,82 @@ fn html_is_self_contained_and_shows_the_figures() {
     assert!(page.contains("4 / 10 (40 %)"));
     assert!(page.contains("<td>registration</td><td>decode</td><td>2</td>"), "skips counted by reason");
     assert!(page.contains("not a JPEG &lt;broken&gt;"));
+}
+
+fn with_height_biases() -> Report {
+    let bias = |frames: &[&str], points, bias_m, sigma_m| HeightBiasLine {
+        frames: frames.iter().map(|f| (*f).to_owned()).collect(),
+        points,
+        bias_m,
+        sigma_m,
+        prior_sigma_m: 0.61,
+    };
+    Report {
+        height_biases: vec![bias(&["a01", "a02"], 37, 0.4376, 0.0212), bias(&["a02", "<a03>"], 5, -0.0624, 0.118)],
+        ..sample()
+    }
+}
+
+#[test]
+fn height_biases_are_in_the_json_and_in_a_table_of_the_page() {
+    let report = with_height_biases();
+    let value: serde_json::Value = serde_json::from_slice(&report.to_json()).unwrap();
+    let sets = value["height_biases"].as_array().unwrap();
+    assert_eq!(sets.len(), 2);
+    assert_eq!(sets[0]["frames"], serde_json::json!(["a01", "a02"]));
+    assert_eq!((sets[0]["points"].as_u64(), sets[0]["bias_m"].as_f64()), (Some(37), Some(0.4376)));
+    assert_eq!((sets[1]["sigma_m"].as_f64(), sets[1]["prior_sigma_m"].as_f64()), (Some(0.118), Some(0.61)));
+    let page = html::render(&report);
+    assert!(page.contains("<h2>Aerial height biases</h2>"));
+    assert!(
+        page.contains("<tr><td>a01 + a02</td><td>+0.438</td><td>0.021</td><td>0.610</td><td>37</td></tr>"),
+        "{page}"
+    );
+    assert!(page.contains("<tr><td>a02 + &lt;a03&gt;</td><td>-0.062</td><td>0.118</td><td>0.610</td><td>5</td></tr>"));
+    assert!(!html::render(&sample()).contains("height biases"), "no table without biases");
+}
+
+/// Two rejections by the test and one tie point left undetermined by the first: counted apart on the card,
+/// the table names the ray, and a report without `follows` (written before it existed) still parses.
+#[test]
+fn undetermined_ties_are_told_apart_from_tested_rejections() {
+    let rejected = |id: &str, follows: Option<&str>| RejectedObservation {
+        kind: "tie".into(),
+        id: id.into(),
+        time: 12.0,
+        w_test: 8.5,
+        follows: follows.map(str::to_owned),
+    };
+    let report = Report {
+        rejected: vec![
+            rejected("p1:7.rays[1]", None),
+            rejected("p1:7", Some("p1:7.rays[1]")),
+            rejected("p2:3.aerial", None),
+        ],
+        ..sample()
+    };
+    assert_eq!(report.rejected_by_test(), 2);
+    let page = html::render(&report);
+    assert!(page.contains("<b>2 (+1 tie points left undetermined)</b>"), "card");
+    assert!(page.contains("<td>p1:7</td><td>12.000</td><td>8.50</td><td>p1:7.rays[1]</td>"));
+    assert!(page.contains("<td>p2:3.aerial</td><td>12.000</td><td>8.50</td><td></td>"));
+    let mut value: serde_json::Value = serde_json::from_slice(&report.to_json()).unwrap();
+    assert_eq!(value["rejected"][1]["follows"], "p1:7.rays[1]");
+    assert!(value["rejected"][0].get("follows").is_none(), "absent unless it follows another");
+    value["rejected"][1].as_object_mut().unwrap().remove("follows");
+    let ReportDoc::V1(back) = serde_json::from_value::<ReportDoc>(value).unwrap();
+    assert_eq!((back.rejected[1].follows.as_deref(), back.rejected_by_test()), (None, 3));
+}
+
+#[test]
+fn a_report_written_before_height_biases_still_parses() {
+    let report = with_height_biases();
+    let mut value: serde_json::Value = serde_json::from_slice(&report.to_json()).unwrap();
+    value.as_object_mut().unwrap().remove("height_biases");
+    let ReportDoc::V1(back) = serde_json::from_value::<ReportDoc>(value).unwrap();
+    assert_eq!(back, Report { height_biases: Vec::new(), ..report });
+    let without: serde_json::Value = serde_json::from_slice(&sample().to_json()).unwrap();
+    assert!(without.get("height_biases").is_none(), "an empty list is left out, as before");
 }
 
 #[test]

@@ -6,11 +6,12 @@ pub mod series;
 
 use std::collections::HashSet;
 
-use plumbline_adjustment::Adjustment;
+use plumbline_adjustment::{Adjustment, ObservationRef};
 use plumbline_geo::Trajectory;
 use plumbline_geo::metrics::compare;
 use plumbline_report::{
-    Accuracy, CampaignInfo, Figures, FlaggedEpoch, RejectedObservation, Report, SkippedItem, Stage, Summary,
+    Accuracy, CampaignInfo, Figures, FlaggedEpoch, HeightBiasLine, RejectedObservation, Report, SkippedItem, Stage,
+    Summary,
 };
 use plumbline_scheduler::{Campaign, SkippedInput};
 
@@ -56,7 +57,20 @@ pub fn build_report(
         skipped: skipped(campaign, merged, solved),
         rejected: rejected(merged, result),
         flags: flags(solved),
+        height_biases: height_biases(result),
     }
+}
+
+/// The adjustment's height bias per aerial frame set.
+fn height_biases(result: &Adjustment) -> Vec<HeightBiasLine> {
+    let line = |b: &plumbline_adjustment::HeightBias| HeightBiasLine {
+        frames: b.frames.clone(),
+        points: b.points,
+        bias_m: b.bias,
+        sigma_m: b.sigma,
+        prior_sigma_m: b.prior_sigma,
+    };
+    result.height_biases.iter().map(line).collect()
 }
 
 fn campaign_info(campaign: &Campaign) -> CampaignInfo {
@@ -128,7 +142,17 @@ fn skipped(campaign: &Campaign, merged: &Merged, solved: &Solved) -> Vec<Skipped
     out
 }
 
+/// The rejected observations; a whole tie point names the rejected part of it (same snooping round) that
+/// left it undetermined — the adjustment drops such a point without testing it.
 fn rejected(merged: &Merged, result: &Adjustment) -> Vec<RejectedObservation> {
+    let follows = |r: &plumbline_adjustment::RejectedObservation| {
+        let ObservationRef::Tie { index, .. } = &r.item else { return None };
+        let part = |p: &&plumbline_adjustment::RejectedObservation| {
+            p.round == r.round
+                && matches!(&p.item, ObservationRef::TieRay { index: i, .. } | ObservationRef::TieAerial { index: i, .. } if i == index)
+        };
+        result.rejected.iter().find(part).map(|p| refs::id(&p.item))
+    };
     result
         .rejected
         .iter()
@@ -137,6 +161,7 @@ fn rejected(merged: &Merged, result: &Adjustment) -> Vec<RejectedObservation> {
             id: refs::id(&r.item),
             time: refs::time(&merged.observations, &r.item).unwrap_or_default(),
             w_test: r.w,
+            follows: follows(r),
         })
         .collect()
 }
