@@ -56,8 +56,8 @@ pub struct MapBox {
 pub struct RasterSource {
     name: String,
     dataset: Dataset,
-    /// In-memory file to remove on drop, when opened from bytes.
-    vsimem: Option<PathBuf>,
+    /// In-memory files to remove on drop, when opened from bytes.
+    vsimem: Vec<PathBuf>,
     width: usize,
     height: usize,
     geotransform: [f64; 6],
@@ -70,24 +70,61 @@ impl RasterSource {
         route_gdal_messages();
         let name = path.display().to_string();
         let dataset = Dataset::open(path).map_err(failed(&name, "open the raster"))?;
-        Self::from_dataset(name, dataset, None)
+        Self::from_dataset(name, dataset, Vec::new())
     }
 
-    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors.
+    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors. A VRT mosaic
+    /// is refused: its tiles are named relative to it and cannot be reached from memory (use
+    /// [`mosaic_tiles`] and [`RasterSource::open_mosaic_bytes`]).
     pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
+        if is_vrt(&bytes) {
+            let problem = "is a VRT mosaic: its tiles are named relative to it and are not in memory; fetch the \
+                           tiles the window needs (`mosaic_tiles`) and open it with `open_mosaic_bytes`"
+                .to_owned();
+            return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
+        }
+        Self::open_in_memory(name, "raster.tif", bytes, Vec::new())
+    }
+
+    /// Open a VRT mosaic from its bytes and those of its tiles (paths relative to the VRT, as
+    /// [`mosaic_tiles`] lists them); windows over tiles not given fail naming the tile.
+    pub fn open_mosaic_bytes(name: &str, vrt: Vec<u8>, tiles: Vec<(String, Vec<u8>)>) -> Result<Self, GdalReadError> {
+        Self::open_in_memory(name, "mosaic.vrt", vrt, tiles)
+    }
+
+    /// Hold `bytes` as `{dir}/{file}` and the `others` beside it in GDAL's in-memory file system, and open it.
+    fn open_in_memory(
+        name: &str,
+        file: &str,
+        bytes: Vec<u8>,
+        others: Vec<(String, Vec<u8>)>,
+    ) -> Result<Self, GdalReadError> {
         route_gdal_messages();
-        let path = PathBuf::from(crate::gdal_write::vsimem_path("tif"));
-        gdal::vsi::create_mem_file(&path, bytes).map_err(failed(name, "hold the bytes in memory"))?;
-        match Dataset::open(&path) {
-            Ok(dataset) => Self::from_dataset(name.to_owned(), dataset, Some(path)),
+        let dir = crate::gdal_write::vsimem_path("dir");
+        let mut held = Vec::new();
+        let mut hold = |relative: &str, bytes: Vec<u8>| {
+            let path = PathBuf::from(format!("{dir}/{relative}"));
+            let result = gdal::vsi::create_mem_file(&path, bytes);
+            held.push(path);
+            result.map_err(failed(name, format!("hold {relative} in memory")))
+        };
+        let result =
+            others.into_iter().try_for_each(|(relative, b)| hold(&relative, b)).and_then(|()| hold(file, bytes));
+        let opened = result.and_then(|()| {
+            Dataset::open(held.last().map_or(Path::new(""), PathBuf::as_path)).map_err(failed(name, "open the raster"))
+        });
+        match opened {
+            Ok(dataset) => Self::from_dataset(name.to_owned(), dataset, held),
             Err(e) => {
-                let _ = gdal::vsi::unlink_mem_file(&path);
-                Err(failed(name, "open the raster")(e))
+                for path in &held {
+                    let _ = gdal::vsi::unlink_mem_file(path);
+                }
+                Err(e)
             }
         }
     }
 
-    fn from_dataset(name: String, dataset: Dataset, vsimem: Option<PathBuf>) -> Result<Self, GdalReadError> {
+    fn from_dataset(name: String, dataset: Dataset, vsimem: Vec<PathBuf>) -> Result<Self, GdalReadError> {
         let unusable = |problem: String| GdalReadError::Unusable { name: name.clone(), problem };
         let (width, height) = dataset.raster_size();
         if dataset.raster_count() == 0 || width == 0 || height == 0 {
@@ -169,11 +206,68 @@ impl RasterSource {
 
 impl Drop for RasterSource {
     fn drop(&mut self) {
-        if let Some(path) = self.vsimem.take() {
+        for path in self.vsimem.drain(..) {
             // The dataset still holds the file open; GDAL frees the memory once both are gone.
             let _ = gdal::vsi::unlink_mem_file(&path);
         }
     }
+}
+
+/// Whether the bytes are a GDAL VRT (XML starting with `<VRTDataset`).
+pub fn is_vrt(bytes: &[u8]) -> bool {
+    let text = bytes.get(..512.min(bytes.len())).unwrap_or_default();
+    String::from_utf8_lossy(text).trim_start().starts_with("<VRTDataset")
+}
+
+/// The tiles of a VRT mosaic (paths relative to the VRT, each once) that hold pixels of `area`, read from each
+/// source's `SourceFilename` and `DstRect` (what `gdalbuildvrt` and `gdal_write::vrt` write); empty when the
+/// area misses the mosaic or the bytes are no VRT.
+pub fn mosaic_tiles(name: &str, vrt: &[u8], area: &MapBox) -> Result<Vec<String>, GdalReadError> {
+    if !is_vrt(vrt) {
+        return Ok(Vec::new());
+    }
+    let text = String::from_utf8_lossy(vrt);
+    let unusable = |problem: String| GdalReadError::Unusable { name: name.to_owned(), problem };
+    let head = text.split("<VRTRasterBand").next().unwrap_or_default();
+    let size = |key: &str| attribute(head, key).ok_or_else(|| unusable(format!("has no {key}")));
+    let (width, height) = (size("rasterXSize")?, size("rasterYSize")?);
+    let gt: Vec<f64> = element(head, "GeoTransform")
+        .map(|g| g.split(',').filter_map(|v| v.trim().parse().ok()).collect())
+        .unwrap_or_default();
+    let [x0, dx, _, y0, _, dy] = gt[..] else { return Err(unusable("has no geotransform".into())) };
+    // The area in mosaic pixels (as `pixel_window`).
+    let (c0, c1) = ((area.min_e - x0) / dx, (area.max_e - x0) / dx);
+    let (r0, r1) = ((area.max_n - y0) / dy, (area.min_n - y0) / dy);
+    let mut tiles: Vec<String> = Vec::new();
+    for source in text.split("<SourceFilename").skip(1) {
+        let path = source.split_once('>').and_then(|(_, rest)| rest.split_once("</SourceFilename>")).map(|p| p.0);
+        let rect = source.split_once("<DstRect").map(|(_, r)| r.split_once("/>").map_or(r, |r| r.0));
+        let (Some(path), Some(rect)) = (path, rect) else { continue };
+        let v = |key: &str| attribute(rect, key);
+        let (Some(x), Some(y), Some(w), Some(h)) = (v("xOff"), v("yOff"), v("xSize"), v("ySize")) else { continue };
+        let overlaps = c0 < x + w && c1 > x && r0 < y + h && r1 > y && x < width && y < height;
+        let path = unescape(path);
+        if overlaps && !tiles.contains(&path) {
+            tiles.push(path);
+        }
+    }
+    Ok(tiles)
+}
+
+/// The number in `key="…"` within `text`.
+fn attribute(text: &str, key: &str) -> Option<f64> {
+    let start = text.find(&format!("{key}=\""))? + key.len() + 2;
+    text[start..].split('"').next()?.trim().parse().ok()
+}
+
+/// The text of the first `<tag>…</tag>` within `text`.
+fn element<'t>(text: &'t str, tag: &str) -> Option<&'t str> {
+    let start = text.find(&format!("<{tag}>"))? + tag.len() + 2;
+    text[start..].split(&format!("</{tag}>")).next()
+}
+
+fn unescape(text: &str) -> String {
+    text.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&amp;", "&")
 }
 
 fn failed(name: &str, step: impl Into<String>) -> impl FnOnce(GdalError) -> GdalReadError {
@@ -254,5 +348,108 @@ mod tests {
         };
         let e = RasterSource::open_bytes("plain.png", png).unwrap_err();
         assert!(e.to_string().contains("not georeferenced"), "{e}");
+    }
+
+    /// Two 8 × 6 ramp tiles side by side (the eastern one offset by 1000) and their VRT in a temporary directory.
+    fn two_tile_mosaic(nodata: Option<f64>) -> (tempfile::TempDir, PathBuf) {
+        use crate::gdal_write::{Mosaic, MosaicTile, MosaicType, vrt};
+        let dir = tempfile::tempdir().unwrap();
+        std::fs::create_dir(dir.path().join("tiles")).unwrap();
+        let mut east = ramp(8, 6);
+        east.geotransform[0] += 4.0;
+        let RasterData::F32(bands) = &mut east.data else { unreachable!() };
+        bands[0].iter_mut().for_each(|v| *v += 1000.0);
+        std::fs::write(dir.path().join("tiles/0_0.tif"), geotiff(&ramp(8, 6)).unwrap()).unwrap();
+        std::fs::write(dir.path().join("tiles/1_0.tif"), geotiff(&east).unwrap()).unwrap();
+        let tiles = vec![
+            MosaicTile { path: "tiles/0_0.tif".into(), col: 0, row: 2 },
+            MosaicTile { path: "tiles/1_0.tif".into(), col: 8, row: 2 },
+        ];
+        let mut geotransform = ramp(8, 6).geotransform;
+        geotransform[3] += 1.0; // two empty rows above the tiles
+        let mosaic = Mosaic {
+            width: 16,
+            height: 8,
+            geotransform,
+            epsg: 25832,
+            bands: 1,
+            data_type: MosaicType::F32,
+            tile_size: (8, 6),
+            nodata,
+            tiles,
+        };
+        let path = dir.path().join("mosaic.vrt");
+        std::fs::write(&path, vrt(&mosaic).unwrap()).unwrap();
+        (dir, path)
+    }
+
+    #[test]
+    fn a_vrt_mosaic_reads_across_its_tile_border_with_the_tiles_georeferencing() {
+        let (_dir, path) = two_tile_mosaic(Some(-9999.0));
+        let source = RasterSource::open_path(&path).unwrap();
+        assert_eq!((source.size(), source.epsg()), ((16, 8), Some(25832)));
+        // E 500003–500005 spans the last two columns of the west tile and the first two of the east tile;
+        // N 5000101–5000099 the empty row 1 and the tiles' row 0.
+        let area = MapBox { min_e: 500_003.0, min_n: 5_000_099.0, max_e: 500_005.0, max_n: 5_000_101.0 };
+        let w = source.window(&area).unwrap().unwrap();
+        assert_eq!((w.width, w.height, w.nodata), (4, 4, Some(-9999.0)));
+        assert_eq!(w.geotransform, [500_003.0, 0.5, 0.0, 5_000_101.0, 0.0, -0.5]);
+        let RasterData::F32(bands) = &w.data else { panic!("float raster expected") };
+        assert_eq!(&bands[0][0..4], &[-9999.0; 4], "no tile there: no data");
+        assert_eq!(&bands[0][8..12], &[6.0, 7.0, 1000.0, 1001.0], "row 0 of both tiles");
+        assert_eq!(&bands[0][12..16], &[14.0, 15.0, 1008.0, 1009.0], "row 1 of both tiles");
+    }
+
+    #[test]
+    fn mosaics_with_tiles_outside_or_escaping_paths_are_refused() {
+        use crate::gdal_write::{Mosaic, MosaicTile, MosaicType, vrt};
+        let tile = |path: &str, col| MosaicTile { path: path.into(), col, row: 0 };
+        let mosaic = |tiles| Mosaic {
+            width: 16,
+            height: 6,
+            geotransform: [0.0, 1.0, 0.0, 6.0, 0.0, -1.0],
+            epsg: 25832,
+            bands: 3,
+            data_type: MosaicType::U8,
+            tile_size: (8, 6),
+            nodata: None,
+            tiles,
+        };
+        let e = vrt(&mosaic(vec![tile("a.tif", 0), tile("b.tif", 9)])).unwrap_err();
+        assert!(e.to_string().contains("b.tif at column 9, row 0 reaches outside"), "{e}");
+        let e = vrt(&mosaic(vec![tile("../a.tif", 0)])).unwrap_err();
+        assert!(e.to_string().contains("not a path below"), "{e}");
+        let ok = String::from_utf8(vrt(&mosaic(vec![tile("a&b.tif", 8)])).unwrap()).unwrap();
+        assert!(ok.contains("a&amp;b.tif") && ok.matches("<SimpleSource>").count() == 3, "{ok}");
+    }
+
+    #[test]
+    fn a_vrt_from_an_object_store_reads_with_the_tiles_its_window_needs() {
+        let (dir, path) = two_tile_mosaic(Some(-9999.0));
+        let vrt = std::fs::read(&path).unwrap();
+        let e = RasterSource::open_bytes("s3://b/mosaic.vrt", vrt.clone()).unwrap_err();
+        assert!(e.to_string().starts_with("s3://b/mosaic.vrt: is a VRT mosaic"), "{e}");
+        // The west tile only (columns 0–7 are E 500000–500004), both, and none.
+        let west = MapBox { min_e: 500_000.5, min_n: 5_000_098.0, max_e: 500_003.5, max_n: 5_000_099.0 };
+        let across = MapBox { min_e: 500_003.0, min_n: 5_000_099.0, max_e: 500_005.0, max_n: 5_000_101.0 };
+        let outside = MapBox { min_e: 400_000.0, min_n: 5_000_099.0, max_e: 400_005.0, max_n: 5_000_101.0 };
+        assert_eq!(mosaic_tiles("m", &vrt, &west).unwrap(), vec!["tiles/0_0.tif".to_owned()]);
+        assert_eq!(
+            mosaic_tiles("m", &vrt, &across).unwrap(),
+            vec!["tiles/0_0.tif".to_owned(), "tiles/1_0.tif".to_owned()]
+        );
+        assert!(mosaic_tiles("m", &vrt, &outside).unwrap().is_empty());
+        assert!(mosaic_tiles("m", b"II*\0", &west).unwrap().is_empty(), "a GeoTIFF needs no tiles");
+        let fetch = |t: &str| (t.to_owned(), std::fs::read(dir.path().join(t)).unwrap());
+        let tiles = mosaic_tiles("m", &vrt, &across).unwrap().iter().map(|t| fetch(t)).collect();
+        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", vrt.clone(), tiles).unwrap();
+        let w = source.window(&across).unwrap().unwrap();
+        let RasterData::F32(bands) = &w.data else { panic!("float raster expected") };
+        assert_eq!(&bands[0][8..12], &[6.0, 7.0, 1000.0, 1001.0]);
+        // Only the west tile held: a window over the east one fails naming the step.
+        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", vrt, vec![fetch("tiles/0_0.tif")]).unwrap();
+        assert!(source.window(&west).unwrap().is_some());
+        let e = source.window(&across).unwrap_err();
+        assert!(e.to_string().starts_with("s3://b/mosaic.vrt: GDAL could not read band 1"), "{e}");
     }
 }

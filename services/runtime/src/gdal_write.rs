@@ -254,3 +254,116 @@ fn fill<T: GdalType + Copy>(
     }
     Ok(())
 }
+
+/// Pixel type of a mosaic's bands.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MosaicType {
+    /// 8-bit (GDAL `Byte`).
+    U8,
+    /// 32-bit float (GDAL `Float32`).
+    F32,
+}
+
+/// One tile of a mosaic: its file, relative to the VRT, and the mosaic pixel of its top-left corner.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MosaicTile {
+    /// Path relative to the VRT file (forward slashes).
+    pub path: String,
+    /// Column of the tile's top-left pixel in the mosaic.
+    pub col: usize,
+    /// Row of the tile's top-left pixel in the mosaic.
+    pub row: usize,
+}
+
+/// A mosaic of equally sized, equally typed, pixel-aligned GeoTIFF tiles, described as a GDAL VRT.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Mosaic {
+    /// Width of the whole mosaic, pixels.
+    pub width: usize,
+    /// Height of the whole mosaic, pixels.
+    pub height: usize,
+    /// GDAL geotransform of the mosaic (north-up).
+    pub geotransform: [f64; 6],
+    /// EPSG code of the CRS.
+    pub epsg: u32,
+    /// Bands per tile.
+    pub bands: usize,
+    /// Pixel type.
+    pub data_type: MosaicType,
+    /// Size of every tile, pixels (width, height).
+    pub tile_size: (usize, usize),
+    /// No-data value (also what areas without a tile read as), if any.
+    pub nodata: Option<f64>,
+    /// The tiles.
+    pub tiles: Vec<MosaicTile>,
+}
+
+/// The VRT XML of a mosaic (what `gdalbuildvrt` writes for such tiles): sources relative to the VRT, with
+/// their size and block size declared so GDAL opens a tile only when a read touches it.
+pub fn vrt(mosaic: &Mosaic) -> Result<Vec<u8>, GdalWriteError> {
+    route_gdal_messages();
+    check_mosaic(mosaic)?;
+    let wkt = srs(mosaic.epsg)?.to_wkt().map_err(failed(format!("write EPSG:{} as WKT", mosaic.epsg)))?;
+    let (ty, colours): (&str, &[&str]) = match mosaic.data_type {
+        MosaicType::U8 => ("Byte", &["Red", "Green", "Blue"]),
+        MosaicType::F32 => ("Float32", &["Gray"]),
+    };
+    let gt = mosaic.geotransform.map(|v| format!("{v:?}")).join(", ");
+    let mut xml = format!(
+        "<VRTDataset rasterXSize=\"{}\" rasterYSize=\"{}\">\n  <SRS dataAxisToSRSAxisMapping=\"1,2\">{}</SRS>\n  \
+         <GeoTransform>{gt}</GeoTransform>\n",
+        mosaic.width,
+        mosaic.height,
+        xml_escape(&wkt)
+    );
+    let (tw, th) = mosaic.tile_size;
+    let block = (tw.min(256), th.min(256));
+    for b in 1..=mosaic.bands {
+        let colour = if mosaic.bands == colours.len() { colours[b - 1] } else { "Undefined" };
+        xml += &format!("  <VRTRasterBand dataType=\"{ty}\" band=\"{b}\">\n    <ColorInterp>{colour}</ColorInterp>\n");
+        if let Some(nodata) = mosaic.nodata {
+            xml += &format!("    <NoDataValue>{nodata:?}</NoDataValue>\n");
+        }
+        for t in &mosaic.tiles {
+            xml += &format!(
+                "    <SimpleSource>\n      <SourceFilename relativeToVRT=\"1\">{}</SourceFilename>\n      \
+                 <SourceBand>{b}</SourceBand>\n      <SourceProperties RasterXSize=\"{tw}\" RasterYSize=\"{th}\" \
+                 DataType=\"{ty}\" BlockXSize=\"{}\" BlockYSize=\"{}\"/>\n      \
+                 <SrcRect xOff=\"0\" yOff=\"0\" xSize=\"{tw}\" ySize=\"{th}\"/>\n      \
+                 <DstRect xOff=\"{}\" yOff=\"{}\" xSize=\"{tw}\" ySize=\"{th}\"/>\n    </SimpleSource>\n",
+                xml_escape(&t.path),
+                block.0,
+                block.1,
+                t.col,
+                t.row
+            );
+        }
+        xml += "  </VRTRasterBand>\n";
+    }
+    xml += "</VRTDataset>\n";
+    Ok(xml.into_bytes())
+}
+
+fn check_mosaic(m: &Mosaic) -> Result<(), GdalWriteError> {
+    let invalid = |field: &'static str, problem: String| GdalWriteError::Invalid {
+        item: format!("{}×{} px mosaic", m.width, m.height),
+        field,
+        problem,
+    };
+    if m.bands == 0 || m.tile_size.0 == 0 || m.tile_size.1 == 0 {
+        return Err(invalid("bands/tile_size", format!("{} bands of {:?} px hold no pixels", m.bands, m.tile_size)));
+    }
+    for t in &m.tiles {
+        if t.col + m.tile_size.0 > m.width || t.row + m.tile_size.1 > m.height {
+            return Err(invalid("tiles", format!("{} at column {}, row {} reaches outside", t.path, t.col, t.row)));
+        }
+        if t.path.is_empty() || t.path.starts_with('/') || t.path.contains("..") {
+            return Err(invalid("tiles", format!("`{}` is not a path below the VRT's directory", t.path)));
+        }
+    }
+    Ok(())
+}
+
+fn xml_escape(text: &str) -> String {
+    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
+}

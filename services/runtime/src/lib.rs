@@ -36,6 +36,7 @@ pub use files::{Files, file_name};
 pub use logging::{TracingError, TracingGuard, init_tracing};
 pub use secret::Secret;
 pub use store::{
-    S3Options, StoreError, StoreErrorKind, StoreRoot, get_bytes, head_url, open_store, put_bytes, read_url, write_url,
+    PART_SIZE, S3Options, StoreError, StoreErrorKind, StoreRoot, StreamingUpload, get_bytes, head_url, open_store,
+    put_bytes, read_url, write_url,
 };
 pub use telemetry::{OtlpExport, Telemetry, TelemetryError};

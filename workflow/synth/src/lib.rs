@@ -4,6 +4,7 @@
 
 pub mod aerial;
 pub mod cadastre;
+pub mod city_aerial;
 pub mod map;
 pub mod motion;
 pub mod observations;

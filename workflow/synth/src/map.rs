@@ -1,9 +1,14 @@
 //! A PNG map of a whole campaign for people to look at: buildings (light grey bounding boxes), street centre
 //! lines (dark grey), pole-like objects (dots in their class colour), aerial frame footprints (blue outlines)
 //! and the drive coloured by the horizontal DG error (green 0 → red 1 m). North up, square pixels.
+//! [`StreamedMap`] draws the same layers piece by piece in bounded memory, for drives of any length.
+
+mod stream;
 
 use image::{Rgb, RgbImage};
 use plumbline_geo::MapFromCamera;
+
+pub use stream::StreamedMap;
 
 use crate::motion::Drive;
 use crate::motion::dg::DgSolution;

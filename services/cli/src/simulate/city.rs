@@ -1,10 +1,14 @@
 //! The `city` preset: a drive of any length through the unbounded city (`plumbline_synth::world::city`), made
 //! and written leg by leg (`CityWalk`, ~500 m each) so memory does not grow with the length. Per leg: the
 //! city window around it, the true drive (legs join halfway along a straight street, standing 10 s), the DG
-//! solution continued from the previous leg (`DgStream`), and the leg's panoramas with their per-pixel truth,
-//! depth images and the cadastre objects not yet written. Trajectories, error series, indexes and truth tables
-//! are appended to their files; the cadastre GeoPackage is written at the end from the listed features
-//! (~100 bytes each). Not made for `city`: raw GNSS/IMU, the aerial block, orthophoto and terrain, the maps.
+//! solution, GNSS fixes and IMU increments continued from the previous leg (`DgStream`, `GnssStream`,
+//! `ImuStream`: fault timeline, drift, fix clock, IMU biases and noise carry over), and the leg's panoramas
+//! with their per-pixel truth, depth images and the cadastre objects not yet written. Trajectories, raw data,
+//! error series, indexes and truth tables are appended to their files; the cadastre GeoPackage is written at
+//! the end from the listed features (~100 bytes each). The aerial frames, orthophoto and terrain tiles near each
+//! leg's drive are made with the leg (module `city_aerial`), their VRT mosaics at the end. `overview.png` and
+//! `map.png` are drawn leg by leg into grids of bounded size (`StreamedMap`). `--length` is met to within a panorama spacing by cutting the last
+//! leg's route (`city_route::cut`); the legs before it are those of any longer campaign of the seed.
 
 use std::collections::HashSet;
 
@@ -14,23 +18,32 @@ use plumbline_geo::formats::{self, RawTrajectory};
 use plumbline_runtime::CrsTransform;
 use plumbline_runtime::gdal_write::{FieldType, PointLayer, geopackage};
 use plumbline_synth::cadastre::{self, CadastreErrors};
+use plumbline_synth::map::StreamedMap;
 use plumbline_synth::motion::dg::{DgConfig, DgSolution, DgStream};
+use plumbline_synth::motion::gnss::{GnssConfig, GnssStream};
+use plumbline_synth::motion::imu::ImuStream;
 use plumbline_synth::motion::{Drive, DriveConfig, files};
 use plumbline_synth::render::{
     DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_depth, render_panorama,
 };
+use plumbline_synth::route::Route;
 use plumbline_synth::sensors::{self, Mount, Shot};
 use plumbline_synth::world::city::{City, PoleOwner};
-use plumbline_synth::world::city_route::{CityWalk, Leg};
+use plumbline_synth::world::city_route::{self, CityWalk, Leg};
 use plumbline_synth::world::{Epoch, Preset, WorldConfig};
 
+use super::city_aerial::CityAerial;
 use super::imagery::{self, Sizes};
-use super::{Args, Sink, manifest, with_profile};
+use super::{Args, OVERVIEW_WIDTH_PX, Sink, imu_grade, manifest, with_profile};
 use crate::exit::OrInvalid;
 use crate::trajectory::crs;
 
 /// Length of a leg, metres.
 const LEG_LENGTH_M: f64 = 500.0;
+/// Longest side of the maps' grids, cells (`StreamedMap`: at most 4 bytes each).
+const MAP_BUDGET_CELLS: usize = 1600;
+/// Drives of the last leg tried while cutting it to the requested length.
+const CUT_ATTEMPTS: usize = 4;
 /// Standstill where legs join, seconds on each side.
 const JOIN_DWELL_S: f64 = 5.0;
 
@@ -39,6 +52,7 @@ const JOIN_DWELL_S: f64 = 5.0;
 struct Progress {
     driven: f64,
     epochs: usize,
+    fixes: usize,
     panoramas: usize,
     written_poles: HashSet<PoleOwner>,
     poles: Vec<cadastre::CadastreObject>,
@@ -50,11 +64,21 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
     let config = WorldConfig::new(Preset::City, seed);
     let crs = config.epsg;
     let mut walk = CityWalk::new(City::new(&config), seed, LEG_LENGTH_M);
-    let mut dg = DgStream::new(&DgConfig::default(), seed).or_invalid("DG error process")?;
+    let (imu_errors, outage_growth) = imu_grade(args.imu);
+    let dg_config = DgConfig { outage_growth, ..DgConfig::default() };
+    let mut raw = RawStreams {
+        dg: DgStream::new(&dg_config, seed).or_invalid("DG error process")?,
+        gnss: GnssStream::new(&dg_config, &GnssConfig::default(), seed).or_invalid("GNSS")?,
+        imu: ImuStream::new(&imu_errors, seed).or_invalid("IMU")?,
+    };
     let sizes = Sizes::of(args)?;
+    let mut aerial = (!args.navigation_only).then(|| CityAerial::new(&config, args.aerial_gsd)).transpose()?;
     let mut progress = Progress::default();
+    let mut maps = Maps::new(args.navigation_only);
     let mut start_time = DriveConfig::default().start_time;
-    while progress.driven < length {
+    // Within one panorama spacing of the request: the last leg is cut to what remains (± half a spacing).
+    let tolerance = sizes.panorama_spacing / 2.0;
+    while length - progress.driven > tolerance {
         let leg = walk.next_leg();
         let first = leg.index == 0;
         let drive_config = DriveConfig {
@@ -65,12 +89,16 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
         };
         let route = with_profile(leg.route.clone(), args.profile);
         let leg_seed = seed ^ (leg.index as u64 + 1).wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        let drive = Drive::simulate(&route, &drive_config, leg_seed).or_invalid("simulated drive")?;
-        let solution = dg.leg(&drive).or_invalid("DG error process")?;
-        write_navigation(&drive, &solution, crs, first, sink)?;
+        let drive = drive_leg(&route, &drive_config, leg_seed, (length - progress.driven, tolerance))?;
+        let solution = raw.dg.leg(&drive).or_invalid("DG error process")?;
+        progress.fixes += write_navigation(&drive, &solution, &mut raw, crs, first, sink)?;
+        maps.leg(&leg, &drive, &solution);
         if !args.navigation_only {
             progress.panoramas += write_imagery(&leg, &drive, &solution, &sizes, seed, sink)?;
             list_poles(&leg, &mut progress, seed);
+            if let Some(aerial) = aerial.as_mut() {
+                aerial.leg(&drive, sink)?;
+            }
         }
         let (_, t1) = drive.trajectory.span();
         start_time = t1 + 1.0 / drive_config.rate_hz;
@@ -83,23 +111,105 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
         sections.panoramas = Some(imagery::panorama_section(&sizes, DriveConfig::default().imu_height));
         sections.depth = Some(imagery::depth_section(&sizes)?);
         sections.cadastre = Some(write_cadastre(&progress.poles, crs, sink)?);
+        sections.aerial = aerial.as_ref().map(|a| a.finish(sink)).transpose()?;
     }
+    maps.write(sink)?;
     let id = format!("synth-city-{seed}");
-    sink.put("campaign.toml", manifest::manifest_without_raw(&id, crs, &sections)?.into_bytes())?;
-    Ok(format!("{id}: {:.0} m, {} epochs, {} panoramas", progress.driven, progress.epochs, progress.panoramas))
+    sink.put("campaign.toml", manifest::manifest(&id, crs, &sections)?.into_bytes())?;
+    let p = &progress;
+    Ok(format!("{id}: {:.0} m, {} epochs, {} GNSS fixes, {} panoramas", p.driven, p.epochs, p.fixes, p.panoramas))
 }
 
-/// Append one leg's trajectories and error series.
-fn write_navigation(drive: &Drive, dg: &DgSolution, crs: u32, first: bool, sink: &Sink) -> anyhow::Result<()> {
+/// The drive along a leg's route: all of it, or — when that would pass `remaining` metres by more than
+/// `tolerance` — the route cut where the drive ends `remaining` ± `tolerance` metres on, standing the usual
+/// end dwell of a drive (the cut is corrected for the rounded corners a few times; the closest drive wins).
+fn drive_leg(
+    route: &Route,
+    config: &DriveConfig,
+    seed: u64,
+    (remaining, tolerance): (f64, f64),
+) -> anyhow::Result<Drive> {
+    let driven = |d: &Drive| d.kinematics.last().map_or(0.0, |k| k.distance);
+    let whole = Drive::simulate(route, config, seed).or_invalid("simulated drive")?;
+    if driven(&whole) <= remaining + tolerance {
+        return Ok(whole);
+    }
+    let config = DriveConfig { end_dwell: DriveConfig::default().end_dwell, ..*config };
+    let mut at = remaining;
+    let mut best = (f64::INFINITY, whole);
+    for _ in 0..CUT_ATTEMPTS {
+        let drive = Drive::simulate(&city_route::cut(route, at), &config, seed).or_invalid("simulated drive")?;
+        let miss = remaining - driven(&drive);
+        if miss.abs() < best.0 {
+            best = (miss.abs(), drive);
+        }
+        if miss.abs() <= tolerance {
+            break;
+        }
+        at += miss;
+    }
+    Ok(best.1)
+}
+
+/// `overview.png` (the drive coloured by DG error, standstills) and — with imagery — `map.png` (also the
+/// buildings, streets and poles of every leg's window), drawn leg by leg in bounded memory (`StreamedMap`).
+struct Maps {
+    overview: StreamedMap,
+    map: Option<StreamedMap>,
+}
+
+impl Maps {
+    fn new(navigation_only: bool) -> Self {
+        let map = (!navigation_only).then(|| StreamedMap::new(MAP_BUDGET_CELLS));
+        Self { overview: StreamedMap::new(MAP_BUDGET_CELLS), map }
+    }
+
+    fn leg(&mut self, leg: &Leg, drive: &Drive, dg: &DgSolution) {
+        self.overview.drive(drive, dg);
+        if let Some(map) = self.map.as_mut() {
+            map.world(&leg.window.world);
+            map.drive(drive, dg);
+        }
+    }
+
+    fn write(&self, sink: &Sink) -> anyhow::Result<()> {
+        sink.put("overview.png", self.overview.png(OVERVIEW_WIDTH_PX).context("overview map")?)?;
+        if let Some(map) = &self.map {
+            sink.put("map.png", map.png(OVERVIEW_WIDTH_PX).context("campaign map")?)?;
+        }
+        Ok(())
+    }
+}
+
+/// The error processes continued from leg to leg: the DG solution and the raw sensor data it comes from.
+struct RawStreams {
+    dg: DgStream,
+    gnss: GnssStream,
+    imu: ImuStream,
+}
+
+/// Append one leg's trajectories, raw GNSS and IMU, and error series; returns the number of GNSS fixes.
+fn write_navigation(
+    drive: &Drive,
+    dg: &DgSolution,
+    raw: &mut RawStreams,
+    crs: u32,
+    first: bool,
+    sink: &Sink,
+) -> anyhow::Result<usize> {
     let csv = |bytes: Vec<u8>| if first { bytes } else { without_header(bytes) };
     let geographic = crs::express(&dg.trajectory, crs, 4326).context("DG trajectory to WGS 84")?;
     let sbet = formats::raw_to_sbet(&geographic).context("DG trajectory as SBET")?;
     sink.append("nav/dg.sbet", formats::write_sbet(&sbet))?;
     sink.append("nav/dg.smrmsg", formats::write_smrmsg(&formats::raw_to_smrmsg(&geographic)))?;
     sink.append("nav/dg.csv", csv(formats::write_csv(&RawTrajectory::from_map_projected(dg.trajectory.records()))))?;
+    let fixes = raw.gnss.leg(drive, dg).or_invalid("GNSS")?;
+    sink.append("nav/gnss.csv", csv(files::gnss_csv(&fixes)))?;
+    sink.append("nav/imu.csv", csv(files::imu_csv(&raw.imu.leg(drive))))?;
     let truth = formats::write_csv(&RawTrajectory::from_map_projected(drive.trajectory.records()));
     sink.append("truth/trajectory.csv", csv(truth))?;
-    sink.append("truth/dg_errors.csv", csv(files::dg_errors_csv(&dg.errors)))
+    sink.append("truth/dg_errors.csv", csv(files::dg_errors_csv(&dg.errors)))?;
+    Ok(fixes.len())
 }
 
 /// The bytes after the first line.

@@ -33,11 +33,6 @@ pub(crate) fn manifest(id: &str, crs: u32, sections: &Sections) -> anyhow::Resul
     finish(header(id, crs, "gnss = \"nav/gnss.csv\"\nimu = \"nav/imu.csv\"\n"), sections)
 }
 
-/// The manifest of a campaign without raw GNSS and IMU files, checked before it is written.
-pub(crate) fn manifest_without_raw(id: &str, crs: u32, sections: &Sections) -> anyhow::Result<String> {
-    finish(header(id, crs, ""), sections)
-}
-
 /// Everything up to the trajectory's reference; `raw` names the raw sensor files.
 fn header(id: &str, crs: u32, raw: &str) -> String {
     format!(

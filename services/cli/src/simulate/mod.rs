@@ -27,13 +27,16 @@
 //! The drive follows a route through the procedural world (`plumbline_synth::world`) of the same seed;
 //! `--profile` replaces the streets' canyons by one environment, `mixed` keeps the world's own.
 //! Files stream to the store as they are made (a bounded channel), so large campaigns need not fit in memory;
-//! `--preset city` (module `city`) also makes the drive leg by leg and appends to its files (local directories).
+//! `--preset city` (module `city`) also makes the drive leg by leg and appends to its files — local files, or
+//! multipart uploads to object stores (module `writer`).
 
 mod aerial;
 mod cadastre;
 mod city;
+mod city_aerial;
 mod imagery;
 mod manifest;
+mod writer;
 
 use std::process::ExitCode;
 
@@ -48,6 +51,8 @@ use plumbline_synth::motion::{Drive, DriveConfig, files, gnss, overview_png};
 use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::world::{self, World, WorldConfig};
 use tokio::sync::mpsc;
+pub(crate) use writer::Sink;
+use writer::Writer;
 
 use crate::exit::{OrInvalid, invalid};
 use crate::io::Context;
@@ -147,68 +152,6 @@ pub enum Grade {
     Consumer,
 }
 
-/// What the generator hands the writer: a whole file, or bytes to add at the end of one.
-#[derive(Debug)]
-enum Output {
-    /// A whole file (replacing it).
-    Put(String, Vec<u8>),
-    /// Bytes appended to a file this run creates (local directories only).
-    Append(String, Vec<u8>),
-}
-
-/// Where generated files go: path relative to the campaign prefix, bytes; written by the async side.
-#[derive(Debug)]
-pub(crate) struct Sink {
-    tx: mpsc::Sender<Output>,
-}
-
-impl Sink {
-    /// Hand a file to the writer (blocks while the queue is full).
-    pub(crate) fn put(&self, path: impl Into<String>, bytes: Vec<u8>) -> anyhow::Result<()> {
-        self.send(Output::Put(path.into(), bytes))
-    }
-
-    /// Hand bytes to append to a file (created empty by the first append of the run).
-    pub(crate) fn append(&self, path: impl Into<String>, bytes: Vec<u8>) -> anyhow::Result<()> {
-        self.send(Output::Append(path.into(), bytes))
-    }
-
-    fn send(&self, output: Output) -> anyhow::Result<()> {
-        self.tx.blocking_send(output).map_err(|_| anyhow::anyhow!("the campaign writer stopped"))
-    }
-}
-
-/// The local directory of `--out` (a plain path or `file://` URL); `None` for object stores.
-fn local_dir(out: &str) -> Option<std::path::PathBuf> {
-    match out.split_once("://") {
-        None => Some(out.into()),
-        Some(("file", path)) => Some(path.into()),
-        Some(_) => None,
-    }
-}
-
-/// Append `bytes` to `path`, creating it (and its directory) on the first call for it.
-async fn append(
-    path: &std::path::Path,
-    bytes: &[u8],
-    created: &mut std::collections::HashSet<std::path::PathBuf>,
-) -> anyhow::Result<()> {
-    use tokio::io::AsyncWriteExt as _;
-    let fresh = created.insert(path.to_owned());
-    if let Some(dir) = path.parent() {
-        tokio::fs::create_dir_all(dir).await.with_context(|| format!("creating {}", dir.display()))?;
-    }
-    let mut options = tokio::fs::OpenOptions::new();
-    options.create(true).write(true);
-    if fresh {
-        options.truncate(true)
-    } else {
-        options.append(true)
-    };
-    let mut file = options.open(path).await.with_context(|| format!("opening {}", path.display()))?;
-    file.write_all(bytes).await.with_context(|| format!("appending to {}", path.display()))
-}
-
 /// Run `simulate`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let manifest = write(ctx, args).await?;
@@ -216,31 +159,38 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Simulate and write the campaign; returns its manifest's path or URL.
+/// Simulate and write the campaign; returns its manifest's path or URL. On failure, appended files being
+/// uploaded to an object store are aborted (no partial objects appear).
 pub async fn write(ctx: &Context, args: Args) -> anyhow::Result<String> {
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
-    let dir = local_dir(&prefix);
-    if args.preset == Preset::City && dir.is_none() {
-        return Err(invalid(format!("--out {}: the city preset streams to a local directory only", args.out)));
-    }
+    let mut writer = Writer::new(ctx, &prefix)?;
     let (tx, mut rx) = mpsc::channel(WRITE_QUEUE);
-    let task = tokio::task::spawn_blocking(move || generate(&args, &Sink { tx }));
-    let mut written = std::collections::HashSet::new();
-    let mut puts = 0usize;
+    let task = tokio::task::spawn_blocking(move || generate(&args, &Sink::new(tx)));
+    let mut failed = None;
     while let Some(output) = rx.recv().await {
-        match (output, &dir) {
-            (Output::Put(path, bytes), _) => {
-                ctx.write(&format!("{prefix}{path}"), bytes).await?;
-                puts += 1;
-            }
-            (Output::Append(path, bytes), Some(dir)) => append(&dir.join(&path), &bytes, &mut written).await?,
-            (Output::Append(path, _), None) => anyhow::bail!("{path}: appending needs a local directory"),
+        if let Err(e) = writer.write(output).await {
+            failed = Some(e);
+            break;
         }
     }
-    let written = puts + written.len();
-    let summary = task.await.context("simulation task")??;
-    eprintln!("{summary}; {written} files");
-    Ok(format!("{prefix}campaign.toml"))
+    drop(rx);
+    let generated = task.await.context("simulation task");
+    let summary = match (failed, generated) {
+        (Some(e), _) => Err(e),
+        (None, Err(e)) => Err(e),
+        (None, Ok(result)) => result,
+    };
+    match summary {
+        Ok(summary) => {
+            let written = writer.finish().await?;
+            eprintln!("{summary}; {written} files");
+            Ok(format!("{prefix}campaign.toml"))
+        }
+        Err(e) => {
+            writer.abort().await;
+            Err(e)
+        }
+    }
 }
 
 /// Simulate the campaign and hand its files to `sink` (CPU and GDAL only; the writing is the caller's).
@@ -262,10 +212,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     let crs = world_config.epsg;
     let world = World::generate(&world_config).context("synthetic world")?;
     let route = with_profile(world.route(seed, length), args.profile);
-    let (imu_errors, outage_growth) = match args.imu {
-        Grade::Tactical => (ImuErrors::TACTICAL, 0.15),
-        Grade::Consumer => (ImuErrors::CONSUMER, 1.5),
-    };
+    let (imu_errors, outage_growth) = imu_grade(args.imu);
     let drive_config = DriveConfig::default();
     let drive = Drive::simulate(&route, &drive_config, seed).or_invalid("simulated drive")?;
     let dg_config = DgConfig { outage_growth, ..DgConfig::default() };
@@ -297,6 +244,14 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     }
     sink.put("campaign.toml", manifest::manifest(&id, crs, &sections)?.into_bytes())?;
     Ok(summary(&id, &drive, &dg, fixes.len()))
+}
+
+/// The IMU errors of a grade and the DG outage growth it gives (`DgConfig::outage_growth`, m per 60 s).
+pub(crate) fn imu_grade(grade: Grade) -> (ImuErrors, f64) {
+    match grade {
+        Grade::Tactical => (ImuErrors::TACTICAL, 0.15),
+        Grade::Consumer => (ImuErrors::CONSUMER, 1.5),
+    }
 }
 
 /// The route with every street's canyon replaced by the profile's (`mixed`: unchanged).

@@ -6,6 +6,7 @@
 mod error;
 mod location;
 mod s3;
+mod upload;
 
 use std::sync::Arc;
 
@@ -17,6 +18,7 @@ use object_store::{ObjectStore, ObjectStoreExt, local::LocalFileSystem};
 pub use error::{StoreError, StoreErrorKind};
 pub use location::StoreLocation;
 pub use s3::{DEFAULT_REGION, S3Options};
+pub use upload::{PART_SIZE, StreamingUpload};
 
 /// An opened store and the key prefix its URL named; keys for this root go under `prefix`.
 #[derive(Debug, Clone)]

@@ -60,43 +60,73 @@ pub fn simulate(
     config: &GnssConfig,
     seed: u64,
 ) -> Result<Vec<GnssRecord>, MotionError> {
-    if !(config.rate_hz.is_finite() && config.rate_hz > 0.0) {
-        return Err(MotionError::Config {
-            config: "gnss",
-            field: "rate_hz",
-            value: config.rate_hz,
-            expected: "> 0 Hz",
-        });
-    }
-    let mut rng = Stream::new(seed, Purpose::Gnss);
-    let lever = Point3::<Body>::from_vector(Vector3::from(config.lever_arm));
-    let (t0, t1) = drive.trajectory.span();
-    let mut out = Vec::new();
-    let records = drive.trajectory.records();
-    let mut j = 0usize;
-    loop {
-        let t = t0 + j as f64 / config.rate_hz;
-        if t > t1 + 1e-9 {
-            break;
+    GnssStream::new(dg_config, config, seed)?.leg(drive, dg)
+}
+
+/// GNSS fixes of a drive simulated in legs (the `city` preset): the fix clock (one grid of `rate_hz` from the
+/// first leg's start) and the receiver noise continue from leg to leg, so the joined fixes are those of one
+/// drive; [`simulate`] is one leg.
+#[derive(Clone, Debug)]
+pub struct GnssStream {
+    dg_config: DgConfig,
+    config: GnssConfig,
+    rng: Stream,
+    /// Start of the fix clock (the first leg's first epoch), once known.
+    origin: Option<f64>,
+    /// Number of the next fix on the clock.
+    next: u64,
+}
+
+impl GnssStream {
+    /// A new receiver for DG solutions made with `dg_config`; noise from `seed`.
+    pub fn new(dg_config: &DgConfig, config: &GnssConfig, seed: u64) -> Result<Self, MotionError> {
+        if !(config.rate_hz.is_finite() && config.rate_hz > 0.0) {
+            return Err(MotionError::Config {
+                config: "gnss",
+                field: "rate_hz",
+                value: config.rate_hz,
+                expected: "> 0 Hz",
+            });
         }
-        j += 1;
-        let i = records.partition_point(|r| r.time < t - 1e-9).min(records.len() - 1);
-        let (truth, e) = (&records[i], &dg.errors[i]);
-        if e.fault == Some(FaultKind::Outage) {
-            continue;
-        }
-        let env = e.environment.index();
-        let (wh, wv) = (config.white_horizontal[env], config.white_height[env]);
-        let white = Vec3::new(wh * rng.normal(), wh * rng.normal(), wv * rng.normal());
-        let antenna = truth.pose().transform_point(&lever);
-        let p = &dg_config.environments[env];
-        let std = [p.reported_horizontal.hypot(wh), p.reported_horizontal.hypot(wh), p.reported_height.hypot(wv)];
-        out.push(GnssRecord {
-            time: truth.time,
-            position: antenna + e.position + white,
-            std,
-            environment: e.environment,
-        });
+        let rng = Stream::new(seed, Purpose::Gnss);
+        Ok(Self { dg_config: dg_config.clone(), config: *config, rng, origin: None, next: 0 })
     }
-    Ok(out)
+
+    /// The fixes of the next leg `drive` (epochs after the previous leg's) with its DG solution `dg`.
+    pub fn leg(&mut self, drive: &Drive, dg: &DgSolution) -> Result<Vec<GnssRecord>, MotionError> {
+        let records = drive.trajectory.records();
+        if records.is_empty() || dg.errors.len() != records.len() {
+            return Err(MotionError::Mismatch { what: "DG errors", expected: records.len(), got: dg.errors.len() });
+        }
+        let (t0, t1) = drive.trajectory.span();
+        let origin = *self.origin.get_or_insert(t0);
+        let lever = Point3::<Body>::from_vector(Vector3::from(self.config.lever_arm));
+        let mut out = Vec::new();
+        loop {
+            let t = origin + self.next as f64 / self.config.rate_hz;
+            if t > t1 + 1e-9 {
+                break;
+            }
+            self.next += 1;
+            let i = records.partition_point(|r| r.time < t - 1e-9).min(records.len() - 1);
+            let (truth, e) = (&records[i], &dg.errors[i]);
+            if e.fault == Some(FaultKind::Outage) {
+                continue;
+            }
+            let env = e.environment.index();
+            let (wh, wv) = (self.config.white_horizontal[env], self.config.white_height[env]);
+            let rng = &mut self.rng;
+            let white = Vec3::new(wh * rng.normal(), wh * rng.normal(), wv * rng.normal());
+            let antenna = truth.pose().transform_point(&lever);
+            let p = &self.dg_config.environments[env];
+            let std = [p.reported_horizontal.hypot(wh), p.reported_horizontal.hypot(wh), p.reported_height.hypot(wv)];
+            out.push(GnssRecord {
+                time: truth.time,
+                position: antenna + e.position + white,
+                std,
+                environment: e.environment,
+            });
+        }
+        Ok(out)
+    }
 }

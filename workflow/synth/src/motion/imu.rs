@@ -131,52 +131,92 @@ pub struct ImuData {
 
 /// Simulate the IMU of `drive` with `errors`; noise from `seed`.
 pub fn simulate(drive: &Drive, errors: &ImuErrors, seed: u64) -> Result<ImuData, MotionError> {
-    check(errors)?;
-    let mut rng = Stream::new(seed, Purpose::Imu);
-    let draw3 = |rng: &mut Stream, s: f64| [s * rng.normal(), s * rng.normal(), s * rng.normal()];
-    let draw = ImuErrorDraw {
-        gyro_bias: draw3(&mut rng, errors.gyro_bias),
-        accel_bias: draw3(&mut rng, errors.accel_bias),
-        gyro_scale_factor: draw3(&mut rng, errors.gyro_scale_factor),
-        accel_scale_factor: draw3(&mut rng, errors.accel_scale_factor),
-    };
-    let mut gyro_gm = draw3(&mut rng, errors.gyro_bias_instability);
-    let mut accel_gm = draw3(&mut rng, errors.accel_bias_instability);
-    let r = drive.trajectory.records();
-    let k = &drive.kinematics;
-    let mut records = Vec::with_capacity(r.len().saturating_sub(1));
-    for i in 0..r.len().saturating_sub(1) {
-        let dt = r[i + 1].time - r[i].time;
-        let (dtheta, dv) = true_increments(
-            &r[i].attitude.to_rotation(),
-            &r[i + 1].attitude.to_rotation(),
-            &k[i].velocity,
-            &k[i + 1].velocity,
-            dt,
-            STANDARD_GRAVITY,
-        );
+    Ok(ImuStream::new(errors, seed)?.leg(drive))
+}
+
+/// The true state at an epoch that the next increment starts from.
+#[derive(Clone, Copy, Debug)]
+struct State {
+    rotation: Rotation<Map, Body>,
+    velocity: Vec3<Map>,
+    time: f64,
+}
+
+/// The IMU of a drive simulated in legs (the `city` preset): the drawn constant errors, the bias-instability
+/// states and the noise continue from leg to leg, and each leg starts with the increment from the previous
+/// leg's last epoch, so the joined records are those of one drive; [`simulate`] is one leg.
+#[derive(Clone, Debug)]
+pub struct ImuStream {
+    errors: ImuErrors,
+    draw: ImuErrorDraw,
+    rng: Stream,
+    gyro_gm: [f64; 3],
+    accel_gm: [f64; 3],
+    last: Option<State>,
+}
+
+impl ImuStream {
+    /// A new IMU with `errors`; the constant errors and the noise come from `seed`.
+    pub fn new(errors: &ImuErrors, seed: u64) -> Result<Self, MotionError> {
+        check(errors)?;
+        let mut rng = Stream::new(seed, Purpose::Imu);
+        let draw3 = |rng: &mut Stream, s: f64| [s * rng.normal(), s * rng.normal(), s * rng.normal()];
+        let draw = ImuErrorDraw {
+            gyro_bias: draw3(&mut rng, errors.gyro_bias),
+            accel_bias: draw3(&mut rng, errors.accel_bias),
+            gyro_scale_factor: draw3(&mut rng, errors.gyro_scale_factor),
+            accel_scale_factor: draw3(&mut rng, errors.accel_scale_factor),
+        };
+        let gyro_gm = draw3(&mut rng, errors.gyro_bias_instability);
+        let accel_gm = draw3(&mut rng, errors.accel_bias_instability);
+        Ok(Self { errors: *errors, draw, rng, gyro_gm, accel_gm, last: None })
+    }
+
+    /// The records of the next leg `drive` (epochs after the previous leg's): one per interval, the first
+    /// from the previous leg's last epoch when there is one.
+    pub fn leg(&mut self, drive: &Drive) -> ImuData {
+        let epochs = drive.trajectory.records().iter().zip(&drive.kinematics).map(|(r, k)| State {
+            rotation: r.attitude.to_rotation(),
+            velocity: k.velocity,
+            time: r.time,
+        });
+        let mut records = Vec::with_capacity(drive.kinematics.len());
+        for epoch in epochs {
+            if let Some(previous) = self.last.replace(epoch) {
+                records.push(self.record(&previous, &epoch));
+            }
+        }
+        ImuData { records, errors: self.draw, gravity: STANDARD_GRAVITY }
+    }
+
+    /// The measured increments over [a, b]: the true ones with the errors of the module doc.
+    fn record(&mut self, a: &State, b: &State) -> ImuRecord {
+        let (errors, draw) = (&self.errors, &self.draw);
+        let dt = b.time - a.time;
+        let (dtheta, dv) = true_increments(&a.rotation, &b.rotation, &a.velocity, &b.velocity, dt, STANDARD_GRAVITY);
         let phi = (-dt / errors.bias_correlation_time).exp();
         let q = (1.0 - phi * phi).sqrt();
         let mut out_theta = [0.0; 3];
         let mut out_v = [0.0; 3];
-        for a in 0..3 {
-            gyro_gm[a] = phi * gyro_gm[a] + q * errors.gyro_bias_instability * rng.normal();
-            accel_gm[a] = phi * accel_gm[a] + q * errors.accel_bias_instability * rng.normal();
+        for k in 0..3 {
+            let rng = &mut self.rng;
+            self.gyro_gm[k] = phi * self.gyro_gm[k] + q * errors.gyro_bias_instability * rng.normal();
+            self.accel_gm[k] = phi * self.accel_gm[k] + q * errors.accel_bias_instability * rng.normal();
             let (nt, nv) = (
                 errors.gyro_random_walk * dt.sqrt() * rng.normal(),
                 errors.accel_random_walk * dt.sqrt() * rng.normal(),
             );
-            out_theta[a] = (1.0 + draw.gyro_scale_factor[a]) * dtheta[a] + (draw.gyro_bias[a] + gyro_gm[a]) * dt + nt;
-            out_v[a] = (1.0 + draw.accel_scale_factor[a]) * dv[a] + (draw.accel_bias[a] + accel_gm[a]) * dt + nv;
+            out_theta[k] =
+                (1.0 + draw.gyro_scale_factor[k]) * dtheta[k] + (draw.gyro_bias[k] + self.gyro_gm[k]) * dt + nt;
+            out_v[k] = (1.0 + draw.accel_scale_factor[k]) * dv[k] + (draw.accel_bias[k] + self.accel_gm[k]) * dt + nv;
         }
-        records.push(ImuRecord {
-            time: r[i + 1].time,
+        ImuRecord {
+            time: b.time,
             dt,
             delta_theta: Vec3::from_vector(Vector3::from(out_theta)),
             delta_v: Vec3::from_vector(Vector3::from(out_v)),
-        });
+        }
     }
-    Ok(ImuData { records, errors: draw, gravity: STANDARD_GRAVITY })
 }
 
 /// Error-free Δθ and Δv between two epochs (see the module doc).

@@ -7,7 +7,8 @@
 //!    multipath jumps, outages, optimistic standard deviations in canyons (paper 001 §1.2, paper 002 §4.2).
 //! 3. [`gnss`] and [`imu`]: the raw sensor data the DG solution would come from — GNSS fixes at 1–10 Hz with
 //!    the same canyon process, IMU increments at the trajectory rate for a tactical (LN-100 class, paper 003
-//!    §2.1) or consumer (BMI160 class, paper 002 §3.1.1) grade.
+//!    §2.1) or consumer (BMI160 class, paper 002 §3.1.1) grade. For drives made in legs (`city`),
+//!    [`dg::DgStream`], [`gnss::GnssStream`] and [`imu::ImuStream`] carry every process across the joins.
 //! 4. [`files`]: the bytes of the GNSS, IMU and error-series CSV files; [`overview_png`]: a map of the drive
 //!    coloured by the DG error.
 //!
@@ -24,6 +25,8 @@ mod path;
 mod profile;
 mod rng;
 pub mod routes;
+#[cfg(test)]
+mod stream_tests;
 
 pub use config::DriveConfig;
 pub use drive::{Drive, Kinematics, STANDSTILL_SPEED};
@@ -45,6 +48,9 @@ pub enum MotionError {
     /// A configuration parameter is out of range.
     #[error("{config}: parameter `{field}` is {value}; expected {expected}")]
     Config { config: &'static str, field: &'static str, value: f64, expected: &'static str },
+    /// Two series that must have one entry per epoch do not (or the drive has no epoch).
+    #[error("{what}: {got} entries for a drive of {expected} epochs")]
+    Mismatch { what: &'static str, expected: usize, got: usize },
     /// The generated trajectory failed validation (a bug in the simulator).
     #[error("simulated trajectory is invalid: {0}")]
     Trajectory(#[from] TrajectoryError),

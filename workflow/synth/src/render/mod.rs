@@ -9,7 +9,7 @@ mod frame;
 mod shade;
 mod surface;
 
-pub use block::{AtErrors, BlockSpec, perturb_block, plan_block};
+pub use block::{AtErrors, BlockSpec, perturb_block, perturb_pose, plan_block, strip_rotation};
 pub use encode::{RenderError, encode_jpeg, encode_png_gray, encode_png_gray16, encode_png_rgb};
 pub use frame::{
     AerialOptics, DepthNoise, Panorama, VehicleBody, ground_truth, render_aerial, render_depth, render_panorama,

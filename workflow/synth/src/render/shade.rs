@@ -5,7 +5,7 @@ use nalgebra::Vector3;
 
 use crate::texture::{Rgb, Texture};
 use crate::texture::{pulses, unit};
-use crate::world::{Epoch, Hit, PoleClass, Surface, World};
+use crate::world::{Epoch, Hit, PoleClass, Preset, Surface, World};
 
 /// Light and camera response of one epoch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -116,7 +116,7 @@ impl<'w> Scene<'w> {
             Surface::Ground => Texture::new(w, self.epoch).albedo(hit.point.x, hit.point.y, footprint),
             Surface::Facade(i) => facade(w, i, hit.uv, footprint),
             Surface::Roof(i) => {
-                let v = 0.18 + 0.12 * unit(w.config.seed ^ 61, i64::from(i), 0);
+                let v = 0.18 + 0.12 * roof_shade(w, i);
                 [v * 1.2, v, v * 0.9]
             }
             Surface::Pole(i) => pole_colour(w.poles[i as usize].class),
@@ -133,6 +133,17 @@ pub fn pole_colour(class: PoleClass) -> Rgb {
         PoleClass::SignPost => [0.45, 0.45, 0.47],
         PoleClass::TrafficLight => [0.12, 0.12, 0.13],
         PoleClass::Tree => [0.22, 0.15, 0.09],
+    }
+}
+
+/// A roof's shade in [0, 1): by the building's number in tiny and district; in the city by its centre (to the
+/// centimetre), so every window that holds the building gives it the same roof.
+fn roof_shade(w: &World, i: u32) -> f32 {
+    if w.config.preset == Preset::City {
+        let [x, y] = w.buildings.get(i as usize).map_or([0.0; 2], |b| b.shape.center);
+        unit(w.config.seed ^ 61, (x * 100.0).round() as i64, (y * 100.0).round() as i64)
+    } else {
+        unit(w.config.seed ^ 61, i64::from(i), 0)
     }
 }
 

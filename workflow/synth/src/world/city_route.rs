@@ -117,3 +117,64 @@ impl CityWalk {
         (chosen, forward)
     }
 }
+
+/// The first `length` metres (horizontal, along the waypoints) of `route`: the waypoints before that point
+/// and a last one there, interpolated in position and ground height, with the speed limit and canyon of its
+/// segment and no junction. The whole route if it is not longer; at least its first segment's start.
+pub fn cut(route: &Route, length: f64) -> Route {
+    let w = &route.waypoints;
+    let mut out: Vec<Waypoint> = w.iter().take(1).copied().collect();
+    let mut driven = 0.0;
+    for pair in w.windows(2) {
+        let (a, b) = (&pair[0], &pair[1]);
+        let step = (b.east - a.east).hypot(b.north - a.north);
+        if driven + step < length {
+            driven += step;
+            out.push(*b);
+            continue;
+        }
+        let u = if step > 0.0 { ((length - driven) / step).clamp(0.0, 1.0) } else { 0.0 };
+        let lerp = |x: f64, y: f64| x + u * (y - x);
+        let end = Waypoint {
+            east: lerp(a.east, b.east),
+            north: lerp(a.north, b.north),
+            ground_height: lerp(a.ground_height, b.ground_height),
+            junction: u >= 1.0 && b.junction,
+            ..*a
+        };
+        if u > 0.0 {
+            out.push(end);
+        }
+        break;
+    }
+    Route { waypoints: out }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::world::{Preset, WorldConfig};
+
+    fn length(route: &Route) -> f64 {
+        route.waypoints.windows(2).map(|p| (p[1].east - p[0].east).hypot(p[1].north - p[0].north)).sum()
+    }
+
+    #[test]
+    fn a_cut_route_is_the_first_metres_of_the_route() {
+        let mut walk = CityWalk::new(City::new(&WorldConfig::new(Preset::City, 5)), 5, 400.0);
+        let route = walk.next_leg().route;
+        let full = length(&route);
+        assert!(full > 400.0, "{full} m");
+        for want in [3.0, 57.3, 211.0, full - 1.0] {
+            let cut = cut(&route, want);
+            assert!((length(&cut) - want).abs() < 1e-9, "{want} m: cut to {} m", length(&cut));
+            let n = cut.waypoints.len();
+            // Every waypoint but the last is the route's own; the last lies on the route's segment after them.
+            assert_eq!(cut.waypoints[..n - 1], route.waypoints[..n - 1]);
+            let (a, b, end) = (route.waypoints[n - 2], route.waypoints[n - 1], cut.waypoints[n - 1]);
+            let cross = (b.east - a.east) * (end.north - a.north) - (b.north - a.north) * (end.east - a.east);
+            assert!(cross.abs() < 1e-6 && !end.junction, "{end:?} off the segment {a:?} → {b:?}");
+        }
+        assert_eq!(cut(&route, full + 10.0), route);
+    }
+}
