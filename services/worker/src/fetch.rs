@@ -13,13 +13,87 @@ use plumbline_imaging::{GrayImage, Mask};
 use plumbline_runtime::{Files, is_invalid};
 use plumbline_scheduler::SkippedInput;
 
-/// A skipped item of `stage`.
-pub(crate) fn skipped(stage: &str, item: &str, reason: &str, detail: String) -> SkippedInput {
-    SkippedInput { stage: stage.to_owned(), item: item.to_owned(), reason: reason.to_owned(), detail }
+/// Why the worker skipped an input: the `reason` of its [`SkippedInput`], written by its stable [`name`]
+/// (the tile output's JSON keeps these strings) and read back by the same table, so the retry decision
+/// ([`SkipReason::retryable`]) cannot drift from what the readers write.
+///
+/// [`name`]: SkipReason::name
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum SkipReason {
+    /// The file does not exist (the store said so).
+    Missing,
+    /// The store failed to deliver the file (network, permissions, outage).
+    Read,
+    /// The bytes are not a readable image.
+    Decode,
+    /// The image has another size than expected.
+    Size,
+    /// The file's URL cannot be formed from the manifest.
+    Url,
+    /// The item's time lies outside the trajectory.
+    Time,
+    /// A depth frame the pole pipeline could not use.
+    Frame,
+    /// The depth camera cannot be built from the manifest.
+    Camera,
+    /// The cadastre file cannot be opened.
+    Open,
+}
+
+impl SkipReason {
+    /// Every reason, for reading names back.
+    pub(crate) const ALL: [Self; 9] = [
+        Self::Missing,
+        Self::Read,
+        Self::Decode,
+        Self::Size,
+        Self::Url,
+        Self::Time,
+        Self::Frame,
+        Self::Camera,
+        Self::Open,
+    ];
+
+    /// The stable name in `SkippedInput::reason`.
+    pub(crate) const fn name(self) -> &'static str {
+        match self {
+            Self::Missing => "missing",
+            Self::Read => "read",
+            Self::Decode => "decode",
+            Self::Size => "size",
+            Self::Url => "url",
+            Self::Time => "time",
+            Self::Frame => "frame",
+            Self::Camera => "camera",
+            Self::Open => "open",
+        }
+    }
+
+    /// The reason a skipped item's `reason` names, if it is one of these.
+    pub(crate) fn of(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|r| r.name() == name)
+    }
+
+    /// Whether a later attempt may succeed: the store failed to deliver, the input itself may be fine.
+    pub(crate) const fn retryable(self) -> bool {
+        matches!(self, Self::Read)
+    }
+}
+
+impl AsRef<str> for SkipReason {
+    fn as_ref(&self) -> &str {
+        self.name()
+    }
+}
+
+/// A skipped item of `stage`; `reason` is a [`SkipReason`] (or another crate's reason name, e.g. a cadastre
+/// diagnostic's kind).
+pub(crate) fn skipped(stage: &str, item: &str, reason: impl AsRef<str>, detail: String) -> SkippedInput {
+    SkippedInput { stage: stage.to_owned(), item: item.to_owned(), reason: reason.as_ref().to_owned(), detail }
 }
 
 /// Read `urls` with at most `concurrency` reads in flight, in order. A missing or unreadable file becomes a
-/// skipped item of `stage` (reason `missing` or `read`).
+/// skipped item of `stage` ([`SkipReason::Missing`] or [`SkipReason::Read`]).
 pub(crate) async fn read_all(
     files: &Files,
     urls: &[String],
@@ -32,10 +106,11 @@ pub(crate) async fn read_all(
         .await
 }
 
-/// Read one file; a missing or unreadable one becomes a skipped item of `stage` (reason `missing` or `read`).
+/// Read one file; a missing or unreadable one becomes a skipped item of `stage` ([`SkipReason::Missing`] or
+/// [`SkipReason::Read`]).
 pub(crate) async fn read_one(files: &Files, url: &str, stage: &str) -> Result<Bytes, SkippedInput> {
     files.read(url).await.map_err(|e| {
-        let reason = if is_invalid(&e) { "missing" } else { "read" };
+        let reason = if is_invalid(&e) { SkipReason::Missing } else { SkipReason::Read };
         skipped(stage, url, reason, format!("{url}: cannot be read: {e:#}"))
     })
 }
@@ -164,6 +239,30 @@ mod tests {
         assert_eq!(calls.iter().map(|(_, n)| n).sum::<u64>(), 7);
         // 840 ms of work polled every 250 ms: reported along the way, not only at the end.
         assert!(calls.len() >= 3, "{calls:?}");
+    }
+
+    /// The names are the tile output's JSON (`skipped[].reason`): pinned here so a rename is deliberate, and
+    /// every name reads back to its reason, so the retry decision sees what the readers wrote.
+    #[test]
+    fn skip_reasons_keep_their_names_and_read_back() {
+        let names = SkipReason::ALL.map(SkipReason::name);
+        assert_eq!(names, ["missing", "read", "decode", "size", "url", "time", "frame", "camera", "open"]);
+        for r in SkipReason::ALL {
+            assert_eq!(SkipReason::of(r.name()), Some(r));
+        }
+        assert_eq!(SkipReason::of("unknown_class"), None);
+        let retryable: Vec<_> = SkipReason::ALL.into_iter().filter(|r| r.retryable()).collect();
+        assert_eq!(retryable, [SkipReason::Read]);
+    }
+
+    #[tokio::test]
+    async fn a_missing_file_is_skipped_as_missing_not_as_unread() {
+        let dir = tempfile::tempdir().unwrap();
+        let url = format!("{}/absent.jpg", dir.path().display());
+        let s = read_one(&Files::default(), &url, "registration").await.unwrap_err();
+        assert_eq!((s.stage.as_str(), s.item.as_str()), ("registration", url.as_str()));
+        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Missing));
+        assert!(!SkipReason::Missing.retryable());
     }
 
     #[test]

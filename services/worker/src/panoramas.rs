@@ -14,7 +14,7 @@ use plumbline_registration::pipeline::PanoramaInfo;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{blocking, decode_gray, decode_mask, read_all, read_one, skipped};
+use crate::fetch::{SkipReason, blocking, decode_gray, decode_mask, read_all, read_one, skipped};
 use crate::raster::{around, height_at, read_window, terrain};
 
 pub(crate) const STAGE: &str = "registration";
@@ -76,7 +76,7 @@ pub(crate) fn place(
             Ok(url) => url,
             Err(e) => {
                 let detail = format!("panorama {}: {e:#}", image.image_id);
-                skipped_items.push(skipped(STAGE, &image.file, "url", detail));
+                skipped_items.push(skipped(STAGE, &image.file, SkipReason::Url, detail));
                 continue;
             }
         };
@@ -91,7 +91,7 @@ pub(crate) fn place(
                 },
                 url,
             }),
-            Err(e) => skipped_items.push(skipped(STAGE, &url, "time", format!("{url}: {e}"))),
+            Err(e) => skipped_items.push(skipped(STAGE, &url, SkipReason::Time, format!("{url}: {e}"))),
         }
     }
     placed
@@ -109,7 +109,9 @@ pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> 
         match read_one(files, url, STAGE).await {
             Ok(bytes) => match image_size(&bytes) {
                 Ok(size) => return Ok(size),
-                Err(e) => failures.push(skipped(STAGE, url, "decode", format!("{url}: not a readable image: {e}"))),
+                Err(e) => {
+                    failures.push(skipped(STAGE, url, SkipReason::Decode, format!("{url}: not a readable image: {e}")))
+                }
             },
             Err(s) => failures.push(s),
         }
@@ -129,11 +131,11 @@ pub(crate) fn image_size(bytes: &[u8]) -> Result<(u32, u32), String> {
 /// Decode a panorama to gray and check its size: the gray [`Panorama`] at its DG pose, or the skipped item.
 pub(crate) fn decode(placed: &Placed, bytes: &[u8], size: (u32, u32)) -> Result<Panorama, SkippedInput> {
     let url = &placed.url;
-    let gray = decode_gray(url, bytes).map_err(|e| skipped(STAGE, url, "decode", e))?;
+    let gray = decode_gray(url, bytes).map_err(|e| skipped(STAGE, url, SkipReason::Decode, e))?;
     let found = (gray.width() as u32, gray.height() as u32);
     if found != size {
         let detail = format!("{url}: panorama is {} × {} px, expected {} × {} px", found.0, found.1, size.0, size.1);
-        return Err(skipped(STAGE, url, "size", detail));
+        return Err(skipped(STAGE, url, SkipReason::Size, detail));
     }
     let info = &placed.info;
     Ok(Panorama {
@@ -197,10 +199,12 @@ pub(crate) async fn rig(
             let mask = match bytes {
                 Some(Ok(bytes)) => {
                     let u = url.clone();
-                    blocking(move || decode_mask(&u, &bytes)).await?.map_err(|e| skipped(STAGE, &url, "decode", e))
+                    blocking(move || decode_mask(&u, &bytes))
+                        .await?
+                        .map_err(|e| skipped(STAGE, &url, SkipReason::Decode, e))
                 }
                 Some(Err(s)) => Err(s),
-                None => Err(skipped(STAGE, &url, "read", format!("{url}: not read"))),
+                None => Err(skipped(STAGE, &url, SkipReason::Read, format!("{url}: not read"))),
             };
             let mask = mask.and_then(|m| {
                 if (m.width(), m.height()) == (size.0 as usize, size.1 as usize) {
@@ -213,7 +217,7 @@ pub(crate) async fn rig(
                         size.0,
                         size.1
                     );
-                    Err(skipped(STAGE, &url, "size", detail))
+                    Err(skipped(STAGE, &url, SkipReason::Size, detail))
                 }
             });
             mask.map_err(|s| skipped_items.push(s)).ok()

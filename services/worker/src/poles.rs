@@ -16,7 +16,7 @@ use plumbline_runtime::Files;
 use plumbline_runtime::cadastre::{CadastreSource, read_cadastre};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{blocking, read_all, skipped};
+use crate::fetch::{SkipReason, blocking, read_all, skipped};
 use crate::panoramas::dg_at;
 use crate::tile::POLES;
 
@@ -91,7 +91,7 @@ pub(crate) async fn process(
     out.process_s = t1.elapsed().as_secs_f64();
     out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {
         let problem = r.problem.as_ref()?;
-        Some(skipped("poles", &r.frame, "frame", format!("depth frame {}: {problem}", r.frame)))
+        Some(skipped("poles", &r.frame, SkipReason::Frame, format!("depth frame {}: {problem}", r.frame)))
     }));
     Ok(out)
 }
@@ -108,12 +108,12 @@ async fn depth_frames(
     for image in depth.iter().filter_map(|&k| campaign.plan.depth.get(k)) {
         let Some(camera) = campaign.manifest.depth.get(image.camera) else {
             let detail = format!("depth image {}: camera {} is not in the manifest", image.image_id, image.camera);
-            skipped_items.push(skipped("poles", &image.file, "camera", detail));
+            skipped_items.push(skipped("poles", &image.file, SkipReason::Camera, detail));
             continue;
         };
         match campaign.file_url(&camera.images, &image.file) {
             Ok(url) => wanted.push((image, url)),
-            Err(e) => skipped_items.push(skipped("poles", &image.file, "url", format!("{e:#}"))),
+            Err(e) => skipped_items.push(skipped("poles", &image.file, SkipReason::Url, format!("{e:#}"))),
         }
     }
     let urls: Vec<String> = wanted.iter().map(|(_, url)| url.clone()).collect();
@@ -121,7 +121,8 @@ async fn depth_frames(
     let mut by_camera: BTreeMap<usize, Vec<Frame>> = BTreeMap::new();
     for ((image, url), png) in wanted.into_iter().zip(bytes) {
         let frame = png.and_then(|png| {
-            let dg = dg_at(campaign, image.time).map_err(|e| skipped("poles", &url, "time", format!("{url}: {e}")))?;
+            let dg = dg_at(campaign, image.time)
+                .map_err(|e| skipped("poles", &url, SkipReason::Time, format!("{url}: {e}")))?;
             Ok(Frame { id: image.image_id.clone(), png, dg })
         });
         match frame {
@@ -153,7 +154,7 @@ async fn cadastre_features(
         let bytes = match files.read(&url).await {
             Ok(b) => b,
             Err(e) => {
-                let reason = if plumbline_runtime::is_invalid(&e) { "missing" } else { "read" };
+                let reason = if plumbline_runtime::is_invalid(&e) { SkipReason::Missing } else { SkipReason::Read };
                 skipped_items.push(skipped("cadastre", &url, reason, format!("{url}: cannot be read: {e:#}")));
                 continue;
             }
@@ -166,7 +167,7 @@ async fn cadastre_features(
                     f
                 }));
             }
-            Err(e) => skipped_items.push(skipped("cadastre", &url, "open", e)),
+            Err(e) => skipped_items.push(skipped("cadastre", &url, SkipReason::Open, e)),
         }
     }
     Ok(features)
@@ -202,7 +203,7 @@ fn diagnostic_skip(d: &CadastreDiagnostic) -> Option<SkippedInput> {
         item.push_str(&format!(" field {field}"));
     }
     let reason = serde_json::to_value(d.kind).ok().and_then(|v| v.as_str().map(str::to_owned));
-    Some(skipped("cadastre", &item, &reason.unwrap_or_else(|| "feature".into()), d.to_string()))
+    Some(skipped("cadastre", &item, reason.unwrap_or_else(|| "feature".into()), d.to_string()))
 }
 
 #[cfg(test)]

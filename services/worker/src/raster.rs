@@ -1,13 +1,14 @@
 //! Windows of the orthophoto and the terrain model through GDAL ([`RasterSource`]): local files are opened in
-//! place (windowed reads, never the whole city), object-store files are fetched whole first. GDAL handles
-//! are not `Send`, so each call opens its source on the blocking thread that uses it.
+//! place (windowed reads, never the whole city), object-store files are fetched whole first — of a VRT mosaic
+//! on an object store, the VRT and the tiles the window needs. GDAL handles are not `Send`, so each call opens
+//! its source on the blocking thread that uses it.
 
 use std::path::PathBuf;
 
 use plumbline_imaging::GrayImage;
 use plumbline_registration::aerial::Terrain;
 use plumbline_runtime::Files;
-use plumbline_runtime::gdal_read::{MapBox, RasterSource};
+use plumbline_runtime::gdal_read::{MapBox, RasterSource, is_vrt, mosaic_tiles};
 use plumbline_runtime::gdal_write::{Raster, RasterData};
 
 use crate::fetch::blocking;
@@ -25,15 +26,32 @@ fn local_path(url: &str) -> Option<PathBuf> {
 pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> anyhow::Result<Option<Raster>> {
     let local = local_path(url);
     let bytes = if local.is_none() { Some(files.read(url).await?.to_vec()) } else { None };
+    let tiles = match &bytes {
+        Some(vrt) if is_vrt(vrt) => Some(read_tiles(files, url, vrt, &area).await?),
+        _ => None,
+    };
     let url = url.to_owned();
     blocking(move || -> anyhow::Result<Option<Raster>> {
-        let source = match (local, bytes) {
-            (Some(path), _) => RasterSource::open_path(&path)?,
-            (None, bytes) => RasterSource::open_bytes(&url, bytes.unwrap_or_default())?,
+        let source = match (local, bytes, tiles) {
+            (Some(path), _, _) => RasterSource::open_path(&path)?,
+            (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, bytes.unwrap_or_default(), tiles)?,
+            (None, bytes, None) => RasterSource::open_bytes(&url, bytes.unwrap_or_default())?,
         };
         Ok(source.window(&area)?)
     })
     .await?
+}
+
+/// The tiles of the VRT mosaic at `url` that hold pixels of `area`, fetched from beside it (their paths are
+/// relative to the VRT).
+async fn read_tiles(files: &Files, url: &str, vrt: &[u8], area: &MapBox) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+    let dir = url.rsplit_once('/').map_or("", |(dir, _)| dir);
+    let mut tiles = Vec::new();
+    for tile in mosaic_tiles(url, vrt, area)? {
+        let tile_url = if dir.is_empty() { tile.clone() } else { format!("{dir}/{tile}") };
+        tiles.push((tile, files.read(&tile_url).await?.to_vec()));
+    }
+    Ok(tiles)
 }
 
 /// The gray value of every pixel: band 1 for one band, the luma of bands 1–3 for colour (8-bit or float).
@@ -106,5 +124,60 @@ mod tests {
         assert!((g.get(2, 1) - (0.299 * 255.0 + 0.114 * 100.0)).abs() < 1e-3);
         assert_eq!(local_path("file:///a/b.tif"), Some(PathBuf::from("/a/b.tif")));
         assert_eq!(local_path("s3://bucket/b.tif"), None);
+    }
+
+    /// A 4×2-pixel tile of a two-tile mosaic at 1 m, every pixel `value`, its top-left at column `col`.
+    fn tile(col: usize, value: f32) -> Vec<u8> {
+        let gt = [500_000.0 + col as f64, 1.0, 0.0, 5_000_002.0, 0.0, -1.0];
+        let data = RasterData::F32(vec![vec![value; 8]]);
+        let raster = Raster { width: 4, height: 2, geotransform: gt, epsg: 25832, data, nodata: Some(-9999.0) };
+        plumbline_runtime::gdal_write::geotiff(&raster).unwrap()
+    }
+
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_window_of_a_vrt_mosaic_on_an_object_store_reads_the_tiles_beside_it() {
+        use plumbline_runtime::gdal_write::{Mosaic, MosaicTile, MosaicType, vrt};
+        let moto = plumbline_testkit::MotoServer::start();
+        moto.create_bucket("rasters");
+        let s3 = plumbline_runtime::S3Options {
+            endpoint: Some(moto.endpoint()),
+            region: Some("eu-central-1".to_owned()),
+            access_key_id: Some("plumbline-test".to_owned()),
+            secret_access_key: Some(plumbline_runtime::Secret::new("plumbline-test-secret")),
+            allow_http: false,
+            virtual_hosted_style: false,
+        };
+        let files = Files::new(s3);
+        let tiles = vec![
+            MosaicTile { path: "terrain/0_0.tif".into(), col: 0, row: 0 },
+            MosaicTile { path: "terrain/1_0.tif".into(), col: 4, row: 0 },
+        ];
+        let mosaic = Mosaic {
+            width: 8,
+            height: 2,
+            geotransform: [500_000.0, 1.0, 0.0, 5_000_002.0, 0.0, -1.0],
+            epsg: 25832,
+            bands: 1,
+            data_type: MosaicType::F32,
+            tile_size: (4, 2),
+            nodata: Some(-9999.0),
+            tiles,
+        };
+        let base = "s3://rasters/campaign/aerial";
+        files.write(&format!("{base}/terrain.vrt"), vrt(&mosaic).unwrap()).await.unwrap();
+        files.write(&format!("{base}/terrain/0_0.tif"), tile(0, 10.0)).await.unwrap();
+        files.write(&format!("{base}/terrain/1_0.tif"), tile(4, 20.0)).await.unwrap();
+
+        // Across the border between the two tiles: both are fetched.
+        let area = MapBox { min_e: 500_002.5, min_n: 5_000_000.5, max_e: 500_005.5, max_n: 5_000_001.5 };
+        let window = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap().unwrap();
+        let t = terrain(&window).unwrap();
+        assert_eq!(height_at(&t, 500_003.5, 5_000_001.0), Some(10.0));
+        assert_eq!(height_at(&t, 500_004.5, 5_000_001.0), Some(20.0));
+        // Within the first tile only: the second is not needed, so a missing second tile does not matter.
+        files.write(&format!("{base}/terrain/1_0.tif"), b"not a tiff".to_vec()).await.unwrap();
+        let area = MapBox { min_e: 500_000.5, min_n: 5_000_000.5, max_e: 500_002.5, max_n: 5_000_001.5 };
+        let window = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap().unwrap();
+        assert_eq!(height_at(&terrain(&window).unwrap(), 500_001.5, 5_000_001.0), Some(10.0));
     }
 }

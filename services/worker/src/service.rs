@@ -295,17 +295,7 @@ impl Worker {
     /// Stage durations of a processed tile: fetch (reading and decoding every input), registration, poles,
     /// write, total.
     fn observe_stages(&self, done: &attempt::Attempt) {
-        let seconds = |names: &[&str]| -> f64 {
-            done.output.seconds.iter().filter(|(s, _)| names.contains(&s.as_str())).map(|(_, t)| t).sum()
-        };
-        let stages = [
-            ("fetch", seconds(&["read", "decode", "poles_read"])),
-            ("registration", seconds(&["registration"])),
-            ("poles", seconds(&["poles"])),
-            ("write", done.write_s),
-            ("total", seconds(&["total"]) + done.write_s),
-        ];
-        for (stage, s) in stages {
+        for (stage, s) in done.stage_seconds() {
             self.metrics.observe("plumbline_worker_stage_seconds", &[("stage", stage)], s);
         }
     }

@@ -27,6 +27,81 @@ pub const REGISTRATION: &str = "registration";
 /// Progress stage of the depth images processed for poles (one item per depth image).
 pub const POLES: &str = "poles";
 
+/// The stages a tile output times (`TileOutputV1::seconds`), written and read by their stable names.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum Timed {
+    /// Reading the registration's inputs (panoramas, mask, aerial frames or rasters).
+    Read,
+    /// Decoding them.
+    Decode,
+    /// Ortho patches of the panoramas (thread-seconds).
+    Ortho,
+    /// KAZE features of the panoramas (thread-seconds).
+    Features,
+    /// Preparing the panoramas: read, decode, ortho and features together (wall time).
+    Prepare,
+    /// MM matching of neighbouring panoramas (thread-seconds).
+    Matching,
+    /// Ray intersection (thread-seconds).
+    Triangulation,
+    /// Aerial matching and triangulation (thread-seconds).
+    Aerial,
+    /// The whole registration (wall time).
+    Registration,
+    /// Reading the depth images and the cadastre.
+    PolesRead,
+    /// The pole pipeline.
+    Poles,
+    /// The whole tile.
+    Total,
+}
+
+impl Timed {
+    /// Every timed stage, in the order a tile output lists them.
+    pub(crate) const ALL: [Self; 12] = [
+        Self::Read,
+        Self::Decode,
+        Self::Ortho,
+        Self::Features,
+        Self::Prepare,
+        Self::Matching,
+        Self::Triangulation,
+        Self::Aerial,
+        Self::Registration,
+        Self::PolesRead,
+        Self::Poles,
+        Self::Total,
+    ];
+
+    /// The stable name in `TileOutputV1::seconds`.
+    pub(crate) const fn name(self) -> &'static str {
+        match self {
+            Self::Read => "read",
+            Self::Decode => "decode",
+            Self::Ortho => "ortho",
+            Self::Features => "features",
+            Self::Prepare => "prepare",
+            Self::Matching => "matching",
+            Self::Triangulation => "triangulation",
+            Self::Aerial => "aerial",
+            Self::Registration => "registration",
+            Self::PolesRead => "poles_read",
+            Self::Poles => "poles",
+            Self::Total => "total",
+        }
+    }
+
+    /// The stage a name in `seconds` stands for, if it is one.
+    pub(crate) fn of(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// This stage's entry of `seconds`.
+    fn took(self, seconds: f64) -> (String, f64) {
+        (self.name().to_owned(), seconds)
+    }
+}
+
 /// Registration of a tile and its stage times.
 struct Registered {
     result: Option<TileResultV1>,
@@ -77,9 +152,9 @@ pub async fn process_tile_reporting(
         .instrument(tracing::info_span!("stage", stage = POLES))
         .await?;
     let mut seconds = registered.seconds;
-    seconds.push(("poles_read".into(), poles.read_s));
-    seconds.push(("poles".into(), poles.process_s));
-    seconds.push(("total".into(), start.elapsed().as_secs_f64()));
+    seconds.push(Timed::PolesRead.took(poles.read_s));
+    seconds.push(Timed::Poles.took(poles.process_s));
+    seconds.push(Timed::Total.took(start.elapsed().as_secs_f64()));
     let mut skipped = registered.skipped;
     skipped.extend(poles.skipped);
     tracing::info!(
@@ -172,15 +247,15 @@ async fn register(
     progress.skip(REGISTRATION, owned.saturating_sub(result.images.len() as u64));
     let t = &run.timings;
     out.seconds = vec![
-        ("read".into(), prepared.read_s + reference.read_s),
-        ("decode".into(), prepared.decode_s + reference.decode_s),
-        ("ortho".into(), t.ortho.as_secs_f64()),
-        ("features".into(), t.features.as_secs_f64()),
-        ("prepare".into(), prepare_s),
-        ("matching".into(), t.matching.as_secs_f64()),
-        ("triangulation".into(), t.triangulation.as_secs_f64()),
-        ("aerial".into(), t.aerial.as_secs_f64()),
-        ("registration".into(), t.total.as_secs_f64()),
+        Timed::Read.took(prepared.read_s + reference.read_s),
+        Timed::Decode.took(prepared.decode_s + reference.decode_s),
+        Timed::Ortho.took(t.ortho.as_secs_f64()),
+        Timed::Features.took(t.features.as_secs_f64()),
+        Timed::Prepare.took(prepare_s),
+        Timed::Matching.took(t.matching.as_secs_f64()),
+        Timed::Triangulation.took(t.triangulation.as_secs_f64()),
+        Timed::Aerial.took(t.aerial.as_secs_f64()),
+        Timed::Registration.took(t.total.as_secs_f64()),
     ];
     out.result = Some(result);
     Ok(out)

@@ -2,14 +2,17 @@
 //! write its output — unless inputs were skipped because the store failed to deliver them, which on any but
 //! the last delivery is a retryable error rather than a tile with holes.
 
+use std::collections::HashMap;
+
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::Files;
 use plumbline_scheduler::Campaign;
 
-use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
+use plumbline_scheduler::SkippedInput;
 
-/// The skipped-input reason of a file the store failed to deliver (as opposed to `missing` or `decode`).
-const UNREAD: &str = "read";
+use crate::fetch::SkipReason;
+use crate::tile::Timed;
+use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
 
 /// Inputs of a tile the store failed to deliver: retry the tile rather than skip them.
 #[derive(Debug)]
@@ -46,6 +49,29 @@ pub(crate) struct Attempt {
     pub write_s: f64,
 }
 
+impl Attempt {
+    /// The worker's stage-duration metric of a processed tile, seconds per metric stage: fetch (reading and
+    /// decoding every input), registration, poles, write, total. A name in the output's `seconds` that is no
+    /// [`Timed`] stage is logged and left out.
+    pub(crate) fn stage_seconds(&self) -> [(&'static str, f64); 5] {
+        let mut by: HashMap<Timed, f64> = HashMap::new();
+        for (name, t) in &self.output.seconds {
+            match Timed::of(name) {
+                Some(stage) => *by.entry(stage).or_default() += t,
+                None => tracing::warn!(stage = %name, "tile output times an unknown stage"),
+            }
+        }
+        let sum = |stages: &[Timed]| stages.iter().map(|s| by.get(s).copied().unwrap_or(0.0)).sum::<f64>();
+        [
+            ("fetch", sum(&[Timed::Read, Timed::Decode, Timed::PolesRead])),
+            ("registration", sum(&[Timed::Registration])),
+            ("poles", sum(&[Timed::Poles])),
+            ("write", self.write_s),
+            ("total", sum(&[Timed::Total]) + self.write_s),
+        ]
+    }
+}
+
 /// Read back, or process and write, the tile's output. `last`: this is the task's last delivery, so inputs
 /// the store did not deliver are skipped and listed (as `plumbline run` does) instead of failing the attempt.
 pub(crate) async fn attempt(
@@ -61,14 +87,20 @@ pub(crate) async fn attempt(
     }
     tracing::info!("tile inputs being read");
     let output = process_tile(files, campaign, tile, config).await?;
-    let unread: Vec<_> = output.skipped.iter().filter(|s| s.reason == UNREAD).collect();
-    if let (false, Some(first)) = (last, unread.first()) {
-        return Err(UnreadInputs { tile: *tile, count: unread.len(), first: first.detail.clone() }.into());
+    let undelivered = unread(&output.skipped);
+    if let (false, Some(first)) = (last, undelivered.first()) {
+        return Err(UnreadInputs { tile: *tile, count: undelivered.len(), first: first.detail.clone() }.into());
     }
     let started = std::time::Instant::now();
     let json = serde_json::to_vec_pretty(&TileOutput::V1(output.clone()))?;
     files.write(&url, json).await?;
     Ok(Attempt { output, resumed: false, write_s: started.elapsed().as_secs_f64() })
+}
+
+/// The items skipped because the store failed to deliver them (a retryable [`SkipReason`]), as opposed to
+/// missing or broken ones.
+fn unread(skipped: &[SkippedInput]) -> Vec<&SkippedInput> {
+    skipped.iter().filter(|s| SkipReason::of(&s.reason).is_some_and(SkipReason::retryable)).collect()
 }
 
 /// The output at `url` when it exists and holds `tile`; one that does not parse or holds another tile is
@@ -87,6 +119,61 @@ async fn read_back(files: &Files, url: &str, tile: &TileId) -> anyhow::Result<Op
         Err(e) => {
             tracing::warn!(file = %url, error = %e, "tile output does not parse; reprocessing");
             Ok(None)
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fetch::skipped;
+
+    /// Only what the store failed to deliver makes the attempt retryable; a missing or broken input, or a
+    /// reason of another crate's vocabulary, is skipped for good.
+    #[test]
+    fn only_undelivered_inputs_make_the_attempt_retryable() {
+        let items = [
+            skipped("registration", "p1.jpg", SkipReason::Read, "p1.jpg: cannot be read: timeout".into()),
+            skipped("registration", "p2.jpg", SkipReason::Missing, "p2.jpg: not found".into()),
+            skipped("registration", "p3.jpg", SkipReason::Decode, "p3.jpg: not a readable image".into()),
+            skipped("cadastre", "poles.gpkg", SkipReason::Read, "poles.gpkg: cannot be read: reset".into()),
+            skipped("cadastre", "poles.gpkg:7", "unknown_class", "feature 7".into()),
+        ];
+        let found: Vec<&str> = unread(&items).iter().map(|s| s.item.as_str()).collect();
+        assert_eq!(found, ["p1.jpg", "poles.gpkg"]);
+    }
+
+    /// Every timed stage of a tile output lands in its metric stage: each gets a distinct power of two, so
+    /// a stage missing from a sum or counted twice changes it (a renamed stage would read 0 here).
+    #[test]
+    fn every_timed_stage_reaches_its_metric() {
+        let seconds: Vec<(String, f64)> =
+            Timed::ALL.iter().enumerate().map(|(k, t)| (t.name().to_owned(), f64::from(1u32 << k))).collect();
+        let of = |t: Timed| f64::from(1u32 << Timed::ALL.iter().position(|x| *x == t).unwrap());
+        let output = TileOutputV1 {
+            tile: TileId { col: 0, row: 0 },
+            registration: None,
+            poles: Vec::new(),
+            pole_frames: Vec::new(),
+            skipped: Vec::new(),
+            seconds,
+        };
+        let done = Attempt { output, resumed: false, write_s: 0.5 };
+        let expected = [
+            ("fetch", of(Timed::Read) + of(Timed::Decode) + of(Timed::PolesRead)),
+            ("registration", of(Timed::Registration)),
+            ("poles", of(Timed::Poles)),
+            ("write", 0.5),
+            ("total", of(Timed::Total) + 0.5),
+        ];
+        assert_eq!(done.stage_seconds(), expected);
+        // The names are the tile output's JSON (and `plumbline run`'s report stages): pinned here.
+        let names = Timed::ALL.map(Timed::name);
+        let pinned = ["read", "decode", "ortho", "features", "prepare", "matching", "triangulation", "aerial"];
+        assert_eq!(names[..8], pinned);
+        assert_eq!(names[8..], ["registration", "poles_read", "poles", "total"]);
+        for t in Timed::ALL {
+            assert_eq!(Timed::of(t.name()), Some(t));
         }
     }
 }
