@@ -99,13 +99,20 @@ pub fn merge(tiles: &[TileOutputV1]) -> Merged {
     out
 }
 
-/// The aerial frames a tie's coordinates were triangulated from: those that gave correspondences to the
-/// patch of its first panorama (the one whose diagnostic lists the aerial images; paper 000 §3.8), sorted.
-/// `None` without aerial coordinates or without such frames.
+/// The aerial frames a tie's coordinates were triangulated from, sorted: those the registration recorded for
+/// it (`aerial_frames` of its first panorama's diagnostic), or — in results written before that was recorded
+/// — the frames that gave correspondences to that panorama's patch (paper 000 §3.8). `None` without aerial
+/// coordinates or without such frames.
 fn frames_of(reg: &TileResultV1, tie: &TiePoint) -> Option<Vec<String>> {
     tie.aerial.as_ref()?;
     let first = tie.rays.first()?.time;
     let diagnostic = reg.images.iter().find(|d| d.time == first)?;
+    if let Some(recorded) = diagnostic.aerial_frames.iter().find(|f| f.tie == tie.id.0) {
+        let mut frames = recorded.frames.clone();
+        frames.sort();
+        frames.dedup();
+        return (!frames.is_empty()).then_some(frames);
+    }
     let used = diagnostic.aerial_images.iter().filter(|a| a.rejection.is_none() && a.correspondences > 0);
     let mut frames: Vec<String> = used.map(|a| a.frame.clone()).collect();
     frames.sort();
@@ -141,4 +148,42 @@ fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
 /// motion to its neighbour, where KAZE + RANSAC measured one.
 pub fn motions_of(result: &TileResultV1) -> Vec<ImageMotion> {
     result.images.iter().filter_map(|d| d.motion).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The golden tile result (one tie with aerial coordinates, from a panorama matched in aerial0024 and
+    /// aerial0025) as a tile output.
+    fn output(result: TileResultV1) -> TileOutputV1 {
+        let (tile, registration) = (result.tile, Some(result));
+        TileOutputV1 { tile, registration, poles: vec![], pole_frames: vec![], skipped: vec![], seconds: vec![] }
+    }
+
+    fn golden() -> TileResultV1 {
+        let text = plumbline_testkit::schemas::example("tile-result.v1.json");
+        serde_json::from_str::<plumbline_registration::TileResult>(&text).expect("example parses").into_latest()
+    }
+
+    #[test]
+    fn a_tie_is_grouped_by_its_recorded_frames_and_older_results_by_the_panorama_frames() {
+        let mut result = golden();
+        let id = result.ties[0].id.clone();
+        result.images[0].aerial_frames[0].frames = vec!["aerial0031".into(), "aerial0025".into()];
+        let sets = merge(&[output(result.clone())]).observations.aerial_frame_sets;
+        assert_eq!(sets.len(), 1);
+        assert_eq!(
+            (sets[0].frames.clone(), sets[0].ties.clone()),
+            (vec!["aerial0025".into(), "aerial0031".into()], vec![id.clone()])
+        );
+        // Without the record (results written before it existed): the frames that gave the panorama's patch
+        // correspondences.
+        result.images[0].aerial_frames.clear();
+        let sets = merge(&[output(result)]).observations.aerial_frame_sets;
+        assert_eq!(
+            (sets[0].frames.clone(), sets[0].ties.clone()),
+            (vec!["aerial0024".into(), "aerial0025".into()], vec![id])
+        );
+    }
 }

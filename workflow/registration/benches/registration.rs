@@ -1,6 +1,8 @@
 //! Registration accuracy and speed on a synthetic campaign, per GNSS profile, in paper 000 Table 1's form:
 //! images, images matched, correspondences, share correct (aerial position within 2 aerial pixels of the
-//! true ground point, horizontally), why images failed, and the time per stage per panorama.
+//! true point, horizontally), why images failed, where true correspondences were lost (module `losses`: every
+//! corner search of §3.8 scored against the truth), the points that are not correct, and the time per stage
+//! per panorama.
 //!
 //! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
 //! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
@@ -15,6 +17,8 @@
 mod diagnosis;
 #[path = "heights/mod.rs"]
 mod heights;
+#[path = "losses/mod.rs"]
+mod losses;
 #[path = "motion/mod.rs"]
 mod motion;
 #[path = "../tests/support/mod.rs"]
@@ -77,6 +81,10 @@ struct Row {
     flagged: Vec<bool>,
     /// Per aerial point: panorama id, height error against the truth, reported σ_H (m).
     heights: Vec<heights::HeightError>,
+    /// Where true correspondences were lost, by panorama fate (panoramas with markings).
+    losses: BTreeMap<String, losses::Losses>,
+    /// The aerial points that are not correct, described.
+    wrong: Vec<String>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -106,6 +114,9 @@ fn run(name: &str, spec: &Spec) -> Row {
     let flagged = motion::flags(&campaign.panoramas, &image_motions);
     let horizontal: Vec<f64> = errors.iter().map(|(e, _)| e[0].hypot(e[1])).collect();
     let marked = |id: &str| paint.get(id).is_some_and(|&a| a >= MARKINGS_MIN_M2);
+    let losses = losses::losses(&campaign, &result, &run.traces, &marked);
+    let mut wrong = losses::wrong_points(&campaign, &result, AERIAL_GSD);
+    wrong.push(format!("all points' σ_h q10/50/90/99 {:.3?} m", losses::sigma_quantiles(&result)));
     let marked_errors: Vec<f64> = result
         .ties
         .iter()
@@ -141,6 +152,8 @@ fn run(name: &str, spec: &Spec) -> Row {
         motions,
         flagged,
         heights,
+        losses,
+        wrong,
     }
 }
 
@@ -180,6 +193,12 @@ fn print_tables(rows: &[Row]) {
         println!("| {} | {} |", r.name, reasons.join(", "));
     }
     print_causes(rows);
+    let loss_rows: Vec<_> = rows.iter().map(|r| (r.name.as_str(), r.losses.clone())).collect();
+    losses::print(&loss_rows);
+    println!("\nAerial points off by more than 2 aerial pixels: tie, horizontal / height error / σ_H, ×frames\n");
+    for r in rows {
+        println!("- {}: {}", r.name, r.wrong.join("; "));
+    }
     println!(
         "\n| profile | ortho-projection | features | matching | triangulation | aerial | elapsed | render (not pipeline) |"
     );
@@ -260,7 +279,7 @@ fn print_causes(rows: &[Row]) {
     }
     println!("\nPanoramas WITH markings discarded as too_few_correspondences: MM points triangulated → per aerial");
     println!(
-        "image that passed §3.7, corner candidates / NCC matches / correspondences kept (10 needed in 2 images)\n"
+        "image that passed §3.7, corner candidates / NCC matches / correspondences kept (10 needed in all images\ntogether, from at least 2 images)\n"
     );
     for r in rows {
         let items: Vec<String> = r

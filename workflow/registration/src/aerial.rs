@@ -9,8 +9,8 @@
 //! (projection into the block, local orientation and windows), `initial` (§3.7 KAZE + RANSAC and the
 //! plausibility check; `guided`: descriptor matching within the DG bound) with `correlate` (a whole-patch
 //! NCC fallback when KAZE finds no transformation), `correspond` (§3.8 NCC + LSM, RANSAC, cross-image
-//! consistency), `triangulate` (§3.9), `points` (§3.9 over a patch, or the orthophoto + terrain lookup),
-//! `image` (steps 5–7 for one aerial image; a DG-bounded corner search when no initial transformation
+//! consistency), `joint` (§3.8 RANSAC over all images of a patch), `triangulate` (§3.9), `points` (§3.9
+//! over a patch, or the orthophoto + terrain lookup), `trace` (what §3.8 did, for diagnosis), `image` (steps 5–7 for one aerial image; a DG-bounded corner search when no initial transformation
 //! passes) and `register` (the driver: overlapping images, one prepared MM patch per aerial orientation,
 //! images in parallel).
 //!
@@ -24,9 +24,11 @@ mod diagnostics;
 mod guided;
 mod image;
 mod initial;
+mod joint;
 mod points;
 mod prepare;
 mod register;
+mod trace;
 mod triangulate;
 mod view;
 
@@ -37,6 +39,7 @@ pub use config::{AerialConfig, Plausibility};
 pub use diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
 pub use initial::{PlausibilityCheck, check_plausibility};
 pub use register::register_patch;
+pub use trace::{Attempt, ImageTrace};
 pub use triangulate::{Ray, Triangulated, TriangulationError, triangulate};
 
 use plumbline_geo::MapFromCamera;
@@ -129,6 +132,8 @@ pub struct AerialOutcome {
     pub images: Vec<AerialImageDiagnostic>,
     /// Why the whole patch was discarded (None = matched).
     pub discarded: Option<AerialDiscard>,
+    /// What §3.8 did with every corner, per entry of `images` (for diagnosis against ground truth).
+    pub trace: Vec<ImageTrace>,
 }
 
 /// One MM point with its aerial-derived mapping coordinates.

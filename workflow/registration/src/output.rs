@@ -72,8 +72,23 @@ pub struct ImageDiagnostic {
     /// Ties left out because they failed the adjustment's checks (non-unit ray, covariance not SPD).
     #[serde(default)]
     pub dropped_ties: usize,
+    /// The aerial frames each of this panorama's aerial points was triangulated from (paper 000 §3.9), one
+    /// entry per tie with aerial coordinates; absent in results written before it existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub aerial_frames: Vec<TieFrames>,
     /// Why no aerial points came from this panorama (None = matched).
     pub discarded: Option<DiscardReason>,
+}
+
+/// The aerial frames one tie point's aerial coordinates were triangulated from (the rays the multi-image
+/// triangulation kept, paper 000 §3.9), for the adjustment's per-frame-set height bias.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct TieFrames {
+    /// The tie point's id.
+    pub tie: String,
+    /// Frame ids, sorted, without duplicates.
+    pub frames: Vec<String>,
 }
 
 /// Corner counts of one panorama pair.

@@ -14,7 +14,7 @@ use std::time::{Duration, Instant};
 use plumbline_geo::tiling::TileId;
 use rayon::prelude::*;
 
-use crate::aerial::{AerialConfig, AerialReference};
+use crate::aerial::{AerialConfig, AerialReference, ImageTrace};
 use crate::mm::{MmConfig, PanoramaRig};
 use crate::output::{ImageDiagnostic, TileResult, TileResultV1, TileSummary};
 
@@ -92,6 +92,9 @@ pub struct TileRun {
     pub result: TileResult,
     /// Stage timings.
     pub timings: StageTimings,
+    /// Per owned panorama (in the order of the result's diagnostics): the aerial matching's trace, for
+    /// diagnosis against ground truth; not part of the result.
+    pub traces: Vec<Vec<ImageTrace>>,
 }
 
 /// Register every owned panorama of a tile with its neighbour and with the aerial reference (paper 000 §3).
@@ -126,23 +129,24 @@ pub fn register_tile_reporting(
     let poses: Vec<_> = order.iter().map(|p| &p.pano.pose).collect();
     let inputs = pair::TileInputs { order: &order, poses: &poses, rig, reference, config };
     let owned: Vec<usize> = (0..order.len()).filter(|&i| order[i].owned).collect();
-    let outcomes: Vec<(ImageDiagnostic, Vec<_>, StageTimings)> = owned
+    let outcomes: Vec<pair::PairOutcome> = owned
         .into_par_iter()
         .map(|i| {
             let outcome = pair::process(i, &inputs);
-            done(&outcome.0);
+            done(&outcome.diagnostic);
             outcome
         })
         .collect();
     let mut timings = StageTimings::default();
     order.iter().for_each(|p| timings.add(&p.timings));
-    let (mut images, mut all_ties) = (Vec::with_capacity(outcomes.len()), Vec::new());
-    for (diagnostic, ties, t) in outcomes {
-        timings.add(&t);
-        images.push(diagnostic);
-        all_ties.extend(ties);
+    let (mut images, mut all_ties, mut traces) = (Vec::with_capacity(outcomes.len()), Vec::new(), Vec::new());
+    for o in outcomes {
+        timings.add(&o.timings);
+        images.push(o.diagnostic);
+        all_ties.extend(o.ties);
+        traces.push(o.trace);
     }
     let summary = TileSummary::of(&images, &all_ties);
     timings.total = start.elapsed();
-    TileRun { result: TileResult::V1(TileResultV1 { tile, ties: all_ties, images, summary }), timings }
+    TileRun { result: TileResult::V1(TileResultV1 { tile, ties: all_ties, images, summary }), timings, traces }
 }

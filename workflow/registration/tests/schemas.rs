@@ -20,6 +20,11 @@ fn golden_example_parses_and_its_ties_have_no_problems() {
     let problems: Vec<_> = result.ties.iter().enumerate().flat_map(|(i, t)| t.problems(i)).collect();
     assert!(problems.is_empty(), "{problems:?}");
     assert!(result.images[1].discarded.as_ref().is_some_and(|d| d.key() == "aerial.too_few_plausible"));
+    // The frames of the aerial tie are recorded with the panorama that produced it; older results have none.
+    let recorded = &result.images[0].aerial_frames;
+    assert_eq!((recorded.len(), recorded[0].tie.as_str()), (1, result.ties[0].id.0.as_str()));
+    assert_eq!(recorded[0].frames, ["aerial0024", "aerial0025"]);
+    assert!(result.images[1].aerial_frames.is_empty());
     let again = serde_json::to_value(TileResult::V1(result)).expect("serialise");
     assert_eq!(again["version"], "1");
 }

@@ -48,6 +48,17 @@ fn tiny_junction_registers_with_correct_ties() {
     assert!(correct * 100 >= errors.len() * 99, "{correct} of {} correct: {errors:?}", errors.len());
     let consistent = errors.iter().filter(|(e, s)| e[2].abs() <= 3.0 * s[2]).count();
     assert!(consistent * 100 >= errors.len() * 99, "{consistent} of {} heights within 3σ", errors.len());
+    // Every aerial tie records the ≥ 2 frames it was triangulated from, each one that gave its panorama's
+    // patch correspondences (paper 000 §3.9; for the adjustment's per-frame-set height bias).
+    for d in &result.images {
+        let with_aerial = result.ties.iter().filter(|t| t.aerial.is_some() && t.id.0.starts_with(&d.image));
+        assert_eq!(d.aerial_frames.len(), with_aerial.count(), "{}", d.image);
+        for f in &d.aerial_frames {
+            let used = |id: &String| d.aerial_images.iter().any(|a| &a.frame == id && a.correspondences > 0);
+            assert!(f.frames.len() >= 2 && f.frames.iter().all(used), "{f:?}");
+            assert!(f.frames.windows(2).all(|w| w[0] < w[1]), "sorted, distinct: {f:?}");
+        }
+    }
     // Image-derived motion (paper 000 §3.3, paper 001 §4.1): most pairs have one; it agrees with the TRUE
     // motion within 3σ for ≥ 90 % of them, with σ of centimetres and milliradians, whatever the DG motion's
     // own error (printed beside it).

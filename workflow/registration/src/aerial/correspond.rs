@@ -33,7 +33,12 @@ pub(crate) struct CornerMatches {
     pub candidates: usize,
     /// Corners matched above the NCC threshold.
     pub matches: Vec<PointMatch>,
+    /// Every candidate's search (slot; window pixels), for the trace.
+    pub attempts: Vec<SlotAttempt>,
 }
+
+/// One candidate's search in window pixels: slot, transfer, NCC peak and score, accepted position.
+pub(crate) type SlotAttempt = (usize, [f64; 2], Option<([f64; 2], f64)>, Option<[f64; 2]>);
 
 /// Match the corners (`corners[slot]` in prepared pixels) into the Wallis-filtered aerial `window` around
 /// their transfer by `transform` within `radius` pixels (paper 000 §3.8: template in the MM patch, search
@@ -56,23 +61,31 @@ pub(crate) fn match_corners(
         .filter_map(|(slot, &q)| Some((slot, q, apply_h(transform, q[0], q[1])?)))
         .filter(|(_, _, (u, v))| *u >= reach && *v >= reach && *u <= w - reach && *v <= h - reach)
         .collect();
-    let matches = candidates
+    let attempts: Vec<SlotAttempt> = candidates
         .iter()
-        .filter_map(|&(slot, q, (u, v))| {
+        .map(|&(slot, q, (u, v))| {
             let template = prepared.template(q, config.template_half);
-            let m = search(&searcher, &template, [u, v], radius)?;
+            let Some(m) = search(&searcher, &template, [u, v], radius) else {
+                return (slot, [u, v], None, None);
+            };
+            let peak = Some(([m.u, m.v], m.score));
             if m.score < config.min_ncc {
-                return None;
+                return (slot, [u, v], peak, None);
             }
             // paper 000 §3.8: NCC, then least-squares matching to subpixel precision
             let refined = least_squares_match(&template, window, translation(m.u, m.v), &config.lsm)
                 .ok()
                 .map(|l| [l.affine[0], l.affine[3]])
                 .filter(|p| (p[0] - m.u).hypot(p[1] - m.v) <= config.lsm_max_shift_px);
-            Some(PointMatch { slot, prepared: q, window: refined.unwrap_or([m.u, m.v]) })
+            (slot, [u, v], peak, Some(refined.unwrap_or([m.u, m.v])))
         })
         .collect();
-    CornerMatches { candidates: candidates.len(), matches }
+    let matches = candidates
+        .iter()
+        .zip(&attempts)
+        .filter_map(|(&(slot, q, _), a)| a.3.map(|window| PointMatch { slot, prepared: q, window }))
+        .collect();
+    CornerMatches { candidates: candidates.len(), matches, attempts }
 }
 
 /// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers and the similarity (prepared →

@@ -118,12 +118,19 @@ pub enum AerialDiscard {
         /// Images required.
         needed: usize,
     },
-    /// Fewer aerial images than required kept enough correspondences (paper 000 §3.8).
+    /// Fewer aerial images than required kept correspondences, or fewer correspondences than required
+    /// remained in all images together (paper 000 §3.8).
     TooFewCorrespondences {
-        /// Images with enough correspondences.
+        /// Images with correspondences.
         images: usize,
         /// Images required.
         needed: usize,
+        /// Correspondences kept in all images together (0 in results written before it was reported).
+        #[serde(default)]
+        correspondences: usize,
+        /// Correspondences required in all images together.
+        #[serde(default)]
+        needed_correspondences: usize,
     },
     /// Matching succeeded but no point survived the triangulation's blunder checks (paper 000 §3.9).
     NoTriangulatedPoints,
@@ -137,9 +144,11 @@ impl fmt::Display for AerialDiscard {
             Self::TooFewPlausible { passed, needed } => {
                 write!(f, "{passed} aerial images passed the initial transformation, {needed} needed")
             }
-            Self::TooFewCorrespondences { images, needed } => {
-                write!(f, "{images} aerial images kept enough correspondences, {needed} needed")
-            }
+            Self::TooFewCorrespondences { images, needed, correspondences, needed_correspondences } => write!(
+                f,
+                "{correspondences} correspondences in {images} aerial images kept, \
+                 {needed_correspondences} in {needed} images needed"
+            ),
             Self::NoTriangulatedPoints => write!(f, "no point survived the triangulation's blunder checks"),
         }
     }

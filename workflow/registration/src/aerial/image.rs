@@ -1,10 +1,12 @@
 //! Steps 5–7 of paper 000 (§3.6–3.8) for one aerial image: its window, the initial transformation from the
-//! MM side prepared for its orientation, the corner matching and the RANSAC outlier removal.
+//! MM side prepared for its orientation and the corner matching. The matches of an image with an initial
+//! transformation go unfiltered to the patch's common RANSAC (module `joint`).
 //!
-//! When KAZE and the whole-patch correlation find no plausible initial transformation, the corners are searched over
-//! the whole DG bound instead (`AerialConfig::dg_search`); such an image reads `passed` with
-//! `initial_inliers` 0 and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept
-//! matches, which passes the same plausibility check (paper 000 §3.7) as a KAZE transformation.
+//! When KAZE and the whole-patch correlation find no plausible initial transformation, the corners are
+//! searched over the whole DG bound instead (`AerialConfig::dg_search`) and the image's own RANSAC (ten
+//! correspondences, §3.8) becomes its transformation; such an image reads `passed` with `initial_inliers` 0
+//! and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept matches, which passes
+//! the same plausibility check (paper 000 §3.7) as a KAZE transformation.
 
 use nalgebra::Matrix3;
 use plumbline_imaging::GrayImage;
@@ -16,6 +18,7 @@ use super::correspond::{PointMatch, match_corners, remove_outliers};
 use super::diagnostics::{AerialImageDiagnostic, ImageRejection};
 use super::initial::{check_plausibility, initial_transform};
 use super::prepare::Prepared;
+use super::trace::ImageTrace;
 use super::view::{LocalGeometry, View};
 
 /// The MM patch prepared for one aerial orientation (step 5) with its KAZE features (step 6).
@@ -33,6 +36,8 @@ pub(super) struct ImageResult {
     pub diagnostic: AerialImageDiagnostic,
     /// Point slot and full-image pixel of every kept correspondence.
     pub matches: Vec<(usize, [f64; 2])>,
+    /// Every corner's search (empty when no search ran).
+    pub trace: ImageTrace,
 }
 
 /// Steps 5–7 for one aerial image.
@@ -56,7 +61,8 @@ pub(super) fn register_image(
     };
     let fail = |d: &mut AerialImageDiagnostic, r| {
         d.rejection = Some(r);
-        ImageResult { diagnostic: d.clone(), matches: Vec::new() }
+        let trace = ImageTrace { frame: d.frame.clone(), ..ImageTrace::default() };
+        ImageResult { diagnostic: d.clone(), matches: Vec::new(), trace }
     };
     let imaging = |e: plumbline_imaging::ImagingError| ImageRejection::Imaging { message: e.to_string() };
     if let Some(reason) = view.problem() {
@@ -98,10 +104,9 @@ pub(super) fn register_image(
     let found = match_corners(prepared, &corners, &aerial, &transform, config.search_radius, config);
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
-    match remove_outliers(found.matches, config) {
-        Ok((kept, _)) => finish(diagnostic, &kept, window.origin),
-        Err(r) => fail(&mut diagnostic, r),
-    }
+    let trace = ImageTrace::of(&diagnostic.frame, config.search_radius, &found.attempts, window.origin);
+    // paper 000 §3.8: the outliers are removed over all images of the patch together (module `joint`)
+    finish(diagnostic, &found.matches, window.origin, trace)
 }
 
 /// The Wallis-filtered aerial window, where the DG georeferencing puts the patch centre in it, and its place
@@ -131,11 +136,12 @@ fn dg_bounded(
     let found = match_corners(prepared, corners, aerial.image, &t, radius, config);
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
+    let trace = ImageTrace::of(&diagnostic.frame, radius, &found.attempts, aerial.origin);
     let (kept, t) = match remove_outliers(found.matches, config) {
         Ok(k) => k,
         Err(_) => {
             diagnostic.rejection = Some(why);
-            return ImageResult { diagnostic, matches: Vec::new() };
+            return ImageResult { diagnostic, matches: Vec::new(), trace };
         }
     };
     let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
@@ -143,17 +149,23 @@ fn dg_bounded(
     diagnostic.offset_m = Some(check.offset_m);
     if !check.passed {
         diagnostic.rejection = Some(check.rejection());
-        return ImageResult { diagnostic, matches: Vec::new() };
+        return ImageResult { diagnostic, matches: Vec::new(), trace };
     }
     diagnostic.passed = true;
-    finish(diagnostic, &kept, aerial.origin)
+    finish(diagnostic, &kept, aerial.origin, trace)
 }
 
 /// The image's result from its kept correspondences (window pixels; `origin` = the window's place).
-fn finish(mut diagnostic: AerialImageDiagnostic, kept: &[PointMatch], origin: [f64; 2]) -> ImageResult {
+fn finish(
+    mut diagnostic: AerialImageDiagnostic,
+    kept: &[PointMatch],
+    origin: [f64; 2],
+    mut trace: ImageTrace,
+) -> ImageResult {
     diagnostic.correspondences = kept.len();
+    trace.ransac = kept.iter().map(|m| m.slot).collect();
     let matches = kept.iter().map(|m| (m.slot, [m.window[0] + origin[0], m.window[1] + origin[1]])).collect();
-    ImageResult { diagnostic, matches }
+    ImageResult { diagnostic, matches, trace }
 }
 
 /// The translation the DG georeferencing implies: prepared pixels → window pixels, the patch centre to

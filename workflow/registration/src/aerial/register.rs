@@ -9,8 +9,10 @@ use super::correspond::consistent;
 use super::diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
 use super::image::{ImageResult, MmSide, register_image};
 use super::initial::mm_features;
+use super::joint;
 use super::points::{ortho_points, triangulate_points};
 use super::prepare::{BlurredPatch, blur_patch, prepare};
+use super::trace::ImageTrace;
 use super::view::{LocalGeometry, View};
 use super::{AerialOutcome, AerialReference, MmPatch};
 
@@ -23,7 +25,10 @@ const SAME_GSD: f64 = 0.01;
 /// Register one MM patch against the aerial reference (paper 000 §3.6–3.9). Never fails: an unusable patch
 /// or reference is reported in [`AerialOutcome::discarded`], each aerial image's fate in `images`.
 pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: &AerialConfig) -> AerialOutcome {
-    let discard = |images, why| AerialOutcome { points: Vec::new(), images, discarded: Some(why) };
+    let discard = |results: Vec<ImageResult>, why| {
+        let (images, trace) = split(results);
+        AerialOutcome { points: Vec::new(), images, discarded: Some(why), trace }
+    };
     let height = match validate(patch) {
         Ok(h) => h,
         Err(reason) => return discard(Vec::new(), AerialDiscard::InvalidPatch { reason }),
@@ -55,22 +60,31 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
         overlapping.par_iter().zip(&group).map(|((v, g), &k)| register_image(patch, &sides[k], v, g, config)).collect();
     let passed = results.iter().filter(|r| r.diagnostic.passed).count();
     if passed < needed {
-        return discard(diagnostics(results), AerialDiscard::TooFewPlausible { passed, needed });
+        return discard(results, AerialDiscard::TooFewPlausible { passed, needed });
     }
     let views: Vec<View<'_>> = overlapping.iter().map(|p| p.0).collect();
+    // paper 000 §3.8: RANSAC over the correspondences of all images (one DG error), then their consistency
+    joint::keep_common(&mut results, &views, patch, height, gsd, config);
     if matches!(reference, AerialReference::Frames(_)) {
         enforce_consistency(&mut results, &views, height, gsd, config);
     }
-    let images = results.iter().filter(|r| !r.matches.is_empty()).count();
-    if images < needed {
-        return discard(diagnostics(results), AerialDiscard::TooFewCorrespondences { images, needed });
+    let (images, correspondences) = settle(&mut results, config.min_correspondences);
+    if images < needed || correspondences < config.min_correspondences {
+        let why = AerialDiscard::TooFewCorrespondences {
+            images,
+            needed,
+            correspondences,
+            needed_correspondences: config.min_correspondences,
+        };
+        return discard(results, why);
     }
     let points = match reference {
         AerialReference::Frames(_) => triangulate_points(patch, &results, &views, height, config),
         AerialReference::Orthophoto(o) => ortho_points(patch, &results, &views[0], o, height, config),
     };
     let discarded = points.is_empty().then_some(AerialDiscard::NoTriangulatedPoints);
-    AerialOutcome { points, images: diagnostics(results), discarded }
+    let (images, trace) = split(results);
+    AerialOutcome { points, images, discarded, trace }
 }
 
 /// The group of every view and each group's local geometry (its first member's).
@@ -132,12 +146,19 @@ fn median_gsd(views: &[(View<'_>, LocalGeometry)]) -> f64 {
     g[g.len() / 2]
 }
 
-fn diagnostics(results: Vec<ImageResult>) -> Vec<AerialImageDiagnostic> {
-    results.into_iter().map(|r| r.diagnostic).collect()
+/// The diagnostics and the traces, the latter with the correspondences each image finally kept.
+fn split(results: Vec<ImageResult>) -> (Vec<AerialImageDiagnostic>, Vec<ImageTrace>) {
+    results
+        .into_iter()
+        .map(|mut r| {
+            r.trace.kept = r.matches.iter().map(|m| m.0).collect();
+            (r.diagnostic, r.trace)
+        })
+        .unzip()
 }
 
 /// Paper 000 §3.8: drop observations whose ground intersection (at the patch height) disagrees with the
-/// point's other observations, then images left with too few correspondences.
+/// point's other observations.
 fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: f64, gsd: f64, config: &AerialConfig) {
     let tolerance = config.consistency_px * gsd;
     let mut dropped: Vec<Vec<bool>> = results.iter().map(|r| vec![false; r.matches.len()]).collect();
@@ -148,7 +169,8 @@ fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: 
             .enumerate()
             .flat_map(|(i, r)| r.matches.iter().enumerate().filter(|m| m.1.0 == slot).map(move |(k, m)| (i, k, m.1)))
             .collect();
-        let grounds: Vec<[f64; 2]> = obs.iter().map(|&(i, _, px)| ground(&views[i], px, height)).collect();
+        let grounds: Vec<[f64; 2]> =
+            obs.iter().map(|&(i, _, px)| views[i].ground(px, height).unwrap_or([f64::NAN; 2])).collect();
         for (&(i, k, _), ok) in obs.iter().zip(consistent(&grounds, tolerance)) {
             dropped[i][k] = !ok;
         }
@@ -156,22 +178,23 @@ fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: 
     for (r, dropped) in results.iter_mut().zip(dropped) {
         let mut flags = dropped.into_iter();
         r.matches.retain(|_| !flags.next().unwrap_or(false));
-        let found = r.matches.len();
-        if r.diagnostic.passed && r.diagnostic.rejection.is_none() && found < config.min_correspondences {
-            r.diagnostic.rejection =
-                Some(ImageRejection::TooFewCorrespondences { found, needed: config.min_correspondences });
-            r.matches.clear();
-        }
-        r.diagnostic.correspondences = r.matches.len();
     }
 }
 
-/// Where the ray through a pixel meets the plane at `height` (NaN when it does not).
-fn ground(view: &View<'_>, pixel: [f64; 2], height: f64) -> [f64; 2] {
-    let Some((o, d)) = view.ray(pixel) else { return [f64::NAN; 2] };
-    if d[2].abs() < 1e-12 {
-        return [f64::NAN; 2];
+/// Each image's count of kept correspondences, and a rejection for a passing image that kept none; the
+/// images with correspondences and the correspondences of all images. Fewer than `needed` in all images
+/// together (paper 000 §3.8: ten) leave every image without.
+fn settle(results: &mut [ImageResult], needed: usize) -> (usize, usize) {
+    let total: usize = results.iter().map(|r| r.matches.len()).sum();
+    if total < needed {
+        results.iter_mut().for_each(|r| r.matches.clear());
     }
-    let s = (height - o[2]) / d[2];
-    [o[0] + s * d[0], o[1] + s * d[1]]
+    for r in results.iter_mut() {
+        let found = r.matches.len();
+        r.diagnostic.correspondences = found;
+        if r.diagnostic.passed && r.diagnostic.rejection.is_none() && found == 0 {
+            r.diagnostic.rejection = Some(ImageRejection::TooFewCorrespondences { found, needed: 1 });
+        }
+    }
+    (results.iter().filter(|r| !r.matches.is_empty()).count(), total)
 }

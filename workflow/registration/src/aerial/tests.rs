@@ -258,15 +258,37 @@ fn a_dg_offset_beyond_the_plausibility_bound_discards_the_patch() {
 }
 
 #[test]
-fn images_with_too_few_correspondences_do_not_count() {
+fn a_patch_with_too_few_correspondences_in_all_images_together_is_discarded() {
     let f = fixture();
-    let config = AerialConfig { min_correspondences: f.points.len() + 1, ..AerialConfig::default() };
+    let needed = f.frames.len() * f.points.len() + 1;
+    let config = AerialConfig { min_correspondences: needed, ..AerialConfig::default() };
     let outcome = register_patch(&f.patch(), &AerialReference::Frames(f.frames.clone()), &config);
-    assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewCorrespondences { images: 0, needed: 2 }));
+    let Some(AerialDiscard::TooFewCorrespondences { images: 0, needed: 2, correspondences, needed_correspondences }) =
+        outcome.discarded
+    else {
+        panic!("{:?}", outcome.discarded)
+    };
+    assert!(correspondences < needed && needed_correspondences == needed, "{correspondences} of {needed}");
     for d in &outcome.images {
         assert!(d.passed, "the initial transformation still passes: {d:?}");
         assert!(matches!(d.rejection, Some(ImageRejection::TooFewCorrespondences { .. })), "{d:?}");
     }
+}
+
+#[test]
+fn ten_correspondences_in_all_images_together_suffice_where_no_single_image_has_ten() {
+    // Paper 000 §3.8's ten correspondences stabilise the one transformation all images share (the patch's
+    // DG error): asking for one more than the best image has, the images together still register.
+    let f = fixture();
+    let reference = AerialReference::Frames(f.frames.clone());
+    let plain = register_patch(&f.patch(), &reference, &AerialConfig::default());
+    let per_image: Vec<usize> = plain.images.iter().map(|d| d.correspondences).collect();
+    let needed = per_image.iter().max().copied().unwrap_or(0) + 1;
+    assert!(per_image.len() >= 2 && needed <= per_image.iter().sum::<usize>(), "{per_image:?}");
+    let config = AerialConfig { min_correspondences: needed, ..AerialConfig::default() };
+    let outcome = register_patch(&f.patch(), &reference, &config);
+    f.check_matched(&outcome, f.points.len() / 2, AT_TOLERANCE);
+    assert_eq!(outcome.points, plain.points, "the same correspondences as with the default");
 }
 
 #[test]

@@ -129,6 +129,20 @@ impl<'a> View<'a> {
         Some(([o.x(), o.y(), o.z()], [d.x(), d.y(), d.z()]))
     }
 
+    /// Where the ray through a full-image pixel meets the plane at `height` (E, N); an orthophoto pixel's
+    /// mapping position. None when the ray runs parallel to the plane.
+    pub fn ground(&self, pixel: [f64; 2], height: f64) -> Option<[f64; 2]> {
+        if let View::Ortho(_) = self {
+            return self.ortho_map(pixel);
+        }
+        let (o, d) = self.ray(pixel)?;
+        if d[2].abs() < 1e-12 {
+            return None;
+        }
+        let s = (height - o[2]) / d[2];
+        Some([o[0] + s * d[0], o[1] + s * d[1]])
+    }
+
     /// The mapping (E, N) of an orthophoto pixel.
     pub fn ortho_map(&self, pixel: [f64; 2]) -> Option<[f64; 2]> {
         let View::Ortho(o) = self else { return None };

@@ -7,7 +7,7 @@ use plumbline_adjustment::TiePoint;
 use plumbline_geo::MapFromBody;
 
 use super::{PipelineConfig, PreparedPanorama, StageTimings, ties};
-use crate::aerial::{AerialReference, MmPatch, PatchPoint, register_patch};
+use crate::aerial::{AerialReference, ImageTrace, MmPatch, PatchPoint, register_patch};
 use crate::mm::{MmPoint, PanoramaRig, image_motion, match_corners, pair_transform, triangulate};
 use crate::output::{CornerCounts, DiscardReason, ImageDiagnostic};
 
@@ -50,8 +50,20 @@ pub(crate) struct TileInputs<'a> {
     pub config: &'a PipelineConfig,
 }
 
-/// Steps 2–8 for panorama `i`: its diagnostic, its ties and the time its stages took.
-pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> (ImageDiagnostic, Vec<TiePoint>, StageTimings) {
+/// What steps 2–8 gave for one panorama.
+pub(crate) struct PairOutcome {
+    /// Its diagnostic.
+    pub diagnostic: ImageDiagnostic,
+    /// Its ties.
+    pub ties: Vec<TiePoint>,
+    /// The time its stages took.
+    pub timings: StageTimings,
+    /// The aerial matching's trace (empty when it did not run).
+    pub trace: Vec<ImageTrace>,
+}
+
+/// Steps 2–8 for panorama `i`.
+pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> PairOutcome {
     let pano = &tile.order[i].pano;
     let mut diag = ImageDiagnostic {
         image: pano.id.clone(),
@@ -63,17 +75,18 @@ pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> (ImageDiagnostic, Vec<
         aerial_images: Vec::new(),
         aerial_points: 0,
         dropped_ties: 0,
+        aerial_frames: Vec::new(),
         discarded: None,
     };
-    let mut timings = StageTimings::default();
-    let ties = match run(i, tile, &mut diag, &mut timings) {
+    let (mut timings, mut trace) = (StageTimings::default(), Vec::new());
+    let ties = match run(i, tile, &mut diag, &mut timings, &mut trace) {
         Ok(ties) => ties,
         Err((reason, ties)) => {
             diag.discarded = Some(reason);
             ties
         }
     };
-    (diag, ties, timings)
+    PairOutcome { diagnostic: diag, ties, timings, trace }
 }
 
 type Discard = (DiscardReason, Vec<TiePoint>);
@@ -83,6 +96,7 @@ fn run(
     tile: &TileInputs<'_>,
     diag: &mut ImageDiagnostic,
     timings: &mut StageTimings,
+    trace: &mut Vec<ImageTrace>,
 ) -> Result<Vec<TiePoint>, Discard> {
     let TileInputs { order, poses, rig, reference, config } = *tile;
     let (pano, mm) = (&order[i].pano, &config.mm);
@@ -113,9 +127,9 @@ fn run(
         rejected_off_ground: stats.off_ground,
     };
     if points.len() < config.min_mm_points {
-        let (mm_ties, dropped) = ties::assemble(pano, other, &points, &[], config.keep_mm_only_ties);
-        diag.dropped_ties = dropped;
-        return Err((DiscardReason::TooFewMmPoints { points: points.len(), needed: config.min_mm_points }, mm_ties));
+        let only = ties::assemble(pano, other, &points, &[], config.keep_mm_only_ties);
+        diag.dropped_ties = only.dropped;
+        return Err((DiscardReason::TooFewMmPoints { points: points.len(), needed: config.min_mm_points }, only.ties));
     }
     let t2 = Instant::now();
     let points_for_aerial = patch_points(&points);
@@ -128,9 +142,12 @@ fn run(
     };
     let outcome = register_patch(&mm_patch, reference, &config.aerial);
     timings.aerial += t2.elapsed();
-    let (ties, dropped) = ties::assemble(pano, other, &points, &outcome.points, config.keep_mm_only_ties);
-    diag.dropped_ties = dropped;
+    let assembled = ties::assemble(pano, other, &points, &outcome.points, config.keep_mm_only_ties);
+    let ties = assembled.ties;
+    diag.dropped_ties = assembled.dropped;
+    diag.aerial_frames = assembled.frames;
     diag.aerial_images = outcome.images;
+    *trace = outcome.trace;
     diag.aerial_points = ties.iter().filter(|t| t.aerial.is_some()).count();
     match outcome.discarded {
         Some(d) => Err((DiscardReason::Aerial(d), ties)),

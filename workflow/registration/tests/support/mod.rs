@@ -20,7 +20,7 @@ use plumbline_synth::motion::{Drive, DriveConfig};
 use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, VehicleBody, render_aerial, render_panorama};
 use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::sensors::{self, Mount, Shot};
-use plumbline_synth::world::{self, World, WorldConfig};
+use plumbline_synth::world::{self, Epoch, World, WorldConfig};
 use rayon::prelude::*;
 
 /// Aerial frame size (the simulator's small format) and GSD.
@@ -163,18 +163,37 @@ impl Campaign {
             .iter()
             .filter_map(|t| {
                 let a = t.aerial.as_ref()?;
-                let image = t.id.0.split(':').next()?;
-                let (_, pose) = self.truth.iter().find(|(id, _)| id == image)?;
-                let cam = self.rig.mount.camera_pose(pose);
-                let d =
-                    plumbline_geo::Vec3::new(t.rays[0].direction[0], t.rays[0].direction[1], t.rays[0].direction[2]);
-                let g = intersect_height(&cam.translation, &cam.rotation.apply(&d), self.ground_height)?;
+                let g = self.true_ground(t)?;
                 let p = Point3::new(a.position[0], a.position[1], a.position[2]);
                 let e = p - g;
                 let sigma = [0, 1, 2].map(|k| a.covariance[k][k].sqrt());
                 Some(([e.x(), e.y(), e.z()], sigma))
             })
             .collect()
+    }
+
+    /// The true point of a tie: the first surface of the MM epoch (ground, car, pole, …) along its first
+    /// ray from the panorama's TRUE pose; the true ground plane when the ray hits nothing within 200 m.
+    pub fn true_ground(&self, t: &plumbline_adjustment::TiePoint) -> Option<Point3<plumbline_geo::Map>> {
+        let image = t.id.0.split(':').next()?;
+        let (_, pose) = self.truth.iter().find(|(id, _)| id == image)?;
+        let cam = self.rig.mount.camera_pose(pose);
+        let d = plumbline_geo::Vec3::new(t.rays[0].direction[0], t.rays[0].direction[1], t.rays[0].direction[2]);
+        let dir = cam.rotation.apply(&d);
+        match self.world.trace(&cam.translation.p, &dir.v, 200.0, Epoch::Mobile) {
+            Some(hit) => Some(Point3::from_vector(hit.point)),
+            None => intersect_height(&cam.translation, &dir, self.ground_height),
+        }
+    }
+
+    /// Where a mapping point lies in aerial frame `id` (its AT-reported orientation: 3 cm / 3″, a fifth of
+    /// a pixel), full-image pixel.
+    pub fn aerial_pixel(&self, id: &str, p: &Point3<plumbline_geo::Map>) -> Option<[f64; 2]> {
+        let AerialReference::Frames(frames) = &self.reference else { return None };
+        let f = frames.iter().find(|f| f.id == id)?;
+        let c = f.pose.inverse().transform_point(p);
+        let px = f.camera.project(&plumbline_geo::Vec3::new(c.x(), c.y(), c.z()))?;
+        Some([px.u, px.v])
     }
 }
 
