@@ -10,7 +10,6 @@ use std::collections::{BTreeMap, HashMap, HashSet};
 
 use nalgebra::Vector3;
 use plumbline_adjustment::{TiePoint, TiePointId};
-use plumbline_scheduler::SkippedInput;
 
 use crate::merge::Merged;
 
@@ -20,9 +19,9 @@ pub const SAME_POINT_SIGMAS: f64 = 3.29;
 
 /// Join the merged tie points that share an image point (a ray of the same panorama within
 /// [`SAME_POINT_SIGMAS`]) into the first of them: its rays plus the others' rays from panoramas it does not
-/// see yet, and one aerial observation (its own, else the first joined one's). Each tie point joined into
-/// another is listed as skipped (`adjustment`, `joined_tie`) and leaves the aerial frame sets (where the
-/// kept aerial observation's tie is renamed). Returns how many were joined.
+/// see yet, and one aerial observation (its own, else the first joined one's). A tie point joined into
+/// another is not skipped input (its rays are kept) and is not listed; it leaves the aerial frame sets (where
+/// the kept aerial observation's tie is renamed). Returns how many were joined.
 pub fn join_shared_points(merged: &mut Merged) -> usize {
     let ties = std::mem::take(&mut merged.observations.ties);
     let mut into: Vec<Option<usize>> = vec![None; ties.len()];
@@ -42,11 +41,8 @@ pub fn join_shared_points(merged: &mut Merged) -> usize {
     let absorbed: HashSet<TiePointId> =
         (0..ties.len()).filter(|i| into[*i].is_some()).map(|i| ties[i].id.clone()).collect();
     let mut kept = Vec::with_capacity(ties.len() - absorbed.len());
-    for (i, tie) in ties.iter().enumerate() {
-        match into[i] {
-            Some(first) => merged.skipped.push(joined_item(&tie.id.0, &ties[first].id.0)),
-            None => kept.push(replaced.remove(&i).unwrap_or_else(|| tie.clone())),
-        }
+    for (i, tie) in ties.iter().enumerate().filter(|(i, _)| into[*i].is_none()) {
+        kept.push(replaced.remove(&i).unwrap_or_else(|| tie.clone()));
     }
     merged.observations.ties = kept;
     for set in &mut merged.observations.aerial_frame_sets {
@@ -124,18 +120,6 @@ fn joined(ties: &[TiePoint], members: &[usize]) -> (TiePoint, Option<usize>) {
     (tie, source)
 }
 
-fn joined_item(id: &str, into: &str) -> SkippedInput {
-    SkippedInput {
-        stage: "adjustment".into(),
-        item: id.to_owned(),
-        reason: "joined_tie".into(),
-        detail: format!(
-            "tie point {id} sees an image point of tie point {into} (a ray of the same panorama within \
-             {SAME_POINT_SIGMAS}σ): its rays joined that point, its aerial coordinates were not counted again"
-        ),
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use plumbline_adjustment::{AerialFrameSet, AerialPoint, TieRay};
@@ -198,9 +182,7 @@ mod tests {
         let sets: Vec<Vec<&str>> =
             m.observations.aerial_frame_sets.iter().map(|s| s.ties.iter().map(|t| t.0.as_str()).collect()).collect();
         assert_eq!(sets, [vec!["A:1"], vec!["B:2"]]);
-        assert_eq!(m.skipped.len(), 1);
-        assert_eq!((m.skipped[0].item.as_str(), m.skipped[0].reason.as_str()), ("B:1", "joined_tie"));
-        assert!(m.skipped[0].detail.contains("tie point A:1"), "{}", m.skipped[0].detail);
+        assert!(m.skipped.is_empty(), "joined ties lose nothing: {:?}", m.skipped);
     }
 
     /// A chain A–B, B–C, C–D is one point; when only a later member has aerial coordinates, the joined
