@@ -7,10 +7,13 @@
 //! (holding `campaign.toml`, outputs under `results/`); no VARIANT runs all of them.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+#[path = "common/tiles.rs"]
+mod tiles;
+
 use plumbline_adjuster::{AdjusterConfig, Merged, join_shared_points, merge, panorama_mount, solve};
 use plumbline_geo::metrics::compare;
 use plumbline_runtime::Files;
-use plumbline_worker::{TileOutput, TileOutputV1};
+use tiles::read_tiles;
 
 /// A named change to the settings or to the merged observations.
 struct Variant {
@@ -41,6 +44,8 @@ const VARIANTS: &[Variant] = &[
     Variant { name: "no_pole_offsets", apply: |c, _| c.adjustment.pole_offsets = false },
     Variant { name: "no_standstills", apply: |c, _| c.standstills = false },
     Variant { name: "no_weak_links", apply: |_, m| m.motions.clear() },
+    Variant { name: "no_image_motions", apply: |c, _| c.image_motions = false },
+    Variant { name: "no_kinematic_jumps", apply: |c, _| c.adjustment.kinematic_jumps = None },
     Variant { name: "no_aerial_heights", apply: |_, m| inflate_heights(m, 1e3) },
     Variant { name: "no_poles", apply: |_, m| m.observations.poles.clear() },
     Variant { name: "no_ties", apply: |_, m| m.observations.ties.clear() },
@@ -129,14 +134,4 @@ fn main() {
             );
         }
     }
-}
-
-fn read_tiles(dir: &str) -> Vec<TileOutputV1> {
-    let mut paths: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
-    paths.sort();
-    paths
-        .iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .map(|p| serde_json::from_slice::<TileOutput>(&std::fs::read(p).unwrap()).unwrap().into_latest())
-        .collect()
 }

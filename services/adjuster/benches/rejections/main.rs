@@ -16,14 +16,17 @@
 mod score;
 mod truth;
 
+#[path = "../common/tiles.rs"]
+mod tiles;
+
 use std::collections::BTreeMap;
+use tiles::read_tiles;
 
 use plumbline_adjuster::{AdjusterConfig, Merged, Solved, join_shared_points, merge, panorama_mount, solve};
 use plumbline_adjustment::ObservationRef;
 use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::metrics::compare;
 use plumbline_runtime::Files;
-use plumbline_worker::{TileOutput, TileOutputV1};
 
 use score::{Scores, Verdict};
 use truth::Truth;
@@ -205,14 +208,4 @@ fn report_rejections(dir: &str) -> usize {
     let bytes = std::fs::read(format!("{dir}/results/report.json")).unwrap();
     let value: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
     value["rejected"].as_array().map_or(0, Vec::len)
-}
-
-fn read_tiles(dir: &str) -> Vec<TileOutputV1> {
-    let mut paths: Vec<_> = std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().path()).collect();
-    paths.sort();
-    paths
-        .iter()
-        .filter(|p| p.extension().is_some_and(|e| e == "json"))
-        .map(|p| serde_json::from_slice::<TileOutput>(&std::fs::read(p).unwrap()).unwrap().into_latest())
-        .collect()
 }
