@@ -15,8 +15,12 @@ pub(crate) const CADASTRE_EPSG: u32 = 4258;
 
 /// Write the GeoPackage and the truth table; returns the manifest's `[[cadastres]]`.
 pub(crate) fn write(world: &World, crs: u32, seed: u64, sink: &Sink) -> anyhow::Result<String> {
-    let errors = CadastreErrors::typical();
-    let objects = cadastre::cadastre(world, &errors, seed);
+    write_objects(&cadastre::cadastre(world, &CadastreErrors::typical(), seed), crs, sink)
+}
+
+/// Write the GeoPackage of the listed objects (errors as [`CadastreErrors::typical`]) and the truth table of
+/// all of them; returns the manifest's `[[cadastres]]`.
+pub(crate) fn write_objects(objects: &[CadastreObject], crs: u32, sink: &Sink) -> anyhow::Result<String> {
     let to_file = CrsTransform::new(crs, CADASTRE_EPSG).context("cadastre CRS")?;
     let fields = vec![
         ("id".to_owned(), FieldType::Integer),
@@ -25,13 +29,13 @@ pub(crate) fn write(world: &World, crs: u32, seed: u64, sink: &Sink) -> anyhow::
     ];
     let mut poles = PointLayer { name: "poles".into(), fields: fields.clone(), features: Vec::new() };
     let mut trees = PointLayer { name: "trees".into(), fields, features: Vec::new() };
-    for o in &objects {
+    for o in objects {
         let Some(feature) = feature(o, &to_file)? else { continue };
         if o.class == "tree" { &mut trees } else { &mut poles }.features.push(feature);
     }
     sink.put("cadastre/poles.gpkg", geopackage(&[poles, trees], CADASTRE_EPSG).context("cadastre GeoPackage")?)?;
-    sink.put("truth/poles.csv", cadastre::truth_csv(&objects))?;
-    Ok(section(&errors))
+    sink.put("truth/poles.csv", cadastre::truth_csv(objects))?;
+    Ok(section(&CadastreErrors::typical()))
 }
 
 /// The manifest's `[[cadastres]]` of the written GeoPackage.

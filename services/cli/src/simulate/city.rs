@@ -15,8 +15,6 @@ use std::collections::HashSet;
 use anyhow::Context as _;
 use plumbline_geo::camera::{Equirectangular, Pinhole};
 use plumbline_geo::formats::{self, RawTrajectory};
-use plumbline_runtime::CrsTransform;
-use plumbline_runtime::gdal_write::{FieldType, PointLayer, geopackage};
 use plumbline_synth::cadastre::{self, CadastreErrors};
 use plumbline_synth::map::StreamedMap;
 use plumbline_synth::motion::dg::{DgConfig, DgSolution, DgStream};
@@ -110,7 +108,7 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
     if !args.navigation_only {
         sections.panoramas = Some(imagery::panorama_section(&sizes, DriveConfig::default().imu_height));
         sections.depth = Some(imagery::depth_section(&sizes)?);
-        sections.cadastre = Some(write_cadastre(&progress.poles, crs, sink)?);
+        sections.cadastre = Some(super::cadastre::write_objects(&progress.poles, crs, sink)?);
         sections.aerial = aerial.as_ref().map(|a| a.finish(sink)).transpose()?;
     }
     maps.write(sink)?;
@@ -277,24 +275,4 @@ fn list_poles(leg: &Leg, progress: &mut Progress, seed: u64) {
     let leg_seed = seed ^ (leg.index as u64 + 1).wrapping_mul(0xD1B5_4A32_D192_ED03);
     let first_id = progress.poles.iter().filter_map(|o| o.cadastre_id).max().unwrap_or(0) + 1;
     progress.poles.extend(cadastre::cadastre_of(&batch, &CadastreErrors::typical(), leg_seed, first_id));
-}
-
-/// The GeoPackage and `truth/poles.csv` of all listed objects; returns `[[cadastres]]`.
-fn write_cadastre(objects: &[cadastre::CadastreObject], crs: u32, sink: &Sink) -> anyhow::Result<String> {
-    let to_file = CrsTransform::new(crs, super::cadastre::CADASTRE_EPSG).context("cadastre CRS")?;
-    let fields = vec![
-        ("id".to_owned(), FieldType::Integer),
-        ("class".to_owned(), FieldType::Text),
-        ("diameter_m".to_owned(), FieldType::Real),
-    ];
-    let mut poles = PointLayer { name: "poles".into(), fields: fields.clone(), features: Vec::new() };
-    let mut trees = PointLayer { name: "trees".into(), fields, features: Vec::new() };
-    for o in objects {
-        let Some(feature) = super::cadastre::feature(o, &to_file)? else { continue };
-        if o.class == "tree" { &mut trees } else { &mut poles }.features.push(feature);
-    }
-    let gpkg = geopackage(&[poles, trees], super::cadastre::CADASTRE_EPSG).context("cadastre GeoPackage")?;
-    sink.put("cadastre/poles.gpkg", gpkg)?;
-    sink.put("truth/poles.csv", cadastre::truth_csv(objects))?;
-    Ok(super::cadastre::section(&CadastreErrors::typical()))
 }
