@@ -14,7 +14,7 @@ use plumbline_runtime::{Files, file_name, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 use rayon::prelude::*;
 
-use crate::fetch::{blocking, decode_gray, read_all, skipped};
+use crate::fetch::{SkipReason, blocking, decode_gray, read_all, skipped};
 use crate::raster::{gray, read_window, terrain};
 
 const STAGE: &str = "registration";
@@ -115,9 +115,12 @@ async fn frames(
         }
         match campaign.file_url(&block.images, &row.file) {
             Ok(url) => chosen.push((row.image_id.clone(), pose, url)),
-            Err(e) => {
-                skipped_items.push(skipped(STAGE, &row.file, "url", format!("aerial frame {}: {e:#}", row.image_id)))
-            }
+            Err(e) => skipped_items.push(skipped(
+                STAGE,
+                &row.file,
+                SkipReason::Url,
+                format!("aerial frame {}: {e:#}", row.image_id),
+            )),
         }
     }
     let t0 = Instant::now();
@@ -151,20 +154,21 @@ fn decode_frame(
     bytes: bytes::Bytes,
     camera: Pinhole,
 ) -> Result<AerialFrame, SkippedInput> {
-    let image = decode_gray(url, &bytes).map_err(|e| skipped(STAGE, url, "decode", e))?;
+    let image = decode_gray(url, &bytes).map_err(|e| skipped(STAGE, url, SkipReason::Decode, e))?;
     let found = (image.width() as u32, image.height() as u32);
     if found != (camera.width, camera.height) {
         let detail = format!(
             "{url}: aerial frame is {} × {} px, the interior orientation says {} × {} px",
             found.0, found.1, camera.width, camera.height
         );
-        return Err(skipped(STAGE, url, "size", detail));
+        return Err(skipped(STAGE, url, SkipReason::Size, detail));
     }
     Ok(AerialFrame { id, image, camera, pose })
 }
 
 /// Windows of the orthophoto and its terrain model over `area`. An unreadable orthophoto gives no reference
-/// (reported); an unreadable terrain model gives an orthophoto without terrain (reported).
+/// (reported); an unreadable terrain model gives an orthophoto without terrain (reported). A store that fails to
+/// deliver either is reported as such ([`SkipReason::Read`]), which makes the service retry the tile.
 async fn orthophoto(
     files: &Files,
     campaign: &Campaign,
@@ -173,25 +177,30 @@ async fn orthophoto(
 ) -> anyhow::Result<(Option<AerialReference>, Vec<SkippedInput>)> {
     let (image_url, terrain_url) = (campaign.url(&spec.image)?, campaign.url(&spec.terrain)?);
     let mut problems = Vec::new();
-    let image =
-        match read_window(files, &image_url, area).await.map(|w| w.map(|w| gray(&w).map(|g| (g, w.geotransform)))) {
-            Ok(Some(Ok(image))) => image,
-            Ok(None) => {
-                let detail = format!("{image_url}: the orthophoto does not cover the tile ({area:?})");
-                problems.push(skipped(STAGE, &image_url, "outside", detail));
+    let image = match read_window(files, &image_url, area).await {
+        Ok(Some(w)) => match gray(&w) {
+            Ok(g) => (g, w.geotransform),
+            Err(e) => {
+                problems.push(skipped(STAGE, &image_url, SkipReason::Decode, format!("{image_url}: {e:#}")));
                 return Ok((None, problems));
             }
-            Ok(Some(Err(e))) | Err(e) => {
-                problems.push(skipped(STAGE, &image_url, "orthophoto", format!("{image_url}: {e:#}")));
-                return Ok((None, problems));
-            }
-        };
-    let terrain = match read_window(files, &terrain_url, area).await {
-        Ok(Some(w)) => terrain(&w).map_err(|e| format!("{terrain_url}: {e:#}")),
-        Ok(None) => Err(format!("{terrain_url}: the terrain model does not cover the tile")),
-        Err(e) => Err(format!("{terrain_url}: {e:#}")),
+        },
+        Ok(None) => {
+            let detail = format!("{image_url}: the orthophoto does not cover the tile ({area:?})");
+            problems.push(skipped(STAGE, &image_url, SkipReason::Outside, detail));
+            return Ok((None, problems));
+        }
+        Err(e) => {
+            problems.push(skipped(STAGE, &image_url, e.reason(), format!("{image_url}: {e}")));
+            return Ok((None, problems));
+        }
     };
-    let terrain = terrain.map_err(|detail| problems.push(skipped(STAGE, &terrain_url, "terrain", detail))).ok();
+    let terrain = match read_window(files, &terrain_url, area).await {
+        Ok(Some(w)) => terrain(&w).map_err(|e| (SkipReason::Decode, format!("{terrain_url}: {e:#}"))),
+        Ok(None) => Err((SkipReason::Outside, format!("{terrain_url}: the terrain model does not cover the tile"))),
+        Err(e) => Err((e.reason(), format!("{terrain_url}: {e}"))),
+    };
+    let terrain = terrain.map_err(|(why, detail)| problems.push(skipped(STAGE, &terrain_url, why, detail))).ok();
     let (image, geotransform) = image;
     let id = file_name(&image_url).to_owned();
     Ok((Some(AerialReference::Orthophoto(Orthophoto { id, image, geotransform, terrain })), problems))

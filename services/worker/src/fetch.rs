@@ -38,11 +38,13 @@ pub(crate) enum SkipReason {
     Camera,
     /// The cadastre file cannot be opened.
     Open,
+    /// The raster (orthophoto or terrain model) does not cover the tile.
+    Outside,
 }
 
 impl SkipReason {
     /// Every reason, for reading names back.
-    pub(crate) const ALL: [Self; 9] = [
+    pub(crate) const ALL: [Self; 10] = [
         Self::Missing,
         Self::Read,
         Self::Decode,
@@ -52,6 +54,7 @@ impl SkipReason {
         Self::Frame,
         Self::Camera,
         Self::Open,
+        Self::Outside,
     ];
 
     /// The stable name in `SkippedInput::reason`.
@@ -66,6 +69,7 @@ impl SkipReason {
             Self::Frame => "frame",
             Self::Camera => "camera",
             Self::Open => "open",
+            Self::Outside => "outside",
         }
     }
 
@@ -246,7 +250,8 @@ mod tests {
     #[test]
     fn skip_reasons_keep_their_names_and_read_back() {
         let names = SkipReason::ALL.map(SkipReason::name);
-        assert_eq!(names, ["missing", "read", "decode", "size", "url", "time", "frame", "camera", "open"]);
+        let expected = ["missing", "read", "decode", "size", "url", "time", "frame", "camera", "open", "outside"];
+        assert_eq!(names, expected);
         for r in SkipReason::ALL {
             assert_eq!(SkipReason::of(r.name()), Some(r));
         }

@@ -170,7 +170,8 @@ pub(crate) async fn camera_height(
     let ground = match read_window(files, &url, around(e, n, 5.0)).await {
         Ok(Some(w)) => terrain(&w).ok().and_then(|t| height_at(&t, e, n)).ok_or_else(|| "no data there".to_owned()),
         Ok(None) => Err("the position lies outside it".to_owned()),
-        Err(e) => Err(format!("{e:#}")),
+        Err(e) if e.reason().retryable() => return Err(anyhow::anyhow!("{url}: {e}")),
+        Err(e) => Err(e.to_string()),
     };
     match ground {
         Ok(z) => Ok(centre.z() - z),

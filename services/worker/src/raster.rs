@@ -7,11 +7,11 @@ use std::path::PathBuf;
 
 use plumbline_imaging::GrayImage;
 use plumbline_registration::aerial::Terrain;
-use plumbline_runtime::Files;
 use plumbline_runtime::gdal_read::{MapBox, RasterSource, is_vrt, mosaic_tiles};
 use plumbline_runtime::gdal_write::{Raster, RasterData};
+use plumbline_runtime::{Files, invalid, is_invalid};
 
-use crate::fetch::blocking;
+use crate::fetch::{SkipReason, blocking};
 
 /// The local file behind a `file://` URL or a plain path; `None` for other schemes.
 fn local_path(url: &str) -> Option<PathBuf> {
@@ -22,16 +22,45 @@ fn local_path(url: &str) -> Option<PathBuf> {
     }
 }
 
+/// Why a window could not be read: the store did not deliver a file, or GDAL could not read what it got.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum WindowError {
+    /// Reading the raster (or one of its mosaic tiles) from its store failed.
+    #[error("{0:#}")]
+    Store(anyhow::Error),
+    /// The bytes are not a raster GDAL can read, or the window cannot be cut from it.
+    #[error("{0:#}")]
+    Raster(anyhow::Error),
+}
+
+impl WindowError {
+    /// How a skipped input reports it: a file the store says does not exist is missing, another store failure
+    /// is a read failure (a later attempt may succeed), anything GDAL rejects is undecodable.
+    pub(crate) fn reason(&self) -> SkipReason {
+        match self {
+            Self::Store(e) if is_invalid(e) => SkipReason::Missing,
+            Self::Store(_) => SkipReason::Read,
+            Self::Raster(_) => SkipReason::Decode,
+        }
+    }
+}
+
 /// Read the window of the raster at `url` covering `area` (`None`: the area lies outside the raster).
-pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> anyhow::Result<Option<Raster>> {
+pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> Result<Option<Raster>, WindowError> {
     let local = local_path(url);
-    let bytes = if local.is_none() { Some(files.read(url).await?.to_vec()) } else { None };
+    if let Some(path) = local.as_ref().filter(|p| !p.exists()) {
+        return Err(WindowError::Store(invalid(format!("{}: no such file", path.display()))));
+    }
+    let bytes = match local {
+        None => Some(files.read(url).await.map_err(WindowError::Store)?.to_vec()),
+        Some(_) => None,
+    };
     let tiles = match &bytes {
         Some(vrt) if is_vrt(vrt) => Some(read_tiles(files, url, vrt, &area).await?),
         _ => None,
     };
     let url = url.to_owned();
-    blocking(move || -> anyhow::Result<Option<Raster>> {
+    let window = blocking(move || -> anyhow::Result<Option<Raster>> {
         let source = match (local, bytes, tiles) {
             (Some(path), _, _) => RasterSource::open_path(&path)?,
             (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, bytes.unwrap_or_default(), tiles)?,
@@ -39,17 +68,24 @@ pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> anyho
         };
         Ok(source.window(&area)?)
     })
-    .await?
+    .await
+    .map_err(WindowError::Store)?;
+    window.map_err(WindowError::Raster)
 }
 
 /// The tiles of the VRT mosaic at `url` that hold pixels of `area`, fetched from beside it (their paths are
 /// relative to the VRT).
-async fn read_tiles(files: &Files, url: &str, vrt: &[u8], area: &MapBox) -> anyhow::Result<Vec<(String, Vec<u8>)>> {
+async fn read_tiles(
+    files: &Files,
+    url: &str,
+    vrt: &[u8],
+    area: &MapBox,
+) -> Result<Vec<(String, Vec<u8>)>, WindowError> {
     let dir = url.rsplit_once('/').map_or("", |(dir, _)| dir);
     let mut tiles = Vec::new();
-    for tile in mosaic_tiles(url, vrt, area)? {
+    for tile in mosaic_tiles(url, vrt, area).map_err(|e| WindowError::Raster(e.into()))? {
         let tile_url = if dir.is_empty() { tile.clone() } else { format!("{dir}/{tile}") };
-        tiles.push((tile, files.read(&tile_url).await?.to_vec()));
+        tiles.push((tile, files.read(&tile_url).await.map_err(WindowError::Store)?.to_vec()));
     }
     Ok(tiles)
 }
@@ -179,5 +215,33 @@ mod tests {
         let area = MapBox { min_e: 500_000.5, min_n: 5_000_000.5, max_e: 500_002.5, max_n: 5_000_001.5 };
         let window = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap().unwrap();
         assert_eq!(height_at(&terrain(&window).unwrap(), 500_001.5, 5_000_001.0), Some(10.0));
+        // Across the border again: the broken tile is undecodable, a deleted one missing — neither retried.
+        let area = MapBox { min_e: 500_002.5, min_n: 5_000_000.5, max_e: 500_005.5, max_n: 5_000_001.5 };
+        let broken = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap_err();
+        assert_eq!(broken.reason(), SkipReason::Decode, "{broken}");
+        let lonely = "s3://rasters/campaign/no-tiles/terrain.vrt";
+        files.write(lonely, vrt(&mosaic).unwrap()).await.unwrap();
+        let missing = read_window(&files, lonely, area).await.unwrap_err();
+        assert_eq!(missing.reason(), SkipReason::Missing, "{missing}");
+        assert!(missing.to_string().contains("no-tiles/terrain/0_0.tif"), "{missing}");
+    }
+
+    /// A store that fails to deliver is a read failure (retried); one that says the file is not there, or
+    /// bytes GDAL rejects, are the input's fault.
+    #[tokio::test]
+    async fn window_failures_say_whether_a_retry_can_help() {
+        assert_eq!(WindowError::Store(anyhow::anyhow!("connection reset")).reason(), SkipReason::Read);
+        assert!(SkipReason::Read.retryable() && !SkipReason::Missing.retryable() && !SkipReason::Decode.retryable());
+        let dir = tempfile::tempdir().unwrap();
+        let files = Files::new(plumbline_runtime::S3Options::default());
+        let area = around(500_000.0, 5_000_000.0, 1.0);
+        let absent = dir.path().join("absent.tif").display().to_string();
+        let e = read_window(&files, &absent, area).await.unwrap_err();
+        assert_eq!(e.reason(), SkipReason::Missing, "{e}");
+        assert!(e.to_string().contains("absent.tif"), "{e}");
+        let junk = dir.path().join("junk.tif");
+        std::fs::write(&junk, b"not a tiff").unwrap();
+        let e = read_window(&files, &junk.display().to_string(), area).await.unwrap_err();
+        assert_eq!(e.reason(), SkipReason::Decode, "{e}");
     }
 }
