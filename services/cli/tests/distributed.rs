@@ -13,15 +13,11 @@ mod support;
 use std::time::{Duration, Instant};
 
 use plumbline_geo::formats;
-use plumbline_runtime::Secret;
 use plumbline_scheduler::client::Client;
 use plumbline_scheduler::messages::CampaignStatus;
-use plumbline_scheduler::service::{self, Scheduler, Tokens};
 use plumbline_testkit::{MotoServer, NatsServer};
 use support::plumbline;
-use support::services::{Role, STORE, s3_files, upload};
-
-const TOKEN: &str = "hh-token-0123456789abcdef";
+use support::services::{Role, SchedulerApi, s3_files, upload};
 
 /// Poll the campaign until it is terminal; panics with the roles' logs after `limit`.
 async fn wait_terminal(
@@ -134,16 +130,8 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
 
     let nats = NatsServer::start();
-    let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
-    let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).unwrap();
-    let scheduler = Scheduler::start(client, files.clone(), STORE, tokens).await.unwrap();
-    let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-    let server = format!("http://{}", listener.local_addr().unwrap());
-    let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-    tokio::spawn(service::serve(listener, scheduler, async {
-        let _ = stopped.await;
-    }));
-    let api = Client::new(&server, Secret::new(TOKEN)).unwrap();
+    let scheduler = SchedulerApi::start(&nats.url(), files.clone()).await;
+    let api = &scheduler.api;
 
     // (a) Two workers and an adjuster; the adjuster first, since the workers shorten the ack wait after it.
     let logs = dir.path();
@@ -155,7 +143,7 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     let started = Instant::now();
     let submitted = api.submit(manifest.clone().into_bytes(), false).await.unwrap();
     assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");
-    let view = wait_terminal(&api, &id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
+    let view = wait_terminal(api, &id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
     eprintln!("distributed campaign of {} tiles: {:.1} s", view.campaign.tiles_total, started.elapsed().as_secs_f64());
     assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
     assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total);
@@ -176,11 +164,10 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
         tokio::time::sleep(Duration::from_millis(50)).await;
     }
     w1.kill();
-    let view = wait_terminal(&api, &killed_id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
+    let view = wait_terminal(api, &killed_id, Duration::from_secs(600), &[&adjuster, &w1, &w2]).await;
     assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
     assert_eq!(view.campaign.tiles_done, view.campaign.tiles_total, "{view:#?}");
     let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
     assert_same_trajectory(&formats::parse_sbet(&found, "after kill").unwrap(), &expected, "after kill");
     eprintln!("campaign with a killed worker: {:.1} s", start.elapsed().as_secs_f64());
-    let _ = stop.send(());
 }

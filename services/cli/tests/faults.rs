@@ -29,17 +29,15 @@ use std::sync::OnceLock;
 use std::time::{Duration, Instant};
 
 use plumbline_geo::formats;
-use plumbline_runtime::{Files, Secret};
+use plumbline_runtime::Files;
 use plumbline_scheduler::api::CampaignView;
 use plumbline_scheduler::bus::{DEAD_STREAM, dead_subject};
-use plumbline_scheduler::client::Client;
 use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileFailed};
-use plumbline_scheduler::service::{self, Scheduler, Tokens};
+use plumbline_scheduler::service;
 use plumbline_testkit::{FlakyProxy, MotoServer, NatsServer};
 use support::plumbline;
-use support::services::{Role, STORE, s3_files, upload};
+use support::services::{Role, SchedulerApi, TOKEN, s3_files, upload};
 
-const TOKEN: &str = "hh-token-0123456789abcdef";
 const LIMIT: Duration = Duration::from_secs(600);
 
 /// The simulated campaign and the trajectory `plumbline run` corrects it to.
@@ -78,9 +76,7 @@ struct Rig {
     nats: NatsServer,
     moto: MotoServer,
     files: Files,
-    api: Client,
-    server: String,
-    _stop: tokio::sync::oneshot::Sender<()>,
+    scheduler: SchedulerApi,
 }
 
 impl Rig {
@@ -95,17 +91,8 @@ impl Rig {
         let files = s3_files(moto.endpoint());
         upload(&files, &copy, &shared().id).await;
         let nats = NatsServer::start();
-        let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
-        let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).unwrap();
-        let scheduler = Scheduler::start(client, files.clone(), STORE, tokens).await.unwrap();
-        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
-        let server = format!("http://{}", listener.local_addr().unwrap());
-        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
-        tokio::spawn(service::serve(listener, scheduler, async {
-            let _ = stopped.await;
-        }));
-        let api = Client::new(&server, Secret::new(TOKEN)).unwrap();
-        Self { dir, nats, moto, files, api, server, _stop: stop }
+        let scheduler = SchedulerApi::start(&nats.url(), files.clone()).await;
+        Self { dir, nats, moto, files, scheduler }
     }
 
     /// An adjuster and a worker (1 s heartbeats, 4 s ack wait, 2 s retry delay) reaching S3 at `s3`.
@@ -119,7 +106,7 @@ impl Rig {
     /// Submit the (stored) manifest; the number of tiles.
     async fn submit(&self) -> u64 {
         let manifest = std::fs::read(self.dir.path().join("campaign/campaign.toml")).unwrap();
-        let submitted = self.api.submit(manifest, false).await.unwrap();
+        let submitted = self.scheduler.api.submit(manifest, false).await.unwrap();
         assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");
         submitted.campaign.tiles_total
     }
@@ -129,7 +116,7 @@ impl Rig {
         let (id, start) = (&shared().id, Instant::now());
         loop {
             // The API may be briefly unable to answer (NATS restarting): poll again.
-            if let Ok(view) = self.api.status(id).await
+            if let Ok(view) = self.scheduler.api.status(id).await
                 && view.campaign.status.is_terminal()
             {
                 return view;
@@ -251,14 +238,14 @@ async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
     let letter = TileFailed::from_json(&letter.payload).unwrap();
     assert_eq!((letter.tile, letter.kind, letter.attempts), (tile, FailureKind::Permanent, 1));
     // The report names the missing tile; `plumbline status` shows it with its reason.
-    let report = rig.api.report(&shared().id).await.unwrap().to_string();
+    let report = rig.scheduler.api.report(&shared().id).await.unwrap().to_string();
     assert!(report.contains(&format!("tile {tile}")) && report.contains("dead-lettered"), "{report}");
     let token = support::write(&rig.dir, "token", TOKEN);
-    let status = plumbline(&["status", &shared().id, "--server", &rig.server, "--token-file", &token]).run();
+    let status = plumbline(&["status", &shared().id, "--server", &rig.scheduler.server, "--token-file", &token]).run();
     status.success();
     assert!(status.stdout.contains(": done") && status.stdout.contains(&format!("dead-lettered tile {tile}: ")));
     assert!(status.stdout.contains("terrain model"), "{}", status.stdout);
-    let args = ["status", &shared().id, "--watch", "--server", &rig.server, "--token-file", &token];
+    let args = ["status", &shared().id, "--watch", "--server", &rig.scheduler.server, "--token-file", &token];
     let watched = plumbline(&args).run();
     watched.failure_with(3);
     assert!(watched.stdout.contains(&format!("dead-lettered tile {tile}: ")), "{}", watched.stdout);

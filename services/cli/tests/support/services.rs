@@ -116,3 +116,34 @@ pub async fn upload(files: &Files, campaign: &Path, id: &str) -> u64 {
     });
     futures::stream::iter(uploads).buffer_unordered(8).fold(0, |sum, size| async move { sum + size }).await
 }
+
+/// The agency token of the tests' scheduler (agency hamburg).
+pub const TOKEN: &str = "hh-token-0123456789abcdef";
+
+/// An in-process scheduler on NATS at `nats` with the store `files`, its job API served on a free loopback
+/// port until this is dropped.
+pub struct SchedulerApi {
+    /// The API client with agency hamburg's token.
+    pub api: plumbline_scheduler::client::Client,
+    /// `http://127.0.0.1:PORT` of the API.
+    pub server: String,
+    _stop: tokio::sync::oneshot::Sender<()>,
+}
+
+impl SchedulerApi {
+    /// Connect to `nats`, start the scheduler and serve its API.
+    pub async fn start(nats: &str, files: Files) -> Self {
+        use plumbline_scheduler::service::{self, Scheduler, Tokens};
+        let client = service::connect(nats, None, Duration::from_secs(10)).await.expect("connect to nats-server");
+        let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).expect("the test token");
+        let scheduler = Scheduler::start(client, files, STORE, tokens).await.expect("start the scheduler");
+        let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("a free loopback port");
+        let server = format!("http://{}", listener.local_addr().expect("the bound address"));
+        let (stop, stopped) = tokio::sync::oneshot::channel::<()>();
+        tokio::spawn(service::serve(listener, scheduler, async {
+            let _ = stopped.await;
+        }));
+        let api = plumbline_scheduler::client::Client::new(&server, Secret::new(TOKEN)).expect("an API client");
+        Self { api, server, _stop: stop }
+    }
+}
