@@ -62,20 +62,33 @@ impl MotoServer {
         }
     }
 
+    /// The body of an unsigned `GET path` (moto answers it), e.g. `/bucket?uploads` to list the bucket's
+    /// unfinished multipart uploads. Panics (failing the test) when the request fails.
+    pub fn get(&self, path: &str) -> String {
+        let response = self.exchange("GET", path).unwrap_or_else(|e| panic!("GET {path} on moto_server: {e}"));
+        response.split_once("\r\n\r\n").map_or_else(String::new, |(_, body)| body.to_owned())
+    }
+
     fn request(&self, method: &str, path: &str) -> u16 {
         self.try_request(method, path).unwrap_or_else(|e| panic!("{method} {path} on moto_server: {e}"))
     }
 
     /// Sends a body-less HTTP/1.1 request and returns the status code.
     fn try_request(&self, method: &str, path: &str) -> std::io::Result<u16> {
+        let response = self.exchange(method, path)?;
+        parse_status(&response)
+            .ok_or_else(|| std::io::Error::new(ErrorKind::InvalidData, format!("bad HTTP response: {response:.80}")))
+    }
+
+    /// Sends a body-less HTTP/1.1 request and returns the whole response.
+    fn exchange(&self, method: &str, path: &str) -> std::io::Result<String> {
         let mut stream = TcpStream::connect(("127.0.0.1", self.port))?;
         stream.set_read_timeout(Some(Duration::from_secs(10)))?;
         let host = format!("127.0.0.1:{}", self.port);
         write!(stream, "{method} {path} HTTP/1.1\r\nHost: {host}\r\nContent-Length: 0\r\nConnection: close\r\n\r\n")?;
         let mut response = String::new();
         stream.read_to_string(&mut response)?;
-        parse_status(&response)
-            .ok_or_else(|| std::io::Error::new(ErrorKind::InvalidData, format!("bad HTTP response: {response:.80}")))
+        Ok(response)
     }
 }
 
