@@ -330,4 +330,11 @@ fn city_aerial_block_and_mosaics_agree_with_the_panoramas_and_their_tiles() {
     // The mosaics hold every tile where its own georeference puts it.
     assert!(mosaic_agrees_with_tiles(&out, "orthophoto", 0.12) >= 16);
     assert!(mosaic_agrees_with_tiles(&out, "terrain", 1.0) >= 16);
+    // The campaign map outlines the frames' footprints (blue), the overview (navigation only) does not.
+    let blue = |name: &str| {
+        let map = image::open(format!("{out}/{name}")).unwrap().to_rgb8();
+        map.pixels().filter(|p| p.0 == [60, 90, 230]).count()
+    };
+    assert!(blue("map.png") > 1000, "{} footprint pixels on map.png", blue("map.png"));
+    assert_eq!(blue("overview.png"), 0);
 }

@@ -95,7 +95,7 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
             progress.panoramas += write_imagery(&leg, &drive, &solution, &sizes, seed, sink)?;
             list_poles(&leg, &mut progress, seed);
             if let Some(aerial) = aerial.as_mut() {
-                aerial.leg(&drive, sink)?;
+                maps.footprints(&aerial.leg(&drive, sink)?);
             }
         }
         let (_, t1) = drive.trajectory.span();
@@ -150,7 +150,7 @@ fn drive_leg(
 }
 
 /// `overview.png` (the drive coloured by DG error, standstills) and — with imagery — `map.png` (also the
-/// buildings, streets and poles of every leg's window), drawn leg by leg in bounded memory (`StreamedMap`).
+/// buildings, streets and poles of every leg's window and the aerial frames' footprints), drawn leg by leg in bounded memory (`StreamedMap`).
 struct Maps {
     overview: StreamedMap,
     map: Option<StreamedMap>,
@@ -167,6 +167,13 @@ impl Maps {
         if let Some(map) = self.map.as_mut() {
             map.world(&leg.window.world);
             map.drive(drive, dg);
+        }
+    }
+
+    /// Draw the ground footprints of aerial frames on the campaign map.
+    fn footprints(&mut self, corners: &[[[f64; 2]; 4]]) {
+        if let Some(map) = self.map.as_mut() {
+            corners.iter().for_each(|c| map.footprint(c));
         }
     }
 

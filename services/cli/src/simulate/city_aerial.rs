@@ -14,6 +14,7 @@ use plumbline_geo::camera::{MetricInterior, Pinhole};
 use plumbline_runtime::gdal_write::{Mosaic, MosaicTile, MosaicType, geotiff, vrt};
 use plumbline_synth::aerial::{self, exterior_orientation_csv};
 use plumbline_synth::city_aerial::{CityBlock, FrameKey, TileKey, TileLattice, key_seed, track_points, window_seeing};
+use plumbline_synth::map::footprint;
 use plumbline_synth::motion::Drive;
 use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
 use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, encode_jpeg, render_aerial};
@@ -72,8 +73,9 @@ impl CityAerial {
         })
     }
 
-    /// Make and hand to `sink` the frames and tiles near a leg's `drive` not made yet.
-    pub(crate) fn leg(&mut self, drive: &Drive, sink: &Sink) -> anyhow::Result<()> {
+    /// Make and hand to `sink` the frames and tiles near a leg's `drive` not made yet; returns the ground
+    /// footprints of the frames made (for the map).
+    pub(crate) fn leg(&mut self, drive: &Drive, sink: &Sink) -> anyhow::Result<Vec<[[f64; 2]; 4]>> {
         let positions = drive.trajectory.records().iter().map(|r| [r.position.x(), r.position.y()]);
         let points = track_points(positions, ROUTE_STEP_M);
         let frames: Vec<FrameKey> = self
@@ -85,20 +87,21 @@ impl CityAerial {
         let tiles: Vec<TileKey> =
             self.tiles.tiles_near(&points, TILE_REACH_M).into_iter().filter(|k| !self.tiles_done.contains(k)).collect();
         let boxes = frames.iter().map(|&k| self.block.footprint(k)).chain(tiles.iter().map(|&k| self.tiles.bounds(k)));
-        let Some(window) = window_seeing(&self.city, boxes) else { return Ok(()) };
+        let Some(window) = window_seeing(&self.city, boxes) else { return Ok(Vec::new()) };
         let scene = Scene::aerial(&window.world);
-        self.write_frames(&scene, &frames, sink)?;
+        let footprints = self.write_frames(&scene, &frames, sink)?;
         for &key in &tiles {
             self.write_tile(&scene, key, sink)?;
         }
         self.frames_done.extend(frames.iter().copied());
         self.tiles_done.extend(tiles);
-        Ok(())
+        Ok(footprints)
     }
 
-    fn write_frames(&self, scene: &Scene, keys: &[FrameKey], sink: &Sink) -> anyhow::Result<()> {
+    /// Render and write the frames of `keys`; returns their ground footprints.
+    fn write_frames(&self, scene: &Scene, keys: &[FrameKey], sink: &Sink) -> anyhow::Result<Vec<[[f64; 2]; 4]>> {
         if keys.is_empty() {
-            return Ok(());
+            return Ok(Vec::new());
         }
         let errors = AtErrors::typical();
         let frames: Vec<aerial::Frame> = keys.iter().map(|&k| self.block.frame(k, &errors, self.seed)).collect();
@@ -110,7 +113,9 @@ impl CityAerial {
         let first = self.frames_done.is_empty();
         let csv = |bytes: Vec<u8>| if first { bytes } else { without_header(bytes) };
         sink.append("aerial/exterior_orientation.csv", csv(exterior_orientation_csv(&frames, true)))?;
-        sink.append("truth/aerial_orientation.csv", csv(exterior_orientation_csv(&frames, false)))
+        sink.append("truth/aerial_orientation.csv", csv(exterior_orientation_csv(&frames, false)))?;
+        let (width, height) = (self.interior.width, self.interior.height);
+        Ok(frames.iter().map(|f| footprint(&f.truth, width, height, self.spec.gsd)).collect())
     }
 
     fn write_tile(&self, scene: &Scene, key: TileKey, sink: &Sink) -> anyhow::Result<()> {
