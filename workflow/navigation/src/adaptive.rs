@@ -2,11 +2,15 @@
 //! GNSS innovation is tested before it is used.
 //!
 //! - **Local overall test rejects** (paper 001 §3.1.2): the fix disagrees abruptly with the prediction — a
-//!   GNSS jump is the hypothesis, the fix is excluded. While fixes keep being rejected, the rejected
-//!   innovations are compared with the first of the episode: a GNSS jump shifts them all by the same
-//!   amount, an IMU fault makes them drift apart. When that drift is significant (the same χ² test on
-//!   v_k − v_first with covariance C_v,k + C_v,first), or the episode outlasts `max_exclusion`, the IMU is
-//!   blamed: the filter re-opens position, velocity and bias covariances and takes the fix.
+//!   GNSS jump is the hypothesis, the fix is excluded. While fixes keep being rejected, each rejected
+//!   innovation is compared with the episode's reference (the same χ² test on v_k − v_ref with covariance
+//!   C_v,k + C_v,ref): a GNSS jump shifts them all by the same amount once it has built up, and shrinks
+//!   them back as the fixes recover; an IMU fault makes them grow away from the reference. Multipath builds
+//!   up over a second or so, so during the first `transition` seconds a significant growth moves the
+//!   reference instead (the jump is still arriving). Later, a significant drift *away* from zero
+//!   (v_kᵀC⁻¹v_k > v_refᵀC⁻¹v_ref, both with the current C_v,k) blames the IMU, as does an episode that
+//!   outlasts `max_exclusion`: the filter re-opens position, velocity and bias covariances and takes the
+//!   fix. A drift back towards zero is the GNSS recovering, never the IMU.
 //! - **Local test passes, global tests over the last `window` used innovations reject**: a slow trend the
 //!   local test cannot see — an IMU bias step is the hypothesis (§3.1.2, "little jumps in bias"), so the
 //!   bias covariances are re-opened to their turn-on σ and the bias is re-estimated; the window restarts.
@@ -29,11 +33,19 @@ pub struct Adaptation {
     pub window: usize,
     /// Longest run of excluded fixes before the filter blames itself and re-opens its covariance, s.
     pub max_exclusion: f64,
+    /// Time a GNSS jump may take to build up (multipath onsets ramp over about a second), s: within it a
+    /// growing innovation is the jump still arriving, not an IMU fault.
+    #[serde(default = "default_transition")]
+    pub transition: f64,
+}
+
+fn default_transition() -> f64 {
+    2.0
 }
 
 impl Default for Adaptation {
     fn default() -> Self {
-        Self { alpha: 0.001, window: 25, max_exclusion: 30.0 }
+        Self { alpha: 0.001, window: 25, max_exclusion: 30.0, transition: default_transition() }
     }
 }
 
@@ -49,6 +61,10 @@ impl Adaptation {
         if !(self.max_exclusion.is_finite() && self.max_exclusion > 0.0) {
             let value = self.max_exclusion;
             return Err(NavError::Config { field: "adaptation.max_exclusion", value, expected: "a finite time > 0 s" });
+        }
+        if !(self.transition.is_finite() && self.transition >= 0.0) {
+            let value = self.transition;
+            return Err(NavError::Config { field: "adaptation.transition", value, expected: "a finite time >= 0 s" });
         }
         Ok(())
     }
@@ -85,6 +101,14 @@ impl Parts {
     }
 }
 
+/// A run of rejected fixes: when it started, and the innovation (with covariance) the others are compared to.
+#[derive(Clone, Copy, Debug)]
+struct Episode {
+    start: f64,
+    reference: Vector3<f64>,
+    covariance: Matrix3<f64>,
+}
+
 /// The running state of the tests inside the filter.
 #[derive(Clone, Debug)]
 pub(crate) struct Monitor {
@@ -93,8 +117,8 @@ pub(crate) struct Monitor {
     global: f64,
     slippage: f64,
     window: std::collections::VecDeque<Parts>,
-    /// First rejected fix of the current exclusion episode: time, innovation, covariance.
-    episode: Option<(f64, Vector3<f64>, Matrix3<f64>)>,
+    /// The current exclusion episode.
+    episode: Option<Episode>,
 }
 
 impl Monitor {
@@ -111,7 +135,7 @@ impl Monitor {
 
     /// Seconds since the current exclusion episode started (0 outside one).
     pub fn episode_age(&self, time: f64) -> f64 {
-        self.episode.map_or(0.0, |(start, ..)| time - start)
+        self.episode.map_or(0.0, |e| time - e.start)
     }
 
     /// The decision for innovation `v` with covariance `c` of the fix at `time`.
@@ -136,12 +160,21 @@ impl Monitor {
     }
 
     fn rejected(&mut self, time: f64, v: &Vector3<f64>, c: &Matrix3<f64>) -> Decision {
-        let Some((start, v0, c0)) = self.episode else {
-            self.episode = Some((time, *v, *c));
+        let Some(episode) = self.episode else {
+            self.episode = Some(Episode { start: time, reference: *v, covariance: *c });
             return Decision::Excluded;
         };
-        let drift = Parts::of(&(v - v0), &(c + c0)).map_or(f64::INFINITY, |p| p.nis);
-        if drift >= self.local || time - start > self.config.max_exclusion {
+        // paper 001 §3.2: a GNSS jump is an additive bias of the fixes; an IMU fault grows with time.
+        let drift = Parts::of(&(v - episode.reference), &(c + episode.covariance)).map_or(f64::INFINITY, |p| p.nis);
+        // Away from zero: compared in the metric of the current innovation covariance.
+        let away =
+            c.try_inverse().is_none_or(|inv| v.dot(&(inv * v)) > episode.reference.dot(&(inv * episode.reference)));
+        let building = time - episode.start <= self.config.transition;
+        if drift >= self.local && away && building {
+            self.episode = Some(Episode { reference: *v, covariance: *c, ..episode });
+            return Decision::Excluded;
+        }
+        if (drift >= self.local && away) || time - episode.start > self.config.max_exclusion {
             self.episode = None;
             self.window.clear();
             return Decision::Reinitialised;
@@ -161,6 +194,8 @@ impl Monitor {
 
 /// Re-open the covariance for `decision`: the bias blocks to their turn-on σ, and for a re-initialisation
 /// also position and velocity to the size of the innovation (`v`) and its growth over `elapsed` seconds.
+/// The smoother spreads the position part over the interval since the last used fix (see `smoother`), so
+/// the smoothed trajectory does not step where the filter re-initialised.
 pub(crate) fn reopen(p: &mut Mat15, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64) {
     if matches!(decision, Decision::Used | Decision::Excluded) {
         return;

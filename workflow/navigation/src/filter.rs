@@ -48,6 +48,9 @@ pub(crate) struct Checkpoint {
     pub posterior: Mat15,
     /// The error-state estimate injected at this epoch (zero where nothing was observed).
     pub update: Vec15,
+    /// The part of `prior`'s position block that re-opening added: the smoother spreads it as a position
+    /// random walk over the interval from the previous checkpoint (zero where nothing was re-opened).
+    pub spread: Matrix3<f64>,
 }
 
 /// The result of the forward pass.
@@ -139,7 +142,13 @@ impl<'a> Run<'a> {
             samples: imu.to_vec(),
             nominal,
             position_cov: vec![p.fixed_view::<3, 3>(POS, POS).into_owned()],
-            checkpoints: vec![Checkpoint { epoch: 0, prior: p, posterior: p, update: Vec15::zeros() }],
+            checkpoints: vec![Checkpoint {
+                epoch: 0,
+                prior: p,
+                posterior: p,
+                update: Vec15::zeros(),
+                spread: Matrix3::zeros(),
+            }],
             innovations: Vec::new(),
             skipped: Vec::new(),
         };
@@ -160,6 +169,7 @@ impl<'a> Run<'a> {
         let epoch = self.out.nominal.len() - 1;
         let mut prior = self.p;
         let mut update = Vec15::zeros();
+        let mut spread = Matrix3::zeros();
         while let Some(fix) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
             let index = self.next_fix;
             self.next_fix += 1;
@@ -173,12 +183,13 @@ impl<'a> Run<'a> {
                 update += dx;
                 // Re-opening is process noise added at this epoch: the smoother's C_{k|k−1} includes it.
                 prior += reopened;
+                spread += reopened.fixed_view::<3, 3>(POS, POS);
             }
         }
         if update != Vec15::zeros() {
             self.out.position_cov[epoch] = self.p.fixed_view::<3, 3>(POS, POS).into_owned();
             *self.out.nominal.last_mut().expect("the initial epoch is always present") = self.state;
-            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update });
+            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update, spread });
         }
     }
 
@@ -228,7 +239,8 @@ impl<'a> Run<'a> {
         }
         let epoch = self.out.nominal.len() - 1;
         if self.out.checkpoints.last().is_none_or(|c| c.epoch != epoch) {
-            self.out.checkpoints.push(Checkpoint { epoch, prior: self.p, posterior: self.p, update: Vec15::zeros() });
+            let (prior, posterior, update, spread) = (self.p, self.p, Vec15::zeros(), Matrix3::zeros());
+            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior, update, spread });
         }
         self.out
     }

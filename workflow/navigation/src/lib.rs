@@ -8,11 +8,14 @@
 //! added to the `state` module's transition before it is used on it.
 //!
 //! ```text
-//! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (levelling + GNSS course, static start)
+//! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
+//!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
 //! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
 //! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
-//!     re-opened where the IMU is blamed; each innovation carries its Decision
-//! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ
+//!     re-opened where the IMU is blamed (a jump may build up over `transition` s); each innovation
+//!     carries its Decision
+//! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
+//!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
 //! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag> (each blaming a Sensor)
 //! check_consistency(&dg, &image_motions, &ConsistencyConfig) → flags + WeakLinks for the adjustment
 //! ```

@@ -46,24 +46,39 @@ pub fn smooth(forward: &ForwardPass) -> Result<Vec<SmoothedEpoch>, NavError> {
         let lambda = chol.solve_vec(&(s_next + nx.update));
         let x = chol.solve_mat(&(p_next - nx.prior));
         let big_lambda = chol.solve_mat(&x.transpose());
-        let (s, p) = interval(forward, cp.epoch, nx.epoch, &cp.posterior, lambda, big_lambda, &mut out);
+        let gains = Gains { lambda, big_lambda, spread: nx.spread };
+        let (s, p) = interval(forward, cp.epoch, nx.epoch, &cp.posterior, gains, &mut out);
         s_next = s;
         p_next = p;
     }
     Ok(out.into_iter().flatten().collect())
 }
 
+/// What the next checkpoint hands back to an interval: λ and Λ there, and the re-opened position variance to
+/// spread over the interval.
+struct Gains {
+    lambda: Vec15,
+    big_lambda: Mat15,
+    spread: Matrix3<f64>,
+}
+
 /// Smooth epochs `from..to` (exclusive of `to`); returns the smoothed error and covariance at `from`.
+///
+/// A re-initialisation re-opened the position at `to`: a fault the filter only noticed there (paper 001
+/// §3.2 places it at the start of the window). Its position variance is spread as a position random walk
+/// over the interval, in proportion to each step's dt — the same C_{to|to−1} (position noise passes through
+/// the transition unchanged), but the smoothed trajectory bends over the interval instead of stepping.
 fn interval(
     fw: &ForwardPass,
     from: usize,
     to: usize,
     p_from: &Mat15,
-    mut lambda: Vec15,
-    mut big_lambda: Mat15,
+    gains: Gains,
     out: &mut [Option<SmoothedEpoch>],
 ) -> (Vec15, Mat15) {
     let tau = fw.config.imu.bias_correlation_time;
+    let span: f64 = fw.samples[from..to].iter().map(|s| s.dt).sum();
+    let Gains { mut lambda, mut big_lambda, spread } = gains;
     let mut steps = Vec::with_capacity(to - from);
     let mut p = *p_from;
     for k in from..to {
@@ -71,6 +86,10 @@ fn interval(
         let f = fw.nominal[k].transition(sample, tau);
         steps.push((f, p));
         p = predict_cov(&f, &p, &process_noise(&fw.config.imu, sample.dt));
+        if span > 0.0 {
+            let mut block = p.fixed_view_mut::<3, 3>(POS, POS);
+            block += spread * (sample.dt / span);
+        }
     }
     let mut result = (Vec15::zeros(), *p_from);
     for (i, (f, p)) in steps.iter().enumerate().rev() {

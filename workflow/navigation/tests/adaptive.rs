@@ -1,13 +1,16 @@
 #![allow(clippy::unwrap_used)]
-//! The filter acting on its own tests: a GNSS jump is excluded instead of absorbed; after an IMU bias step the
-//! filter re-estimates the bias and stops flagging; coarse alignment from the data.
+//! The filter acting on its own tests: a GNSS jump is excluded instead of absorbed, also when it builds up
+//! over a second as multipath does; after an IMU bias step the filter re-estimates the bias and stops
+//! flagging; a re-initialisation bends the smoothed trajectory instead of stepping it; coarse alignment from
+//! the data, standing (also with canyon-grade fixes) or already moving, and its errors when it cannot work.
 
 mod common;
 
+use nalgebra::Vector3;
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Decision, Flag, ForwardPass, IntegrityConfig, Sensor, align, filter, filter_adaptive,
-    smooth, test_innovations,
+    Adaptation, AlignmentConfig, Decision, Flag, ForwardPass, GnssFix, ImuSample, InitialState, IntegrityConfig,
+    NavError, Sensor, SmoothedEpoch, align, filter, filter_adaptive, smooth, test_innovations, to_trajectory,
 };
 use plumbline_synth::motion::imu::ImuErrors;
 
@@ -146,4 +149,153 @@ fn coarse_alignment_recovers_the_start_pose_and_the_filter_converges() {
         let err = converged.map(|(e, t)| (e.position.p - t.position.p).norm()).fold(0.0, f64::max);
         assert!(err < 0.03, "seed {seed}: smoothed error {err} m from the aligned start");
     }
+}
+
+/// Largest horizontal error of the smoothed positions against the truth within [a, b).
+fn worst_smoothed(smoothed: &[SmoothedEpoch], s: &common::Scenario, a: f64, b: f64) -> f64 {
+    let truth = s.drive.trajectory.records();
+    let start = truth.partition_point(|r| r.time < smoothed[0].time - 1e-9);
+    smoothed
+        .iter()
+        .zip(&truth[start..])
+        .filter(|(e, _)| e.time >= a && e.time < b)
+        .map(|(e, t)| (e.position.p - t.position.p).xy().norm())
+        .fold(0.0, f64::max)
+}
+
+/// Largest excess of the speed implied between consecutive smoothed epochs over the true speed, m/s: a step in
+/// the smoothed trajectory shows as a spike of step / dt.
+fn worst_speed_excess(smoothed: &[SmoothedEpoch], s: &common::Scenario) -> f64 {
+    smoothed
+        .windows(2)
+        .zip(&s.drive.kinematics[1..])
+        .map(|(w, k)| (w[1].position.p - w[0].position.p).norm() / (w[1].time - w[0].time) - k.velocity.norm())
+        .fold(0.0, f64::max)
+}
+
+#[test]
+fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_imu() {
+    for seed in [5, 9] {
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let t0 = s.drive.trajectory.records()[0].time;
+        let (a, b) = (t0 + 80.0, t0 + 90.0);
+        // 0.4 m, arriving and leaving over 1 s like the simulator's multipath jumps.
+        common::add_ramped_jump(&mut s.gnss, a, b, 1.0, Vector3::new(0.1, 0.3, -0.25));
+        let fw = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &Adaptation::default()).unwrap();
+        let during = || fw.innovations.iter().filter(|i| i.time >= a && i.time < b);
+        assert!(during().all(|i| i.decision != Decision::Reinitialised), "seed {seed}: the IMU was blamed");
+        let plateau = during().filter(|i| i.time >= a + 1.0 && i.time < b - 1.0);
+        assert!(plateau.clone().all(|i| i.decision == Decision::Excluded), "seed {seed}: a jumped fix was used");
+        let smoothed = smooth(&fw).unwrap();
+        let worst = worst_smoothed(&smoothed, &s, a - 2.0, b + 5.0);
+        let plain = smooth(&filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap()).unwrap();
+        let followed = worst_smoothed(&plain, &s, a - 2.0, b + 5.0);
+        println!("seed {seed}: smoothed error around the jump {worst:.3} m (plain filter {followed:.3} m)");
+        assert!(followed > 0.08, "seed {seed}: the plain filter follows the jump: {followed}");
+        // 10 s bridged on a tactical IMU between clean fixes: centimetres.
+        assert!(worst < 0.05, "seed {seed}: the jump bends the smoothed trajectory by {worst} m");
+        to_trajectory(&smoothed).unwrap();
+    }
+}
+
+#[test]
+fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
+    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let (a, b) = (t0 + 60.0, t0 + 100.0);
+    for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
+        f.position.p.y += 1.0;
+    }
+    // The jump outlasts the exclusion limit: the filter blames itself and takes the jumped fixes.
+    let adaptation = Adaptation { max_exclusion: 5.0, ..Adaptation::default() };
+    let fw = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &adaptation).unwrap();
+    let reinit = fw.innovations.iter().find(|i| i.decision == Decision::Reinitialised).unwrap();
+    assert!(reinit.time > a + 5.0 && reinit.time < a + 6.0, "re-initialised at {}", reinit.time - a);
+    let smoothed = smooth(&fw).unwrap();
+    // Re-opening the position as a step at the re-initialisation would move 1 m in one 10 ms epoch (100 m/s);
+    // spread over the 5 s since the last used fix it adds about 0.2 m/s.
+    let excess = worst_speed_excess(&smoothed, &s);
+    println!("largest smoothed speed above the truth: {excess:.3} m/s");
+    assert!(excess < 0.5, "the smoothed trajectory steps: {excess} m/s above the true speed");
+    assert!(worst_smoothed(&smoothed, &s, t0 + 2.0, a - 1.0) < 0.03, "the bend reaches back before the jump");
+    to_trajectory(&smoothed).unwrap();
+}
+
+/// Alignment errors (roll, pitch, heading; rad) against the truth at the aligned epoch.
+fn attitude_errors(init: &InitialState, s: &common::Scenario) -> [f64; 3] {
+    let records = s.drive.trajectory.records();
+    let truth = &records[records.partition_point(|r| r.time < init.time - 1e-9)];
+    let d = |a: f64, b: f64| (a - b + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    let (a, t) = (&init.attitude, &truth.attitude);
+    [d(a.roll, t.roll), d(a.pitch, t.pitch), d(a.heading, t.heading)]
+}
+
+fn lever() -> Vec3<plumbline_geo::Body> {
+    Vec3::new(common::LEVER[0], common::LEVER[1], common::LEVER[2])
+}
+
+#[test]
+fn a_drive_that_starts_moving_is_aligned_in_motion() {
+    for (seed, after) in [(3, 30.0), (8, 55.0), (11, 100.0)] {
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let t0 = s.drive.trajectory.records()[0].time;
+        let (imu, gnss): (Vec<ImuSample>, Vec<GnssFix>) = common::starting_at(&s, t0 + after);
+        let k = s.drive.kinematics.partition_point(|k| k.time < imu[0].time - imu[0].dt - 1e-9);
+        let (speed, velocity) = (s.drive.kinematics[k].speed, s.drive.kinematics[k].velocity);
+        assert!(speed > 3.0, "seed {seed}: the drive stands at the cut ({speed} m/s)");
+        let init = align(&imu, &gnss, &lever(), &AlignmentConfig::default()).unwrap();
+        let [dr, dp, dh] = attitude_errors(&init, &s);
+        let dv = (init.velocity.v - velocity.v).norm();
+        println!(
+            "seed {seed}, {speed:.1} m/s: roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad, velocity {dv:.3} m/s"
+        );
+        // Within the stated 3σ, and the σ small enough to be of use (a tilt of 1° spoils the first seconds).
+        let sd = init.attitude_std;
+        assert!(dr.abs() < 3.0 * sd[0] && dp.abs() < 3.0 * sd[1] && dh.abs() < 3.0 * sd[2], "seed {seed}");
+        assert!(sd[0] < 0.01 && sd[2] < 0.05, "seed {seed}: σ {sd:?}");
+        assert!(dv < 3.0 * init.velocity_std && init.velocity_std < 0.1, "seed {seed}: velocity error {dv}");
+        let fw = filter_adaptive(&imu, &gnss, &init, &s.config, &Adaptation::default()).unwrap();
+        let smoothed = smooth(&fw).unwrap();
+        let err = worst_smoothed(&smoothed, &s, init.time + 1.0, f64::MAX);
+        assert!(err < 0.03, "seed {seed}: smoothed error {err} m from the in-motion alignment");
+    }
+}
+
+#[test]
+fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
+    for seed in [1, 2, 3, 4] {
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        // The simulator's canyon receiver noise: 5 cm per horizontal axis, 10 cm in height.
+        common::degrade_fixes(&mut s.gnss, [0.05, 0.05, 0.1], seed);
+        let init = align(&s.imu, &s.gnss, &lever(), &AlignmentConfig::default()).unwrap();
+        let [dr, dp, dh] = attitude_errors(&init, &s);
+        println!("seed {seed}: roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad, σ {:?}", init.attitude_std);
+        assert_eq!(init.velocity.v, Vector3::zeros(), "seed {seed}: the standstill was not recognised");
+        // Static levelling of a tactical IMU: the turn-on accelerometer bias over g.
+        assert!(dr.abs() < 3.0 * init.attitude_std[0] && init.attitude_std[0] < 3e-3, "seed {seed}: roll {dr}");
+        assert!(dp.abs() < 3.0 * init.attitude_std[1], "seed {seed}: pitch {dp}");
+        assert!(dh.abs() < 3.0 * init.attitude_std[2], "seed {seed}: heading {dh}");
+        let truth = &s.drive.trajectory.records()[0];
+        assert!((init.position.p - truth.position.p).norm() < 0.1, "seed {seed}");
+    }
+}
+
+#[test]
+fn alignment_fails_only_when_impossible_and_says_why() {
+    let s = common::scenario(3, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let reason = |imu: &[ImuSample], gnss: &[GnssFix]| match align(imu, gnss, &lever(), &AlignmentConfig::default()) {
+        Err(NavError::Alignment { reason }) => reason,
+        other => panic!("expected an alignment error, got {other:?}"),
+    };
+    let late: Vec<GnssFix> = s.gnss.iter().filter(|f| f.time > t0 + 5.0).copied().collect();
+    assert!(reason(&s.imu, &late).contains("fewer than 4 usable GNSS fixes"));
+    // Only the standstill at the start: no course to take the heading from.
+    let standing = t0 + s.drive.stops[0].duration * 0.9;
+    let imu: Vec<ImuSample> = s.imu.iter().filter(|r| r.time <= standing).copied().collect();
+    let gnss: Vec<GnssFix> = s.gnss.iter().filter(|f| f.time <= standing).copied().collect();
+    assert!(reason(&imu, &gnss).contains("never moves"));
+    let bad = AlignmentConfig { alpha: 0.0, ..AlignmentConfig::default() };
+    let err = align(&s.imu, &s.gnss, &lever(), &bad).unwrap_err();
+    assert!(matches!(err, NavError::Config { field: "alignment.alpha", .. }), "{err:?}");
 }

@@ -77,6 +77,8 @@ pub fn summary(forward: &ForwardPass, flags: &[Flag], initial: &InitialState, ad
             "roll_deg": a.roll.to_degrees(),
             "pitch_deg": a.pitch.to_degrees(),
             "heading_deg": a.heading.to_degrees(),
+            "velocity_mps": [initial.velocity.x(), initial.velocity.y(), initial.velocity.z()],
+            "attitude_std_deg": initial.attitude_std.map(f64::to_degrees),
         },
         "final_biases": {"accelerometer_mps2": [accel.x, accel.y, accel.z], "gyro_radps": [gyro.x, gyro.y, gyro.z]},
     })

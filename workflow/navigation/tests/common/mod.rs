@@ -113,3 +113,31 @@ pub fn add_bias_step(imu: &mut [ImuSample], at: f64, step: f64) {
         r.delta_v.v.x += step * r.dt;
     }
 }
+
+/// Shift the fixes in [a, b) by `offset`, building up linearly over the first `ramp` seconds and fading over
+/// the last `ramp` seconds: a multipath jump as the simulator's DG model makes one (not a clean step).
+pub fn add_ramped_jump(gnss: &mut [GnssFix], a: f64, b: f64, ramp: f64, offset: Vector3<f64>) {
+    for f in gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
+        let share = ((f.time - a) / ramp).min((b - f.time) / ramp).clamp(0.0, 1.0);
+        f.position.p += offset * share;
+    }
+}
+
+/// The scenario's data from `at` on, as if the recording started there (the vehicle already moving).
+pub fn starting_at(s: &Scenario, at: f64) -> (Vec<ImuSample>, Vec<GnssFix>) {
+    let imu: Vec<ImuSample> = s.imu.iter().filter(|r| r.time - r.dt >= at - 1e-9).copied().collect();
+    let start = imu[0].time - imu[0].dt;
+    let gnss = s.gnss.iter().filter(|f| f.time >= start - 1e-9).copied().collect();
+    (imu, gnss)
+}
+
+/// Add white noise of `std` (east, north, up) to every fix and state it in the fixes' σ: canyon-grade fixes.
+pub fn degrade_fixes(gnss: &mut [GnssFix], std: [f64; 3], seed: u64) {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_f1c5);
+    for f in gnss.iter_mut() {
+        for (i, s) in std.iter().enumerate() {
+            f.position.p[i] += s * gauss(&mut rng);
+            f.std[i] = f.std[i].hypot(*s);
+        }
+    }
+}
