@@ -131,7 +131,7 @@ mod tests {
     /// A ray of the panorama at `time` at `azimuth` (rad) and 30° below the horizon.
     fn ray(time: f64, azimuth: f64) -> TieRay {
         let (e, a) = (30f64.to_radians(), azimuth);
-        TieRay { time, direction: [e.cos() * a.sin(), e.sin(), e.cos() * a.cos()], sigma: SIGMA }
+        TieRay::new(time, [e.cos() * a.sin(), e.sin(), e.cos() * a.cos()], SIGMA)
     }
 
     fn tie(id: &str, rays: Vec<TieRay>, aerial_x: Option<f64>) -> TiePoint {

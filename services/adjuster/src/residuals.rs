@@ -98,11 +98,9 @@ fn tie_residuals(
         let body = MapFromBody::new(Rotation::from_matrix(&r_corr), Point3::from_vector(pos + d.fixed_rows::<3>(0)));
         // paper 003 eq. (1) inverted: the direction to the point in the camera frame
         let u = mount.to_camera(&body, &Point3::from_vector(*x)).v.normalize();
-        let observed = Vector3::from(ray.direction);
-        let helper = if observed.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
-        let b1 = observed.cross(&helper).normalize();
-        let b2 = observed.cross(&b1);
-        out.extend([b1.dot(&u) / ray.sigma, b2.dot(&u) / ray.sigma]);
+        // across and elevation over their own σ, as the adjustment whitens them
+        let ([b1, b2], [s1, s2]) = (ray.tangents().map(Vector3::from), ray.sigmas());
+        out.extend([b1.dot(&u) / s1, b2.dot(&u) / s2]);
     }
     if let Some(a) = tie.aerial.filter(|_| !ex.aerial.contains(&index)) {
         out.extend((0..3).map(|k| (x[k] - a.position[k]) / a.covariance[k][k].sqrt()));

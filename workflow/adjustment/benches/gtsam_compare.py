@@ -66,8 +66,10 @@ def main():
     for k, node in enumerate(problem["nodes"]):
         initial.insert(k, np.zeros(6))
         graph.add(gtsam.PriorFactorVector(k, np.zeros(6), gtsam.noiseModel.Diagonal.Sigmas(np.array(node["prior_sigma"]))))
-    for k, sigma in enumerate(problem["links"]):
-        graph.add(gtsam.BetweenFactorVector(k, k + 1, np.zeros(6), gtsam.noiseModel.Diagonal.Sigmas(np.array(sigma))))
+    means = problem.get("link_means") or [[0.0, 0.0, 0.0]] * len(problem["links"])
+    for k, (sigma, mean) in enumerate(zip(problem["links"], means)):
+        expected = np.concatenate([np.array(mean), np.zeros(3)])
+        graph.add(gtsam.BetweenFactorVector(k, k + 1, expected, gtsam.noiseModel.Diagonal.Sigmas(np.array(sigma))))
     for pole in problem["poles"]:
         graph.add(pole_factor(pole, [k for (k, _) in pole["parts"]]))
     params = gtsam.LevenbergMarquardtParams()

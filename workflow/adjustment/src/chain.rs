@@ -3,7 +3,7 @@
 //! between DG breaks and its optional per-time spreading).
 
 use faer::Par;
-use nalgebra::Vector6;
+use nalgebra::{Vector3, Vector6};
 use plumbline_geo::Trajectory;
 
 use crate::config::AdjustmentConfig;
@@ -33,13 +33,16 @@ pub(crate) struct Links<'a> {
     pub flagged: &'a [WeakLink],
     pub still: &'a [WeakLink],
     pub standstills: &'a [Standstill],
-    /// Spans where the DG's own motion is anomalous (`crate::kinematics`).
-    pub anomalous: &'a [(f64, f64)],
+    /// The crab angle and the spans where the DG's own motion is anomalous (`crate::kinematics`).
+    pub anomalous: &'a crate::kinematics::Anomalies,
 }
 
-/// The DG chain of a problem: per link the relative constraint's σ, per node the weak prior's σ.
+/// The DG chain of a problem: per link the relative constraint's mean and σ, per node the weak prior's σ.
 pub(crate) struct Chain {
     pub relative: Vec<Vector6<f64>>,
+    /// The expected position increment of the correction over each link: zero where the DG's relative
+    /// motion is trusted, minus the DG's anomalous displacement where it departs from the vehicle's kinematics.
+    pub mean: Vec<Vector3<f64>>,
     pub prior: Vec<Vector6<f64>>,
 }
 
@@ -59,22 +62,26 @@ pub(crate) fn chain(
         .zip(stds.windows(2))
         .map(|(t, s)| relative_sigma(t[1] - t[0], &s[0], &s[1], config, link_factor(links.all, t[0], t[1])))
         .collect();
+    let mut mean = vec![Vector3::zeros(); relative.len()];
     if let Some(c) = config.kinematic_jumps.filter(|c| c.widen) {
-        crate::kinematics::widen(&mut relative, &nodes.times, trajectory, links.anomalous, &c);
+        crate::kinematics::widen(&mut relative, &mut mean, &nodes.times, trajectory, links.anomalous, &c);
     }
     if let Some(c) = &config.jump_localization {
         for l in links.flagged {
-            localize(&mut relative, l, nodes, &stds, trajectory, links, config, c);
+            let mut chain = Chain { relative, mean, prior: Vec::new() };
+            localize(&mut chain, l, nodes, &stds, trajectory, links, config, c);
+            (relative, mean) = (chain.relative, chain.mean);
         }
     }
     let prior = priors(nodes, &stds, breaks, config);
-    Chain { relative, prior }
+    Chain { relative, mean, prior }
 }
 
-/// Replace the evenly weakened links inside flagged interval `l` by links widened where the DG jumped.
+/// Replace the evenly weakened links inside flagged interval `l` by links that follow the vehicle's reference
+/// motion where the DG departs from it (mean −e, σ widened by |e|; [`crate::localize`]).
 #[allow(clippy::too_many_arguments)]
 fn localize(
-    relative: &mut [Vector6<f64>],
+    chain: &mut Chain,
     l: &WeakLink,
     nodes: &Nodes,
     stds: &[Vector6<f64>],
@@ -92,10 +99,12 @@ fn localize(
     }
     let base: Vec<Vector6<f64>> =
         (k0..k1).map(|k| relative_sigma(t[k + 1] - t[k], &stds[k], &stds[k + 1], config, 1.0)).collect();
-    let anomaly = crate::localize::anomalies(trajectory, &t[k0..=k1], c, links.standstills);
-    for (j, widened) in crate::localize::widen(&base, &anomaly, l.factor, c).into_iter().enumerate() {
+    let excess = crate::localize::anomalies(trajectory, &t[k0..=k1], c, links.standstills, links.anomalous.crab);
+    let sizes: Vec<f64> = excess.iter().map(|e| e.norm()).collect();
+    for (j, widened) in crate::localize::widen(&base, &sizes, l.factor, c).into_iter().enumerate() {
         // At least as weak as an overlapping standstill makes it.
-        relative[k0 + j] = widened.sup(&(base[j] * link_factor(links.still, t[k0 + j], t[k0 + j + 1])));
+        chain.relative[k0 + j] = widened.sup(&(base[j] * link_factor(links.still, t[k0 + j], t[k0 + j + 1])));
+        chain.mean[k0 + j] = -excess[j];
     }
 }
 

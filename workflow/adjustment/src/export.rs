@@ -38,6 +38,10 @@ pub struct ExportedProblem {
     pub nodes: Vec<ExportedNode>,
     /// σ of the random walk x_{k+1} − x_k, one per consecutive pair.
     pub links: Vec<[f64; 6]>,
+    /// Expected position part of x_{k+1} − x_k, one per consecutive pair: zero but where the DG's motion
+    /// departs from the vehicle's (its links follow the vehicle's reference motion; `crate::localize`).
+    #[serde(default)]
+    pub link_means: Vec<[f64; 3]>,
     /// The pole CUPTs.
     pub poles: Vec<ExportedPole>,
 }
@@ -54,6 +58,7 @@ pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> Exporte
         .map(|(t, s)| ExportedNode { time: *t, prior_sigma: (*s).into() })
         .collect();
     let links = p.relative_sigma.iter().map(|s| (*s).into()).collect();
+    let link_means = p.relative_mean.iter().map(|m| (*m).into()).collect();
     let poles = p
         .obs
         .iter()
@@ -68,5 +73,5 @@ pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> Exporte
             _ => None,
         })
         .collect();
-    ExportedProblem { nodes, links, poles }
+    ExportedProblem { nodes, links, link_means, poles }
 }

@@ -13,7 +13,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::normal::node;
 use crate::problem::Problem;
 use crate::solver::SelectedInverse;
 
@@ -47,7 +46,7 @@ pub struct DetectedJump {
 
 /// The largest |w| over the position rows of link k (nodes k, k+1), None when no row is controlled.
 pub(crate) fn link_w(p: &Problem, x: &[f64], sel: &SelectedInverse, k: usize) -> Option<f64> {
-    let d = node(x, k + 1) - node(x, k);
+    let d = p.link_residual(x, k);
     let sigma = &p.relative_sigma[k];
     (0..3)
         .filter_map(|c| {

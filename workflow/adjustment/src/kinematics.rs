@@ -1,19 +1,22 @@
 //! DG jumps seen in the DG's own motion, wherever they happen. A road vehicle moves along its heading (the
-//! non-holonomic constraint: no sideways velocity, paper 001 §2's land-vehicle motion model); a multipath jump
-//! shifts the DG position within about a second (paper 001 §1.2) without turning the vehicle, so its
-//! cross-track part shows up as sideways motion of the DG. Where that sideways displacement exceeds
-//! `threshold` per `step`, the correction gets nodes every `step` (so a jump the consistency check did not
-//! flag — before the first panorama, in a stop, between control — has short links of its own), and with
-//! `widen` those links' position σ grows by the sideways displacement as inside flagged intervals
-//! ([`crate::JumpLocalization`]) and the span counts as a DG break for the prior's floor
-//! ([`crate::FaultPrior`]). The along-track part of a jump is not separable from braking and accelerating
-//! this way (a 0.2 m jump needs no more acceleration than driving does); it is left to the consistency check
-//! and to jump detection on the chain ([`crate::JumpDetection`]).
+//! non-holonomic constraint: no sideways velocity, paper 001 §2's land-vehicle motion model) — up to the
+//! drive's crab angle, the heading's misalignment with the direction of travel, estimated robustly over the
+//! drive and subtracted ([`crate::vehicle::crab_angle`]); a multipath jump shifts the DG position within
+//! about a second (paper 001 §1.2) without turning the vehicle, so its cross-track part shows up as sideways
+//! motion of the DG beyond the crab. Where that sideways displacement exceeds `threshold` per `step`, the
+//! correction gets nodes every `step` (so a jump the consistency check did not flag — before the first
+//! panorama, in a stop, between control — has short links of its own), and with `widen` those links follow
+//! the vehicle's kinematics instead of the DG (mean −e of the sideways displacement e, σ widened by |e|, as
+//! inside flagged intervals: [`crate::JumpLocalization`]) and the span counts as a DG break for the prior's
+//! floor ([`crate::FaultPrior`]). The along-track part of a jump is not separable from braking and
+//! accelerating this way (a 0.2 m jump needs no more acceleration than driving does); it is left to the
+//! consistency check and to jump detection on the chain ([`crate::JumpDetection`]).
 
-use nalgebra::Vector6;
+use nalgebra::{Vector3, Vector6};
 use plumbline_geo::Trajectory;
-use plumbline_geo::trajectory::PositionInterpolation;
 use serde::{Deserialize, Serialize};
+
+use crate::vehicle::{Motion, crab_angle};
 
 /// Settings of the search for DG jumps in the DG's own motion.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -23,68 +26,78 @@ pub struct KinematicJumps {
     pub step: f64,
     /// Sideways displacement per `step` above which a span gets nodes, metres.
     pub threshold: f64,
-    /// Widen the links of anomalous spans by their sideways displacement d: σ² = σ_DG² + (anomaly_scale · d)²,
-    /// and count the spans as DG breaks.
+    /// Let the links of anomalous spans follow the vehicle's kinematics (mean −d of their sideways
+    /// displacement d, σ² = σ_DG² + (anomaly_scale · |d|)²), and count the spans as DG breaks.
     pub widen: bool,
     /// σ added per metre of sideways displacement when widening.
     pub anomaly_scale: f64,
+    /// Estimate the crab angle (the heading's misalignment with the direction of travel) over the drive and
+    /// take the sideways motion relative to it; `false`: the heading is the direction of travel.
+    #[serde(default = "default_true")]
+    pub crab: bool,
+}
+
+fn default_true() -> bool {
+    true
 }
 
 impl Default for KinematicJumps {
     fn default() -> Self {
-        Self { step: 0.2, threshold: 0.01, widen: true, anomaly_scale: 2.0 }
+        Self { step: 0.2, threshold: 0.01, widen: true, anomaly_scale: 2.0, crab: true }
     }
 }
 
-/// The DG's sideways motion sampled every `h` seconds from `start`.
+/// The DG's sideways motion beyond the crab angle, sampled every `step / 4`.
 struct Samples {
-    start: f64,
-    h: f64,
-    /// Sideways displacement of each sample interval (to the right of the heading), metres.
-    lateral: Vec<f64>,
+    motion: Motion,
+    /// tan(crab angle): the sideways displacement per metre along the heading that is not a jump.
+    crab: f64,
 }
 
 impl Samples {
-    fn new(trajectory: &Trajectory, (t0, t1): (f64, f64), c: &KinematicJumps) -> Option<Self> {
-        let h = (c.step / 4.0).max(1e-3);
-        let count = ((t1 - t0) / h).floor() as usize;
-        let at = |t: f64| trajectory.interpolate(t, PositionInterpolation::Linear).ok();
-        let records: Vec<_> = (0..=count).map(|i| at(t0 + i as f64 * h)).collect::<Option<_>>()?;
-        // The displacement across the mean heading (clockwise from north: right = (cos ψ, −sin ψ)).
-        let lateral = records
-            .windows(2)
-            .map(|w| {
-                let d = w[1].position.p - w[0].position.p;
-                let psi = w[0].attitude.heading + 0.5 * wrap(w[1].attitude.heading - w[0].attitude.heading);
-                let (s, c) = psi.sin_cos();
-                d.x * c - d.y * s
-            })
-            .collect();
-        Some(Self { start: t0, h, lateral })
+    fn new(trajectory: &Trajectory, span: (f64, f64), c: &KinematicJumps, crab: f64) -> Option<Self> {
+        let motion = Motion::sample(trajectory, span, (c.step / 4.0).max(1e-3))?;
+        Some(Self { motion, crab: crab.tan() })
     }
 
-    /// |Σ sideways displacement| over [a, b).
-    fn anomaly(&self, a: f64, b: f64) -> f64 {
-        let index = |t: f64| (((t - self.start) / self.h).round().max(0.0) as usize).min(self.lateral.len());
-        self.lateral[index(a)..index(b).max(index(a))].iter().sum::<f64>().abs()
+    /// The sideways displacement of sample interval i beyond the crab, metres (to the right).
+    fn lateral(&self, i: usize) -> f64 {
+        // Land-vehicle model (paper 001 §2): sideways displacement = tan(crab) · along-track displacement.
+        self.motion.across[i] - self.crab * self.motion.along[i]
+    }
+
+    /// The sideways displacement over [a, b) as an east, north, up vector.
+    fn anomaly(&self, a: f64, b: f64) -> Vector3<f64> {
+        let (i0, i1) = (self.motion.index(a), self.motion.index(b));
+        (i0..i1.max(i0)).map(|i| self.motion.to_world(i, 0.0, self.lateral(i), 0.0)).sum()
     }
 }
 
-/// The anomalous spans of the trajectory and their node epochs (every `step` over each span, its ends
-/// included), ready for [`crate::nodes::Nodes::new`].
-pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumps) -> Vec<(f64, f64)> {
+/// The DG's kinematic anomalies: the crab angle of the drive and the spans where the DG moves sideways.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub(crate) struct Anomalies {
+    /// The crab angle, radians (0 when not estimated).
+    pub crab: f64,
+    /// The anomalous spans, seconds.
+    pub spans: Vec<(f64, f64)>,
+}
+
+/// The crab angle and the anomalous spans of the trajectory, ready for [`span_nodes`].
+pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumps) -> Anomalies {
     let span = trajectory.span();
     if !(c.step > 0.0 && c.threshold > 0.0) || span.1 - span.0 < 2.0 * c.step {
-        return Vec::new();
+        return Anomalies::default();
     }
-    let Some(samples) = Samples::new(trajectory, span, c) else {
-        return Vec::new();
+    let Some(mut samples) = Samples::new(trajectory, span, c, 0.0) else {
+        return Anomalies::default();
     };
+    let crab = if c.crab { crab_angle(&samples.motion).unwrap_or(0.0) } else { 0.0 };
+    samples.crab = crab.tan();
     let steps = ((span.1 - span.0) / c.step).floor() as usize;
     let marked: Vec<bool> = (0..steps)
         .map(|j| {
             let a = span.0 + j as f64 * c.step;
-            samples.anomaly(a, a + c.step) > c.threshold
+            samples.anomaly(a, a + c.step).norm() > c.threshold
         })
         .collect();
     // Runs of marked steps (gaps of one step bridged), padded by one step on either side.
@@ -96,7 +109,8 @@ pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumps) -> Ve
             _ => out.push((lo, hi)),
         }
     }
-    out.into_iter().map(|(a, b)| (span.0 + a as f64 * c.step, span.0 + b as f64 * c.step)).collect()
+    let spans = out.into_iter().map(|(a, b)| (span.0 + a as f64 * c.step, span.0 + b as f64 * c.step)).collect();
+    Anomalies { crab, spans }
 }
 
 /// The node epochs inside the anomalous spans (every `step`).
@@ -109,35 +123,34 @@ pub(crate) fn span_nodes(spans: &[(f64, f64)], c: &KinematicJumps) -> Vec<f64> {
     spans.iter().flat_map(inner).collect()
 }
 
-/// Widen the position σ of the links inside the anomalous spans by their anomalous DG displacement.
+/// Inside the anomalous spans, let the links follow the vehicle's kinematics instead of the DG's sideways
+/// motion: the correction's increment over a link is expected to cancel the sideways displacement e there
+/// (`mean` = −e, east/north/up), with σ² = σ_DG² + (anomaly_scale · |e|)² for what the control must settle.
 pub(crate) fn widen(
     relative: &mut [Vector6<f64>],
+    mean: &mut [Vector3<f64>],
     times: &[f64],
     trajectory: &Trajectory,
-    spans: &[(f64, f64)],
+    anomalies: &Anomalies,
     c: &KinematicJumps,
 ) {
-    for &(a, b) in spans {
+    for &(a, b) in &anomalies.spans {
         let k0 = times.partition_point(|t| *t < a - 1e-9);
         let k1 = times.partition_point(|t| *t <= b + 1e-9);
         if k1 <= k0 + 1 {
             continue;
         }
-        let Some(samples) = Samples::new(trajectory, (a, b.min(trajectory.span().1)), c) else {
+        let Some(samples) = Samples::new(trajectory, (a, b.min(trajectory.span().1)), c, anomalies.crab) else {
             continue;
         };
         for k in k0..k1 - 1 {
-            let anomaly = samples.anomaly(times[k], times[k + 1]);
+            let e = samples.anomaly(times[k], times[k + 1]);
+            mean[k] = -e;
             for s in relative[k].iter_mut().take(3) {
-                *s = s.hypot(c.anomaly_scale * anomaly);
+                *s = s.hypot(c.anomaly_scale * e.norm());
             }
         }
     }
-}
-
-/// An angle in (−π, π].
-fn wrap(a: f64) -> f64 {
-    crate::model::wrap(a)
 }
 
 #[cfg(test)]
@@ -154,13 +167,20 @@ mod tests {
     /// a stop at 42 s; sideways jumps rising over 1 s: 0.2 m north at 20 s (driving west at 8 m/s) and 0.4 m
     /// south at 45 s (standing).
     fn drive() -> Trajectory {
+        drive_with(0.0, true)
+    }
+
+    /// [`drive`] with the heading reading `crab` radians left of the direction of travel (a misaligned IMU),
+    /// with or without the jumps.
+    fn drive_with(crab: f64, jumps: bool) -> Trajectory {
         let records = (0..3000)
             .map(|i| {
                 let t = i as f64 * 0.02;
                 let (x, y, heading) = path(t);
-                let jump = 0.2 * smoothstep(t - 20.0) - 0.4 * smoothstep(t - 45.0);
+                let jump = if jumps { 0.2 * smoothstep(t - 20.0) - 0.4 * smoothstep(t - 45.0) } else { 0.0 };
                 let p = Point3::new(1000.0 + x, 2000.0 + y + jump, 50.0);
-                TrajectoryRecord { time: t, position: p, attitude: Attitude::new(0.0, 0.0, heading), std: None }
+                let attitude = Attitude::new(0.0, 0.0, heading - crab);
+                TrajectoryRecord { time: t, position: p, attitude, std: None }
             })
             .collect();
         Trajectory::new(records, &ValidationLimits::default()).unwrap()
@@ -186,11 +206,29 @@ mod tests {
     #[test]
     fn jumps_are_anomalous_and_turns_and_braking_are_not() {
         let c = KinematicJumps::default();
-        let spans = anomalous_spans(&drive(), &c);
+        let spans = anomalous_spans(&drive(), &c).spans;
         let hit = |t: f64| spans.iter().any(|(a, b)| *a <= t && t <= *b);
         assert!(hit(20.5) && hit(45.5), "{spans:?}");
         // Only the two jumps: 1 s rises plus padding each.
         assert_eq!(spans.len(), 2, "{spans:?}");
         assert!(spans.iter().all(|(a, b)| b - a < 2.0), "{spans:?}");
+    }
+
+    #[test]
+    fn a_misaligned_heading_is_not_a_jump_and_jumps_are_still_found_beside_it() {
+        let c = KinematicJumps::default();
+        for degrees in [1.0f64, 2.0] {
+            let crab = degrees.to_radians();
+            let clean = anomalous_spans(&drive_with(crab, false), &c);
+            assert!((clean.crab - crab).abs() < 1e-3, "{degrees}°: {}", clean.crab.to_degrees());
+            assert!(clean.spans.is_empty(), "{degrees}°: {:?}", clean.spans);
+            // Taking the heading as the direction of travel, every moving step looks like a jump.
+            let naive = anomalous_spans(&drive_with(crab, false), &KinematicJumps { crab: false, ..c });
+            let marked: f64 = naive.spans.iter().map(|(a, b)| b - a).sum();
+            assert!(marked > 30.0, "{degrees}°: {marked} s marked");
+            let jumps = anomalous_spans(&drive_with(crab, true), &c).spans;
+            let hit = |t: f64| jumps.iter().any(|(a, b)| *a <= t && t <= *b);
+            assert!(hit(20.5) && hit(45.5) && jumps.len() == 2, "{degrees}°: {jumps:?}");
+        }
     }
 }

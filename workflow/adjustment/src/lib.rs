@@ -4,8 +4,10 @@
 //!   R' = Exp(δθ) R) at node epochs — the observation epochs, weak-link boundaries, the trajectory ends and
 //!   optional regular spacing — linearly interpolated in between; plus the coordinates of tie points.
 //! - **DG model**: random-walk constraints between consecutive nodes whose strength follows the DG σ
-//!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]) — with nodes inside and the freedom put
-//!   where the DG's motion is anomalous, i.e. where it jumped ([`JumpLocalization`]) — and a weak absolute
+//!   ([`RandomWalk`]), weakened over flagged intervals ([`WeakLink`]) — with nodes inside, and where the DG's
+//!   motion departs from the vehicle's reference motion (in the vehicle's own frame: along the heading, across
+//!   it beyond the drive's crab angle, up), i.e. where it jumped, the links follow the reference motion (mean
+//!   −anomaly) with σ widened by the anomaly ([`JumpLocalization`]) — and a weak absolute
 //!   prior per node, floored between DG breaks close enough to be one jump ([`FaultPrior`]): there the DG's
 //!   own σ says nothing about its offset.
 //! - **Cadastre objects**: the pole updates of one object share its cadastre error; an object seen more than
@@ -23,8 +25,9 @@
 //!   snooped like any observation) instead of following the DG's relative motion, so a DG jump while
 //!   standing is absorbed into the correction; [`Adjustment::apply`] holds the pose over the accepted ones.
 //! - **Jumps seen in the DG's own motion** ([`KinematicJumps`]): where the DG moves sideways (a car moves
-//!   along its heading), it jumped; those spans get nodes every 0.2 s, links widened by the sideways motion,
-//!   and count as DG breaks for the prior's floor — so a jump no image pair flagged is resolved where it rose.
+//!   along its heading, up to the crab angle estimated over the drive), it jumped; those spans get nodes every
+//!   0.2 s, links that cancel the sideways motion (mean and σ from it), and count as DG breaks for the prior's
+//!   floor — so a jump no image pair flagged is resolved where it rose.
 //! - **Jumps the consistency check missed** ([`JumpDetection`]): snooping tests the relative constraints'
 //!   position rows too; an inconsistent one is widened as a DG jump ([`Adjustment::jumps`]) instead of the
 //!   control after it being rejected one by one.
@@ -58,10 +61,12 @@ mod offsets;
 mod parallel;
 mod pattern;
 mod problem;
+mod relative;
 mod so3;
 mod solver;
 mod standstill;
 mod stats;
+mod vehicle;
 
 pub use adjust::{
     AdjustedPoint, Adjustment, AdjustmentError, NodeCorrection, RejectedMotion, RejectedObservation,

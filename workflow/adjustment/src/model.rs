@@ -86,23 +86,23 @@ pub(crate) fn gnss(
     out
 }
 
-/// Two orthonormal vectors spanning the plane perpendicular to the unit vector `d`.
+/// The orthonormal tangents (across, elevation) of the unit camera-frame direction `d` that a tie ray's two σ
+/// refer to ([`crate::TieRay::tangents`]): elevation is the camera's up axis made perpendicular to `d`.
 pub(crate) fn tangent_basis(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
-    let helper = if d.x.abs() < 0.9 { Vector3::x() } else { Vector3::y() };
-    let b1 = d.cross(&helper).normalize();
-    (b1, d.cross(&b1))
+    crate::observations::ray_tangents(d)
 }
 
 /// Spherical collinearity: the unit direction from the corrected camera to the point, expressed in the
 /// camera frame (inverse of paper 003 eq. (1) via [`CameraMount::to_camera`]), projected on the tangent
-/// plane of the observed ray; residual in radians over σ.
+/// plane of the observed ray along (across, elevation) of [`tangent_basis`]; residuals in radians over
+/// `sigma` = [σ across, σ elevation] (a diagonal covariance in that basis).
 pub(crate) fn ray(
     dg: &DgPose,
     delta: &Vector6<f64>,
     mount: &CameraMount,
     point: &Vector3<f64>,
     direction: &Vector3<f64>,
-    sigma: f64,
+    sigma: [f64; 2],
 ) -> Linearized {
     let (dp, dth) = split(delta);
     let r_corr = exp(&dth) * dg.r;
@@ -117,7 +117,7 @@ pub(crate) fn ray(
     let dv_dth = r_cb_t * dg.r.transpose() * skew(&(exp(&dth).transpose() * (point - p_corr))) * right_jacobian(&dth);
     let (b1, b2) = tangent_basis(direction);
     let mut out = Linearized::new(2);
-    for (row, b) in [b1, b2].iter().enumerate() {
+    for (row, (b, sigma)) in [b1, b2].iter().zip(sigma).enumerate() {
         let g = b.transpose() * du_dv / sigma;
         out.e[row] = b.dot(&u) / sigma;
         out.j_pose.fixed_view_mut::<1, 3>(row, 0).copy_from(&(-g * dv_dx));
@@ -224,7 +224,9 @@ mod tests {
         check(|d, _| gnss(&dg(), d, &lever, &Vector3::new(1000.0, 2000.0, 52.0), &sigma), delta(), Vector3::zeros());
         let mount = CameraMount::new([0.5, 0.1, -2.0], &Boresight::from_degrees(0.5, -0.3, 40.0));
         let dir = Vector3::new(0.3, 0.4, 0.8).normalize();
-        check(|d, x| ray(&dg(), d, &mount, x, &dir, 1e-3), delta(), Vector3::new(1010.0, 2008.0, 48.0));
+        for sigma in [[1e-3; 2], [1e-3, 7e-3]] {
+            check(|d, x| ray(&dg(), d, &mount, x, &dir, sigma), delta(), Vector3::new(1010.0, 2008.0, 48.0));
+        }
         let w = Matrix3::new(10.0, 0.0, 0.0, 2.0, 12.0, 0.0, -1.0, 3.0, 20.0);
         check(|_, x| aerial(x, &Vector3::new(1.0, 2.0, 3.0), &w), delta(), Vector3::new(1.2, 1.9, 3.3));
         let offset = Vector3::new(0.1, -0.5, 0.02);
@@ -258,7 +260,29 @@ mod tests {
         };
         let body = MapFromBody::new(Rotation::from_matrix(&truth.r), Point3::from_vector(truth.p));
         let dir = mount.to_camera(&body, &Point3::from_vector(x)).v.normalize();
-        assert!(ray(&dg(), &delta(), &mount, &x, &dir, 1e-3).e.norm() < 1e-9);
+        assert!(ray(&dg(), &delta(), &mount, &x, &dir, [1e-3, 4e-3]).e.norm() < 1e-9);
+    }
+
+    #[test]
+    fn a_ray_residual_splits_into_across_and_elevation_over_their_own_sigmas() {
+        // Camera at the DG pose; the point seen 20° below the horizon, 30° to the right. Observed rays turned
+        // by a known small angle ε in azimuth or elevation give a residual of ε / σ in that row only.
+        let mount = CameraMount::new([0.5, 0.1, -2.0], &Boresight::from_degrees(0.5, -0.3, 40.0));
+        let level = DgPose { p: dg().p, r: Attitude::new(0.0, 0.0, 1.1).to_rotation().matrix() };
+        let body = MapFromBody::new(Rotation::from_matrix(&level.r), Point3::from_vector(level.p));
+        let (az, el, range) = (30f64.to_radians(), -20f64.to_radians(), 12.0);
+        let along = |az: f64, el: f64| Vector3::new(el.cos() * az.sin(), -el.sin(), el.cos() * az.cos());
+        let camera = mount.camera_pose(&body);
+        let x = camera.translation.p + camera.rotation.matrix() * along(az, el) * range;
+        let (sigma, eps) = ([1e-3, 5e-3], 2e-4);
+        for (turned, want) in [(along(az + eps / el.cos(), el), [1.0, 0.0]), (along(az, el + eps), [0.0, 1.0])] {
+            let e = ray(&level, &Vector6::zeros(), &mount, &x, &turned, sigma).e;
+            // The residual is predicted − observed: the opposite sign of the turn.
+            for row in 0..2 {
+                let expect = -want[row] * eps / sigma[row];
+                assert!((e[row] - expect).abs() < 1e-3 * eps / sigma[0], "row {row}: {} vs {expect}", e[row]);
+            }
+        }
     }
 
     #[test]

@@ -130,11 +130,11 @@ pub(crate) fn assemble(p: &Problem, x: &[f64], active: &[bool], huber: Option<f6
     n
 }
 
-/// Relative random-walk constraints x_{k+1} − x_k ~ N(0, diag σ²) and the weak prior x_k ~ N(0, diag σ_p²).
+/// Relative random-walk constraints x_{k+1} − x_k ~ N([mean; 0], diag σ²) and the weak prior x_k ~ N(0, diag σ_p²).
 fn assemble_chain(p: &Problem, x: &[f64], n: &mut Normal) {
     for (k, sigma) in p.relative_sigma.iter().enumerate() {
         let wgt = sigma.map(|s| 1.0 / (s * s));
-        let d = node(x, k + 1) - node(x, k);
+        let d = p.link_residual(x, k);
         n.cost += 0.5 * d.component_mul(&d).dot(&wgt);
         let g = d.component_mul(&wgt);
         for c in 0..6 {
@@ -171,7 +171,7 @@ pub(crate) fn nuisance_prior(p: &Problem, x: &[f64]) -> f64 {
 /// The objective at `x` (chain terms + Huber loss of the active observations).
 pub(crate) fn cost(p: &Problem, x: &[f64], active: &[bool], huber: Option<f64>) -> f64 {
     let relative = parallel::sum(p.par, p.relative_sigma.len(), |k| {
-        0.5 * (node(x, k + 1) - node(x, k)).component_div(&p.relative_sigma[k]).norm_squared()
+        0.5 * p.link_residual(x, k).component_div(&p.relative_sigma[k]).norm_squared()
     });
     let prior =
         parallel::sum(p.par, p.prior_sigma.len(), |k| 0.5 * node(x, k).component_div(&p.prior_sigma[k]).norm_squared());

@@ -100,8 +100,45 @@ pub struct TieRay {
     pub time: f64,
     /// Unit direction to the point in the camera frame.
     pub direction: [f64; 3],
-    /// Angular standard deviation of the direction, radians.
+    /// Angular standard deviation of the direction, radians: in every direction when `sigma_elevation` is
+    /// absent, otherwise across the ray's vertical plane (along the tangent `direction × t_el`, see
+    /// [`TieRay::tangents`]).
     pub sigma: f64,
+    /// Angular standard deviation in the ray's vertical plane, radians: along the unit tangent `t_el` of
+    /// increasing elevation, the camera's up axis (−y) projected perpendicular to `direction`. Absent: `sigma`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sigma_elevation: Option<f64>,
+}
+
+impl TieRay {
+    /// An isotropic ray: `sigma` in every direction.
+    pub fn new(time: f64, direction: [f64; 3], sigma: f64) -> Self {
+        Self { time, direction, sigma, sigma_elevation: None }
+    }
+
+    /// The standard deviations along [`TieRay::tangents`]: [across, elevation], radians.
+    pub fn sigmas(&self) -> [f64; 2] {
+        [self.sigma, self.sigma_elevation.unwrap_or(self.sigma)]
+    }
+
+    /// The orthonormal tangents of the direction the two σ refer to, in the camera frame: [`direction × t_el`,
+    /// `t_el`] with `t_el` the camera's up axis (−y) made perpendicular to the direction (increasing elevation;
+    /// the across tangent points to increasing azimuth, camera +x for a ray along +z). For a ray within
+    /// 1e-9 of the camera's vertical axis, where elevation has no direction, any orthonormal pair.
+    pub fn tangents(&self) -> [[f64; 3]; 2] {
+        let (across, elevation) = ray_tangents(&nalgebra::Vector3::from(self.direction));
+        [across.into(), elevation.into()]
+    }
+}
+
+/// [`TieRay::tangents`] of a unit direction `d`: (across, elevation).
+pub(crate) fn ray_tangents(d: &nalgebra::Vector3<f64>) -> (nalgebra::Vector3<f64>, nalgebra::Vector3<f64>) {
+    let up = -nalgebra::Vector3::y();
+    let elevation = (up - d * d.dot(&up)).try_normalize(1e-9).unwrap_or_else(|| {
+        let helper = if d.x.abs() < 0.9 { nalgebra::Vector3::x() } else { nalgebra::Vector3::z() };
+        d.cross(&helper).normalize()
+    });
+    (d.cross(&elevation), elevation)
 }
 
 /// Mapping-frame coordinates of a point from aerial triangulation with their covariance.
@@ -288,6 +325,8 @@ impl TiePoint {
             let n = nalgebra::Vector3::from(r.direction).norm();
             check(&mut out, (n - 1.0).abs() < 1e-6, &item, "rays.direction", "is not a unit vector");
             check(&mut out, r.sigma > 0.0 && r.sigma.is_finite(), &item, "rays.sigma", "must be > 0 and finite");
+            let elevation_ok = r.sigma_elevation.is_none_or(|s| s > 0.0 && s.is_finite());
+            check(&mut out, elevation_ok, &item, "rays.sigma_elevation", "must be > 0 and finite");
         }
         if let Some(a) = &self.aerial {
             check(&mut out, finite(&a.position), &item, "aerial.position", "is not finite");
@@ -335,7 +374,7 @@ mod tests {
         let set = ObservationSet::V1(ObservationSetV1 {
             ties: vec![TiePoint {
                 id: TiePointId("t1".into()),
-                rays: vec![TieRay { time: 1.0, direction: [0.0, 0.6, 0.8], sigma: 1e-3 }; 2],
+                rays: vec![TieRay::new(1.0, [0.0, 0.6, 0.8], 1e-3); 2],
                 aerial: Some(AerialPoint { position: [1.0, 2.0, 3.0], covariance: [[0.01, 0.0, 0.0]; 3] }),
             }],
             poles: vec![pole()],
@@ -369,6 +408,46 @@ mod tests {
     }
 
     #[test]
+    fn a_ray_with_an_elevation_sigma_round_trips_and_old_rays_keep_their_meaning() {
+        let old: TieRay = serde_json::from_str(r#"{"time":1.0,"direction":[0.0,0.6,0.8],"sigma":0.002}"#).unwrap();
+        assert_eq!(old, TieRay::new(1.0, [0.0, 0.6, 0.8], 0.002));
+        assert_eq!(old.sigmas(), [0.002, 0.002]);
+        assert!(!serde_json::to_string(&old).unwrap().contains("sigma_elevation"));
+        let ray = TieRay { sigma_elevation: Some(0.005), ..old };
+        assert_eq!(ray.sigmas(), [0.002, 0.005]);
+        assert_eq!(serde_json::from_str::<TieRay>(&serde_json::to_string(&ray).unwrap()).unwrap(), ray);
+        let tie = |sigma_elevation| TiePoint {
+            id: TiePointId("t".into()),
+            rays: vec![ray, TieRay { sigma_elevation, ..ray }],
+            aerial: None,
+        };
+        for bad in [0.0, -1e-3, f64::NAN, f64::INFINITY] {
+            let fields: Vec<_> = tie(Some(bad)).problems(0).iter().map(|e| e.field).collect();
+            assert_eq!(fields, ["rays.sigma_elevation"], "{bad}");
+        }
+        assert!(tie(None).problems(0).is_empty());
+    }
+
+    #[test]
+    fn the_elevation_tangent_points_up_in_the_rays_vertical_plane() {
+        let v = |a: [f64; 3]| nalgebra::Vector3::from(a);
+        // A ray 30° below the horizon, 40° right of the centre column (camera: x right, y down, z forward).
+        let (az, el) = (40f64.to_radians(), -30f64.to_radians());
+        let d = [el.cos() * az.sin(), -el.sin(), el.cos() * az.cos()];
+        let [across, elevation] = TieRay::new(0.0, d, 1e-3).tangents();
+        // ∂d/∂elevation and ∂d/∂azimuth / cos(elevation) of the equirectangular parametrisation.
+        let want_el = [-el.sin() * az.sin(), -el.cos(), -el.sin() * az.cos()];
+        let want_az = [az.cos(), 0.0, -az.sin()];
+        assert!((v(elevation) - v(want_el)).norm() < 1e-12, "{elevation:?}");
+        assert!((v(across) - v(want_az)).norm() < 1e-12, "{across:?}");
+        // Straight down: no elevation direction, still an orthonormal pair perpendicular to the ray.
+        let [a, b] = TieRay::new(0.0, [0.0, 1.0, 0.0], 1e-3).tangents();
+        let (a, b) = (v(a), v(b));
+        assert!((a.norm() - 1.0).abs() < 1e-12 && (b.norm() - 1.0).abs() < 1e-12);
+        assert!(a.dot(&b).abs() < 1e-12 && a.y.abs() < 1e-12 && b.y.abs() < 1e-12);
+    }
+
+    #[test]
     fn the_schema_requires_the_version_tag() {
         let schema = serde_json::to_value(schemars::schema_for!(ObservationSet)).unwrap();
         let text = schema.to_string();
@@ -385,7 +464,7 @@ mod tests {
         assert!(problems[0].to_string().contains("index: 4"), "{}", problems[0]);
         let tie = TiePoint {
             id: TiePointId("t".into()),
-            rays: vec![TieRay { time: 1.0, direction: [0.0, 0.0, 2.0], sigma: 1e-3 }],
+            rays: vec![TieRay::new(1.0, [0.0, 0.0, 2.0], 1e-3)],
             aerial: Some(AerialPoint {
                 position: [0.0; 3],
                 covariance: [[1.0, 2.0, 0.0], [2.0, 1.0, 0.0], [0.0, 0.0, 1.0]],

@@ -46,10 +46,11 @@ pub(crate) enum Kind {
         measured: Vector3<f64>,
         sigma: Vector3<f64>,
     },
+    /// `sigma`: [across, elevation] of [`crate::TieRay::sigmas`].
     Ray {
         point: usize,
         direction: Vector3<f64>,
-        sigma: f64,
+        sigma: [f64; 2],
     },
     /// `bias`: the aerial frame set's height-bias block.
     Aerial {
@@ -110,6 +111,8 @@ pub(crate) struct Problem {
     /// The aerial frame sets' height biases.
     pub biases: Vec<crate::heights::BiasBlock>,
     pub relative_sigma: Vec<Vector6<f64>>,
+    /// Expected position increment of the correction over each link (`crate::chain::Chain::mean`).
+    pub relative_mean: Vec<Vector3<f64>>,
     pub prior_sigma: Vec<Vector6<f64>>,
     pub pattern: Pattern,
     pub mount: CameraMount,
@@ -165,7 +168,7 @@ impl Problem {
             .kinematic_jumps
             .map(|c| crate::kinematics::anomalous_spans(input.trajectory, &c))
             .unwrap_or_default();
-        let kinematic = config.kinematic_jumps.map(|c| crate::kinematics::span_nodes(&anomalous, &c));
+        let kinematic = config.kinematic_jumps.map(|c| crate::kinematics::span_nodes(&anomalous.spans, &c));
         // A relative motion's both epochs are nodes.
         let times = b
             .raw
@@ -180,7 +183,7 @@ impl Problem {
         for o in &mut obs {
             match o.kind {
                 Kind::Aerial { .. } => {}
-                Kind::Motion { .. } => o.parts = difference_parts(&nodes, o.time, o.until),
+                Kind::Motion { .. } => o.parts = crate::relative::difference_parts(&nodes, o.time, o.until),
                 _ => o.parts = nodes.bracket(o.time),
             }
         }
@@ -190,7 +193,7 @@ impl Problem {
         let mut breaks = crate::chain::breaks(input, &standstills, config);
         // Where the DG's own motion jumped (and the links are widened for it), it breaks like a flagged link.
         if config.kinematic_jumps.is_some_and(|c| c.widen) {
-            breaks.extend(anomalous.iter().copied());
+            breaks.extend(anomalous.spans.iter().copied());
         }
         let links = crate::chain::Links {
             all: &links,
@@ -214,6 +217,7 @@ impl Problem {
             offset_sigma,
             biases,
             relative_sigma: chain.relative,
+            relative_mean: chain.mean,
             prior_sigma: chain.prior,
             pattern,
             mount: *input.mount,
@@ -222,6 +226,15 @@ impl Problem {
             standstills,
             par,
         }
+    }
+
+    /// Link k's departure from its expectation: x_{k+1} − x_k − [mean_k; 0].
+    pub fn link_residual(&self, x: &[f64], k: usize) -> Vector6<f64> {
+        let mut d = crate::normal::node(x, k + 1) - crate::normal::node(x, k);
+        for c in 0..3 {
+            d[c] -= self.relative_mean[k][c];
+        }
+        d
     }
 
     /// Parameter index of the first coordinate of point `p`.
@@ -300,19 +313,6 @@ fn standstill_obs<'a>(
         .flatten()
 }
 
-/// The interpolation weights of δ(end) − δ(start), one entry per node.
-fn difference_parts(nodes: &Nodes, start: f64, end: f64) -> Vec<(usize, f64)> {
-    let mut parts: Vec<(usize, f64)> = nodes.bracket(start).into_iter().map(|(k, w)| (k, -w)).collect();
-    for (k, w) in nodes.bracket(end) {
-        match parts.iter_mut().find(|(j, _)| *j == k) {
-            Some(part) => part.1 += w,
-            None => parts.push((k, w)),
-        }
-    }
-    parts.retain(|(_, w)| *w != 0.0);
-    parts
-}
-
 /// Block counts: nodes, then tie points, cadastre offsets and height biases.
 struct Layout {
     nodes: usize,
@@ -387,35 +387,11 @@ impl Builder<'_, '_> {
         }
     }
 
-    /// The image-derived relative motions (their DG counterpart read off the trajectory); the broken ones
-    /// and those outside the trajectory are returned.
+    /// The image-derived relative motions ([`crate::relative`]); the broken ones and those outside the
+    /// trajectory are returned.
     fn motions(&mut self) -> Vec<MotionError> {
-        let mut skipped = Vec::new();
-        let t = self.input.trajectory;
-        for (index, m) in self.input.observations.motions.iter().enumerate() {
-            let problems = m.problems(index);
-            if !problems.is_empty() {
-                skipped.extend(problems);
-                continue;
-            }
-            let at = |time: f64| t.interpolate(time, PositionInterpolation::Linear).ok();
-            let (Some(a), Some(b), Some(dg)) = (at(m.start), at(m.end), dg_pose(t, m.start)) else {
-                let problem = "lies outside the trajectory's time span".into();
-                skipped.push(MotionError { index, field: "start/end", problem });
-                continue;
-            };
-            let d = b.position.p - a.position.p;
-            let turn = crate::model::wrap(b.attitude.heading - a.attitude.heading);
-            let [e, n] = m.displacement;
-            let kind = Kind::Motion {
-                dg: Vector3::new(d.x, d.y, turn),
-                measured: Vector3::new(e, n, m.heading_change),
-                sigma: Vector3::from(m.std),
-            };
-            let item = Item::Motion(index);
-            let parts = Vec::new();
-            self.raw.push(Obs { item, time: m.start, until: m.end, dg, parts, kind, pole_sigmas: None });
-        }
+        let (obs, skipped) = crate::relative::observations(self.input.trajectory, &self.input.observations.motions);
+        self.raw.extend(obs);
         skipped
     }
 
@@ -452,7 +428,7 @@ impl Builder<'_, '_> {
         self.point_init.push(x);
         for (ray, r) in tie.rays.iter().enumerate() {
             let item = ObservationRef::TieRay { index, point: tie.id.clone(), ray };
-            self.push(item, r.time, Kind::Ray { point, direction: Vector3::from(r.direction), sigma: r.sigma });
+            self.push(item, r.time, Kind::Ray { point, direction: Vector3::from(r.direction), sigma: r.sigmas() });
         }
         if let Some(a) = &tie.aerial {
             let item = ObservationRef::TieAerial { index, point: tie.id.clone() };

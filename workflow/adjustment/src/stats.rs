@@ -127,7 +127,7 @@ pub(crate) fn sigma0(p: &Problem, x: &[f64], active: &[bool]) -> (f64, f64) {
     let mut sum = 0.0;
     let mut rows = 0usize;
     for (k, s) in p.relative_sigma.iter().enumerate() {
-        sum += (node(x, k + 1) - node(x, k)).component_div(s).norm_squared();
+        sum += p.link_residual(x, k).component_div(s).norm_squared();
         rows += 6;
     }
     for (k, s) in p.prior_sigma.iter().enumerate() {

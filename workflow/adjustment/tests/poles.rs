@@ -158,6 +158,7 @@ fn the_export_holds_the_nodes_chain_and_poles_the_adjustment_solves() {
     let exported = plumbline_adjustment::export(&input, &AdjustmentConfig::default());
     assert_eq!(exported.nodes.len(), result.nodes.len());
     assert_eq!(exported.links.len(), result.nodes.len() - 1);
+    assert_eq!(exported.link_means.len(), exported.links.len());
     assert_eq!(exported.poles.len(), obs.poles.len() - 1, "the broken pole is left out");
     for (e, n) in exported.nodes.iter().zip(&result.nodes) {
         assert_eq!(e.time, n.time);

@@ -23,7 +23,7 @@
 //! one improvement of the adjustment off to measure what it contributes: `offsets` (one nuisance offset per
 //! cadastre object), `fault-prior` (the prior's floor between DG breaks), `localization` (jumps localised inside
 //! flagged intervals), `kinematic` (nodes where the DG's own motion breaks the vehicle's kinematics), `kinematic-widen`
-//! (those links widened by the anomaly); `prior-time` switches the per-time prior off where it is on; `prior-time=<s>` switches it on with that time. `ACC_DEBUG=<time>` prints
+//! (those links widened by the anomaly), `crab` (the drive's crab angle estimated and subtracted); `prior-time` switches the per-time prior off where it is on; `prior-time=<s>` switches it on with that time. `ACC_DEBUG=<time>` prints
 //! the faults, flags, standstills, pole updates and errors within 40 s of that time to stderr (errors every
 //! `ACC_DEBUG_STEP` records within `ACC_DEBUG_SPAN` s).
 #![allow(clippy::unwrap_used)]
@@ -131,11 +131,17 @@ fn main() {
                     .map(|s| max_error(t, &case.truth, s.standstill.start, s.standstill.end))
                     .fold(0.0, f64::max)
             };
+            // The standstill holding the largest error of the corrected trajectory.
+            let worst_still = still
+                .iter()
+                .map(|s| (max_error(&corrected, &case.truth, s.standstill.start, s.standstill.end), s.standstill))
+                .max_by(|a, b| a.0.total_cmp(&b.0))
+                .map_or(String::new(), |(_, s)| format!(" (worst {:.0}-{:.0} s)", s.start, s.end));
             notes.push(format!(
                 "{profile}, {name}: {} poles + {} ties + {} motions ({} rejected), {:.1} s; wrong pole (σ {:.2} m) rejected: {rejected} \
                  ({} rejections in all); {} of {} image pairs flagged; inside the injected jump (1.5 s from its \
                  edges) max 2D error {jump:.3} m (DG {dg_jump:.3} m); {} standstills ({seconds_still:.0} s), {accepted} \
-                 kept, max 2D error inside them {:.3} m (DG {:.3} m); largest cross-track near control: {worst}",
+                 kept, max 2D error inside them {:.3} m{worst_still} (DG {:.3} m); largest cross-track near control: {worst}",
                 obs.poles.len(),
                 obs.ties.len(),
                 obs.motions.len(),
@@ -168,6 +174,11 @@ fn ablated(without: &[String]) -> AdjustmentConfig {
             "fault-prior" => config.fault_prior = None,
             "localization" => config.jump_localization = None,
             "kinematic" => config.kinematic_jumps = None,
+            "crab" => {
+                if let Some(k) = &mut config.kinematic_jumps {
+                    k.crab = false;
+                }
+            }
             "kinematic-widen" => {
                 if let Some(k) = &mut config.kinematic_jumps {
                     k.widen = false;
@@ -222,7 +233,7 @@ fn build(profile: &'static str, canyon: Canyon, seed: u64) -> Case {
         .into_iter()
         .map(|t| TiePoint {
             id: TiePointId(t.id),
-            rays: t.rays.iter().map(|r| TieRay { time: r.time, direction: r.direction, sigma: r.sigma }).collect(),
+            rays: t.rays.iter().map(|r| TieRay::new(r.time, r.direction, r.sigma)).collect(),
             aerial: Some(AerialPoint { position: t.aerial.0, covariance: t.aerial.1 }),
         })
         .collect();

@@ -5,14 +5,16 @@
 //! on) or correct and rejected because the trajectory model could not fit it (near a DG fault or not).
 //!
 //! Variants: `default` is what `finish` does (merge, join the tie points sharing an image point, adjust);
-//! `unjoined` leaves them apart (as before the join); the others change one σ of the unjoined set or drop a
-//! kind of tie from it.
+//! `unjoined` leaves them apart (as before the join); `no_elevation_sigma` is `default` with every ray's
+//! σ across used in elevation too; the others change one σ of the unjoined set or drop a kind of tie from it.
 //!
 //! Run: `cargo bench -p plumbline-adjuster --bench rejections -- DIR [VARIANT...]` with DIR a demo folder
 //! (`campaign.toml`, `truth/`, outputs under `results/`); no VARIANT runs `default` and `unjoined`, `all`
-//! every one.
+//! every one. The accepted rays' errors are also split into across / elevation by range (`decompose.rs`);
+//! `REJECTIONS_DUMP=FILE` writes those rays as CSV.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
+mod decompose;
 mod score;
 mod truth;
 
@@ -51,6 +53,13 @@ const VARIANTS: &[Variant] = &[
     Variant { name: "no_mm_only_ties", apply: |_, m| m.observations.ties.retain(|t| t.aerial.is_some()) },
     Variant { name: "no_height_bias", apply: |c, _| c.adjustment.height_biases = None },
     Variant { name: "ray_sigma_by_range", apply: |_, m| scale_rays_by_range(m, 7.0) },
+    Variant {
+        name: "no_elevation_sigma",
+        apply: |_, m| {
+            join_shared_points(m);
+            m.observations.ties.iter_mut().flat_map(|t| t.rays.iter_mut()).for_each(|r| r.sigma_elevation = None);
+        },
+    },
     Variant {
         name: "no_ties_beyond_10m",
         apply: |_, m| m.observations.ties.retain(|t| t.rays.iter().all(|r| ground_range(r) < 10.0)),
@@ -128,6 +137,7 @@ fn main() {
         print_causes(&merged, &solved, &scores, &truth);
         scores.print_distributions(&solved);
         scores.print_by_class();
+        decompose::print(&scores, &solved, std::f64::consts::TAU / f64::from(camera.width));
         truth.self_check(&merged);
         scores.print_height_biases(&merged, &solved);
         rows.push(row(v.name, &compare(&solved.corrected, reference).unwrap(), Some(&solved)));

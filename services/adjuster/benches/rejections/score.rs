@@ -1,13 +1,13 @@
 //! Tie rays and aerial points scored against the truth: the true error of every observation in units of its
 //! own σ, and the verdict on a rejected one.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 use std::fmt;
 
 use nalgebra::{Matrix2, Vector2, Vector3};
 use plumbline_adjuster::{Merged, Solved};
-use plumbline_adjustment::ObservationRef;
-use plumbline_geo::PositionInterpolation;
+use plumbline_adjustment::{ObservationRef, TieRay};
+use plumbline_geo::{MapFromCamera, PositionInterpolation};
 
 use crate::truth::{CLASSES, Truth};
 
@@ -27,6 +27,45 @@ pub struct RayScore {
     pub across: Option<f64>,
     /// Range from the camera to the true point, metres.
     pub range: Option<f64>,
+    /// The signed angular error (observed − true, radians) along the ray's tangents [across, elevation]
+    /// (`TieRay::tangents`), and the ray's σ along them.
+    pub components: Option<[f64; 2]>,
+    pub sigmas: [f64; 2],
+    /// Height of the camera above the true point, metres.
+    pub height: Option<f64>,
+    /// Range from the other ray's camera to the true point, and the distance between the cameras, metres.
+    pub other: Option<[f64; 2]>,
+}
+
+/// The geometry of one ray against the truth (see [`RayScore`]).
+struct Geometry {
+    error: f64,
+    across: f64,
+    range: f64,
+    components: [f64; 2],
+    height: f64,
+    other: Option<[f64; 2]>,
+}
+
+/// Score `ray` seen from the true camera `pose` against the true point `p`; `other` is the other ray's camera.
+fn geometry(ray: &TieRay, pose: &MapFromCamera, p: &Vector3<f64>, other: Option<&MapFromCamera>) -> Geometry {
+    let r = pose.rotation.matrix();
+    let observed = Vector3::from(ray.direction).normalize();
+    let truly = r.transpose() * (p - pose.translation.p).normalize();
+    let [t_across, t_elevation] = ray.tangents().map(Vector3::from);
+    let d = observed - truly;
+    let sigmas = ray.sigmas();
+    let components = [d.dot(&t_across), d.dot(&t_elevation)];
+    let error = (components[0] / sigmas[0]).hypot(components[1] / sigmas[1]);
+    // The part across the epipolar plane (camera centres and the true point), over σ in that direction.
+    let base = other.map(|o| r.transpose() * (o.translation.p - pose.translation.p)).unwrap_or_default();
+    let normal = base.cross(&truly).try_normalize(1e-9).unwrap_or_default();
+    let (na, ne) = (normal.dot(&t_across), normal.dot(&t_elevation));
+    let sigma_n = ((na * sigmas[0]).powi(2) + (ne * sigmas[1]).powi(2)).sqrt() / na.hypot(ne).max(1e-12);
+    let range = (p - pose.translation.p).norm();
+    let height = pose.translation.p.z - p.z;
+    let other = other.map(|o| [(p - o.translation.p).norm(), (o.translation.p - pose.translation.p).norm()]);
+    Geometry { error, across: observed.dot(&normal).abs() / sigma_n, range, components, height, other }
 }
 
 /// The true error of one aerial point against the surface point of its tie's first ray.
@@ -87,20 +126,22 @@ impl Scores {
             for (k, ray) in tie.rays.iter().enumerate() {
                 let reference = if k == 0 { hits.get(1).copied().flatten() } else { hits[0] };
                 let other = truth.camera_at(tie.rays[usize::from(k == 0)].time);
-                let geometry = reference.zip(truth.camera_at(ray.time)).map(|(p, pose)| {
-                    let observed = pose.rotation.matrix() * Vector3::from(ray.direction).normalize();
-                    let truly = (p.point - pose.translation.p).normalize();
-                    let base = other.map(|o| o.translation.p - pose.translation.p).unwrap_or_default();
-                    let normal = base.cross(&truly).try_normalize(1e-9).unwrap_or_default();
-                    let range = (p.point - pose.translation.p).norm();
-                    (observed.angle(&truly) / ray.sigma, observed.dot(&normal).abs() / ray.sigma, range)
-                });
+                let g = reference
+                    .zip(truth.camera_at(ray.time))
+                    .map(|(p, pose)| geometry(ray, &pose, &p.point, other.as_ref()));
                 if let Some(image) = truth.image_at(ray.time) {
                     positions.insert(ray.time.to_bits(), image.body.translation.p);
                 }
-                let class = hits[k].map(|h| h.class);
-                let (error, across, range) = (geometry.map(|g| g.0), geometry.map(|g| g.1), geometry.map(|g| g.2));
-                scores.push(RayScore { class, error, across, range });
+                scores.push(RayScore {
+                    class: hits[k].map(|h| h.class),
+                    error: g.as_ref().map(|g| g.error),
+                    across: g.as_ref().map(|g| g.across),
+                    range: g.as_ref().map(|g| g.range),
+                    components: g.as_ref().map(|g| g.components),
+                    sigmas: ray.sigmas(),
+                    height: g.as_ref().map(|g| g.height),
+                    other: g.as_ref().and_then(|g| g.other),
+                });
             }
             rays.push(scores);
             aerial.push(tie.aerial.zip(hits.first().copied().flatten()).map(|(a, hit)| {
@@ -152,10 +193,10 @@ impl Scores {
         (rec.position.p - truth).xy().norm()
     }
 
-    /// The true errors of accepted and rejected rays and aerial points.
-    pub fn print_distributions(&self, solved: &Solved) {
-        let mut rejected_rays = std::collections::HashSet::new();
-        let mut rejected_aerial = std::collections::HashSet::new();
+    /// The rejected (tie, ray) pairs and the ties whose aerial point was rejected.
+    pub fn rejected(&self, solved: &Solved) -> (HashSet<(usize, usize)>, HashSet<usize>) {
+        let mut rejected_rays = HashSet::new();
+        let mut rejected_aerial = HashSet::new();
         for r in &solved.adjustment.rejected {
             match &r.item {
                 ObservationRef::TieRay { index, ray, .. } => _ = rejected_rays.insert((*index, *ray)),
@@ -167,6 +208,12 @@ impl Scores {
                 _ => {}
             }
         }
+        (rejected_rays, rejected_aerial)
+    }
+
+    /// The true errors of accepted and rejected rays and aerial points.
+    pub fn print_distributions(&self, solved: &Solved) {
+        let (rejected_rays, rejected_aerial) = self.rejected(solved);
         let mut rays: [Vec<f64>; 2] = Default::default();
         for (i, tie) in self.rays.iter().enumerate() {
             for (k, s) in tie.iter().enumerate() {
@@ -286,7 +333,7 @@ impl Scores {
 type Accepted = [Vec<f64>; 2];
 
 /// Quantile of sorted values (nearest rank; NaN when empty).
-fn q(sorted: &[f64], p: f64) -> f64 {
+pub fn q(sorted: &[f64], p: f64) -> f64 {
     if sorted.is_empty() {
         return f64::NAN;
     }

@@ -84,7 +84,7 @@ pub fn scenario_of(preset: Preset, length_m: f64, rate_hz: f64, seed: u64) -> Sc
         .into_iter()
         .map(|t| TiePoint {
             id: TiePointId(t.id),
-            rays: t.rays.iter().map(|r| TieRay { time: r.time, direction: r.direction, sigma: r.sigma }).collect(),
+            rays: t.rays.iter().map(|r| TieRay::new(r.time, r.direction, r.sigma)).collect(),
             aerial: Some(AerialPoint { position: t.aerial.0, covariance: t.aerial.1 }),
         })
         .collect();

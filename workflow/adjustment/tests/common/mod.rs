@@ -133,7 +133,7 @@ pub fn tie(s: &Scene, id: &str, x: Vector3<f64>, at: &[usize], sigma: f64, rng: 
             let tr = &s.truth[i];
             let d = m.to_camera(&tr.pose(), &Point3::from_vector(x)).v.normalize();
             let noisy = (d + Vector3::new(gauss(rng), gauss(rng), gauss(rng)) * sigma).normalize();
-            TieRay { time: tr.time, direction: [noisy.x, noisy.y, noisy.z], sigma }
+            TieRay::new(tr.time, [noisy.x, noisy.y, noisy.z], sigma)
         })
         .collect();
     TiePoint { id: TiePointId(id.into()), rays, aerial: None }

@@ -60,7 +60,7 @@ fn frames_of(r: &AerialPointResult) -> Vec<String> {
 }
 
 fn ray(time: f64, d: &Vec3<Camera>, sigma: f64) -> TieRay {
-    TieRay { time, direction: [d.x(), d.y(), d.z()], sigma }
+    TieRay::new(time, [d.x(), d.y(), d.z()], sigma)
 }
 
 #[cfg(test)]
