@@ -7,9 +7,11 @@
 //! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
 //! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
 //! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`),
-//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error); for experiments on the
+//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error), `MM_BENCH_FAILED` (set: list
+//! every panorama with markings that was not matched, with each aerial image's fate); for experiments on the
 //! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
-//! `MM_BENCH_DG_SEARCH` (`true`/`false`) override the defaults.
+//! `MM_BENCH_DG_SEARCH` (`true`/`false`) and `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too) override
+//! the defaults.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -46,6 +48,7 @@ fn config() -> PipelineConfig {
     c.aerial.template_half = env("MM_BENCH_TEMPLATE_HALF", c.aerial.template_half);
     c.aerial.search_radius = env("MM_BENCH_SEARCH_RADIUS", c.aerial.search_radius);
     c.aerial.dg_search = env("MM_BENCH_DG_SEARCH", c.aerial.dg_search);
+    c.aerial.min_roundness = env("MM_BENCH_MIN_ROUNDNESS", c.aerial.min_roundness);
     c
 }
 
@@ -85,6 +88,10 @@ struct Row {
     losses: BTreeMap<String, losses::Losses>,
     /// The aerial points that are not correct, described.
     wrong: Vec<String>,
+    /// The same points explained: truth, MM height, every frame's search (module `diagnosis::wrong`).
+    explained: Vec<String>,
+    /// The panoramas with markings that were not matched, described (`MM_BENCH_FAILED`).
+    failed: Vec<String>,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -115,8 +122,11 @@ fn run(name: &str, spec: &Spec) -> Row {
     let horizontal: Vec<f64> = errors.iter().map(|(e, _)| e[0].hypot(e[1])).collect();
     let marked = |id: &str| paint.get(id).is_some_and(|&a| a >= MARKINGS_MIN_M2);
     let losses = losses::losses(&campaign, &result, &run.traces, &marked);
+    let explained = diagnosis::wrong::explain(&campaign, &result, &run.traces, 2.0 * AERIAL_GSD);
     let mut wrong = losses::wrong_points(&campaign, &result, AERIAL_GSD);
     wrong.push(format!("all points' σ_h q10/50/90/99 {:.3?} m", losses::sigma_quantiles(&result)));
+    wrong.push(diagnosis::wrong::ambiguity(&campaign, &result, &run.traces, 2.0));
+    let failed = losses::failed_panoramas(&campaign, &result, &marked);
     let marked_errors: Vec<f64> = result
         .ties
         .iter()
@@ -154,6 +164,8 @@ fn run(name: &str, spec: &Spec) -> Row {
         heights,
         losses,
         wrong,
+        explained,
+        failed,
     }
 }
 
@@ -198,6 +210,15 @@ fn print_tables(rows: &[Row]) {
     println!("\nAerial points off by more than 2 aerial pixels: tie, horizontal / height error / σ_H, ×frames\n");
     for r in rows {
         println!("- {}: {}", r.name, r.wrong.join("; "));
+    }
+    println!("\nThe same points explained: what the MM ray truly hits, the MM rays' height, each frame's search\n");
+    for r in rows {
+        r.explained.iter().for_each(|line| println!("- {}: {line}", r.name));
+    }
+    if std::env::var_os("MM_BENCH_FAILED").is_some() {
+        println!("\nPanoramas WITH markings not matched: id, fate, true DG error E/N, reported σ; per aerial image:");
+        println!("rejection, KAZE inliers, correlation NCC, offset\n");
+        rows.iter().for_each(|r| r.failed.iter().for_each(|f| println!("- {}: {f}", r.name)));
     }
     println!(
         "\n| profile | ortho-projection | features | matching | triangulation | aerial | elapsed | render (not pipeline) |"

@@ -35,7 +35,7 @@ mod view;
 #[cfg(test)]
 mod tests;
 
-pub use config::{AerialConfig, Plausibility};
+pub use config::{AerialConfig, Plausibility, edge_roundness};
 pub use diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
 pub use initial::{PlausibilityCheck, check_plausibility};
 pub use register::register_patch;

@@ -5,6 +5,8 @@
 #![allow(clippy::unwrap_used)]
 
 mod support;
+#[path = "../benches/diagnosis/wrong.rs"]
+mod wrong;
 
 use plumbline_geo::tiling::TileId;
 use plumbline_registration::pipeline::prepare_panoramas;
@@ -45,7 +47,9 @@ fn tiny_junction_registers_with_correct_ties() {
     assert_eq!(errors.len(), summary.ties_with_aerial);
     assert!(errors.len() >= 2 * summary.images_matched, "{} correspondences", errors.len());
     let correct = errors.iter().filter(|(e, _)| e[0].hypot(e[1]) <= 2.0 * AERIAL_GSD).count();
-    assert!(correct * 100 >= errors.len() * 99, "{correct} of {} correct: {errors:?}", errors.len());
+    eprintln!("{correct} of {} correct; {}", errors.len(), wrong::ambiguity(&campaign, &result, &run.traces, 2.0));
+    let explained = wrong::explain(&campaign, &result, &run.traces, 2.0 * AERIAL_GSD).join("\n");
+    assert!(correct * 100 >= errors.len() * 99, "{correct} of {} correct:\n{explained}", errors.len());
     let consistent = errors.iter().filter(|(e, s)| e[2].abs() <= 3.0 * s[2]).count();
     assert!(consistent * 100 >= errors.len() * 99, "{consistent} of {} heights within 3σ", errors.len());
     // Every aerial tie records the ≥ 2 frames it was triangulated from, each one that gave its panorama's

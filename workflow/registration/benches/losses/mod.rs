@@ -195,3 +195,37 @@ pub fn sigma_quantiles(result: &TileResultV1) -> [f64; 4] {
         result.ties.iter().filter_map(|t| Some(horizontal_sigma(&t.aerial.as_ref()?.covariance))).collect();
     [0.1, 0.5, 0.9, 0.99].map(|q| quantile(&s, q))
 }
+
+/// Every panorama with markings that was not matched: id, fate, true DG error (E, N, m), reported σ, and per
+/// aerial image its rejection, KAZE inliers, correlation NCC and offset (m).
+pub fn failed_panoramas(campaign: &Campaign, result: &TileResultV1, marked: &dyn Fn(&str) -> bool) -> Vec<String> {
+    result
+        .images
+        .iter()
+        .filter(|d| marked(&d.image))
+        .filter_map(|d| {
+            let why = d.discarded.as_ref()?.key();
+            let k = campaign.panoramas.iter().position(|p| p.id == d.image)?;
+            let (p, (_, truth)) = (&campaign.panoramas[k], &campaign.truth[k]);
+            let e = [p.pose.translation.x() - truth.translation.x(), p.pose.translation.y() - truth.translation.y()];
+            let frames: Vec<String> = d
+                .aerial_images
+                .iter()
+                .map(|a| {
+                    let rejection = a.rejection.as_ref().map_or("ok".to_owned(), |r| format!("{r:?}"));
+                    let ncc = a.fallback_ncc.map_or("–".to_owned(), |n| format!("{n:.2}"));
+                    let off = a.offset_m.map_or("–".to_owned(), |o| format!("{o:.2}"));
+                    format!("{} {rejection} kaze {} ncc {ncc} off {off}", a.frame, a.initial_inliers)
+                })
+                .collect();
+            Some(format!(
+                "{} {why} DG error {:+.2}/{:+.2} m σ {:.2} m; [{}]",
+                d.image,
+                e[0],
+                e[1],
+                p.position_sigma,
+                frames.join("; ")
+            ))
+        })
+        .collect()
+}

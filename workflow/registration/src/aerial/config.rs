@@ -101,6 +101,9 @@ pub struct AerialConfig {
     pub consistency_px: f64,
     /// A-priori σ of a matched aerial image coordinate, pixels (weights of the triangulation).
     pub pixel_sigma: f64,
+    /// Smallest Förstner roundness q = 4 det N / tr² N of a point's template at the aerial GSD for the point
+    /// to be output (module `points`; default [`edge_roundness`]`(pixel_sigma, search_radius)` = 0.039).
+    pub min_roundness: f64,
     /// A ray whose reprojection error exceeds this (pixels) is a blunder (paper 000 §3.9).
     pub max_reprojection_px: f64,
     /// A triangulated height further than `height_sigmas · σ_H + height_floor_m` from the patch's ground
@@ -140,6 +143,7 @@ impl Default for AerialConfig {
             min_correspondences: 10,
             consistency_px: 1.5,
             pixel_sigma: 0.3,
+            min_roundness: edge_roundness(0.3, 3.0),
             max_reprojection_px: 1.0,
             height_sigmas: 3.0,
             height_floor_m: 2.0,
@@ -147,4 +151,15 @@ impl Default for AerialConfig {
             terrain_sigma_m: 0.2,
         }
     }
+}
+
+/// The roundness below which a template is an edge the corner search cannot place along itself: an edge is
+/// matched only across itself, and its position along the edge is where the transfer put it, not a
+/// measurement (a car's roof edge along the road, seen by both panoramas, lands on the ground behind the
+/// car). With σ across = `pixel_sigma` the σ along is `pixel_sigma · √(λmax / λmin)`; beyond the search
+/// radius `radius_px` the search cannot localise it: λmin / λmax ≥ r = (pixel_sigma / radius_px)², and
+/// q = 4 λmin λmax / (λmin + λmax)² = 4r / (1 + r)².
+pub fn edge_roundness(pixel_sigma: f64, radius_px: f64) -> f64 {
+    let r = (pixel_sigma / radius_px).powi(2);
+    4.0 * r / (1.0 + r).powi(2)
 }

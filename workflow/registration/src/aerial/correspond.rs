@@ -37,8 +37,20 @@ pub(crate) struct CornerMatches {
     pub attempts: Vec<SlotAttempt>,
 }
 
-/// One candidate's search in window pixels: slot, transfer, NCC peak and score, accepted position.
-pub(crate) type SlotAttempt = (usize, [f64; 2], Option<([f64; 2], f64)>, Option<[f64; 2]>);
+/// One candidate's search, in window pixels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct SlotAttempt {
+    /// Index into the patch's points.
+    pub slot: usize,
+    /// Where the transformation put the corner.
+    pub transfer: [f64; 2],
+    /// The NCC peak: position, coefficient, and the runner-up's coefficient (≥ 2 px from the peak).
+    pub peak: Option<([f64; 2], f64, f64)>,
+    /// The accepted (LSM-refined) position.
+    pub matched: Option<[f64; 2]>,
+    /// Förstner roundness of the template at the aerial GSD ([`roundness`]).
+    pub roundness: f64,
+}
 
 /// Match the corners (`corners[slot]` in prepared pixels) into the Wallis-filtered aerial `window` around
 /// their transfer by `transform` within `radius` pixels (paper 000 §3.8: template in the MM patch, search
@@ -65,27 +77,44 @@ pub(crate) fn match_corners(
         .iter()
         .map(|&(slot, q, (u, v))| {
             let template = prepared.template(q, config.template_half);
-            let Some(m) = search(&searcher, &template, [u, v], radius) else {
-                return (slot, [u, v], None, None);
-            };
-            let peak = Some(([m.u, m.v], m.score));
+            let roundness = roundness(&template);
+            let mut attempt = SlotAttempt { slot, transfer: [u, v], peak: None, matched: None, roundness };
+            let Some(m) = search(&searcher, &template, [u, v], radius) else { return attempt };
+            attempt.peak = Some(([m.u, m.v], m.score, m.second));
             if m.score < config.min_ncc {
-                return (slot, [u, v], peak, None);
+                return attempt;
             }
             // paper 000 §3.8: NCC, then least-squares matching to subpixel precision
             let refined = least_squares_match(&template, window, translation(m.u, m.v), &config.lsm)
                 .ok()
                 .map(|l| [l.affine[0], l.affine[3]])
                 .filter(|p| (p[0] - m.u).hypot(p[1] - m.v) <= config.lsm_max_shift_px);
-            (slot, [u, v], peak, Some(refined.unwrap_or([m.u, m.v])))
+            attempt.matched = Some(refined.unwrap_or([m.u, m.v]));
+            attempt
         })
         .collect();
     let matches = candidates
         .iter()
         .zip(&attempts)
-        .filter_map(|(&(slot, q, _), a)| a.3.map(|window| PointMatch { slot, prepared: q, window }))
+        .filter_map(|(&(slot, q, _), a)| a.matched.map(|window| PointMatch { slot, prepared: q, window }))
         .collect();
     CornerMatches { candidates: candidates.len(), matches, attempts }
+}
+
+/// Förstner's roundness q = 4 det N / tr² N ∈ [0, 1] of a template's structure tensor N (central differences
+/// over its interior; Förstner & Gülch 1987): 1 for an isotropic corner, 0 for a straight edge or no contrast.
+pub(crate) fn roundness(template: &GrayImage) -> f64 {
+    let (w, h) = (template.width(), template.height());
+    let mut n = [0.0f64; 3];
+    for r in 1..h.saturating_sub(1) {
+        for c in 1..w.saturating_sub(1) {
+            let gx = 0.5 * f64::from(template.get(c + 1, r) - template.get(c - 1, r));
+            let gy = 0.5 * f64::from(template.get(c, r + 1) - template.get(c, r - 1));
+            n = [n[0] + gx * gx, n[1] + gx * gy, n[2] + gy * gy];
+        }
+    }
+    let (det, trace) = (n[0] * n[2] - n[1] * n[1], n[0] + n[2]);
+    if trace > 1e-12 { (4.0 * det / (trace * trace)).clamp(0.0, 1.0) } else { 0.0 }
 }
 
 /// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers and the similarity (prepared →
@@ -129,6 +158,40 @@ pub(crate) fn consistent(grounds: &[[f64; 2]], tolerance_m: f64) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aerial::edge_roundness;
+
+    /// A 13 × 13 template at 12 cm of a smooth step (σ ≈ 1 px) along the unit normal `n` through the centre,
+    /// optionally only on one side of a second step along `m` (a corner where both are bright).
+    fn template(n: [f64; 2], m: Option<[f64; 2]>) -> GrayImage {
+        let step = |x: f64| 1.0 / (1.0 + (-1.7 * x).exp());
+        GrayImage::from_fn(13, 13, |c, r| {
+            let (x, y) = (c as f64 - 6.0 + 0.3, r as f64 - 6.0 - 0.2);
+            let a = step(n[0] * x + n[1] * y);
+            let b = m.map_or(1.0, |m| step(m[0] * x + m[1] * y));
+            (40.0 + 150.0 * a * b) as f32
+        })
+    }
+
+    #[test]
+    fn roundness_tells_corners_from_edges_whatever_their_direction() {
+        let dirs = [0.0f64, 0.5, 1.1, 2.3].map(|a| [a.cos(), a.sin()]);
+        for d in dirs {
+            let edge = roundness(&template(d, None));
+            assert!(edge < 0.02, "an edge along {d:?}: q = {edge}");
+            let corner = roundness(&template(d, Some([-d[1], d[0]])));
+            assert!(corner > 0.6, "a right-angled corner {d:?}: q = {corner}");
+        }
+        // An edge with a dent (a 45° corner) lies between; no contrast is no corner at all.
+        let a = 0.3f64;
+        let dent = roundness(&template([a.cos(), a.sin()], Some([(a + 2.36).cos(), (a + 2.36).sin()])));
+        assert!(dent > 0.15 && dent < 0.8, "{dent}");
+        assert_eq!(roundness(&GrayImage::from_fn(13, 13, |_, _| 90.0)), 0.0);
+        // The bound: along-edge σ = pixel_sigma · √(λmax/λmin) may reach the search radius.
+        let q = edge_roundness(0.3, 3.0);
+        assert!((q - 4.0 * 0.01 / 1.01f64.powi(2)).abs() < 1e-12 && (q - 0.039).abs() < 1e-3, "{q}");
+        assert!(edge_roundness(0.3, 6.0) < q && edge_roundness(0.3, 0.3) == 1.0);
+        assert!(q > 0.02, "the edges above are below it");
+    }
 
     #[test]
     fn consistency_flags_the_ray_that_leaves_the_others_and_both_of_a_disagreeing_pair() {

@@ -13,6 +13,10 @@ pub struct Attempt {
     pub peak: Option<[f64; 2]>,
     /// Its NCC coefficient.
     pub score: Option<f64>,
+    /// The best coefficient at least two pixels from the peak (the ambiguity of the search).
+    pub second: Option<f64>,
+    /// Förstner roundness of the template at the aerial GSD (0: an edge, 1: an isotropic corner).
+    pub roundness: f64,
     /// The refined position when the match was accepted (score ≥ `min_ncc`), full-image pixel.
     pub matched: Option<[f64; 2]>,
 }
@@ -43,12 +47,14 @@ impl ImageTrace {
         let full = |p: [f64; 2]| [p[0] + origin[0], p[1] + origin[1]];
         let attempts = attempts
             .iter()
-            .map(|&(slot, predicted, peak, matched)| Attempt {
-                slot,
-                predicted: full(predicted),
-                peak: peak.map(|p| full(p.0)),
-                score: peak.map(|p| p.1),
-                matched: matched.map(full),
+            .map(|a| Attempt {
+                slot: a.slot,
+                predicted: full(a.transfer),
+                peak: a.peak.map(|p| full(p.0)),
+                score: a.peak.map(|p| p.1),
+                second: a.peak.map(|p| p.2),
+                roundness: a.roundness,
+                matched: a.matched.map(full),
             })
             .collect();
         Self { frame: frame.to_owned(), radius, attempts, ..Self::default() }
