@@ -117,6 +117,11 @@ pub struct AerialConfig {
     pub terrain_sigma_m: f64,
 }
 
+/// Default `search_radius`, aerial pixels (also sets the default `min_roundness`).
+const SEARCH_RADIUS: usize = 3;
+/// Default `pixel_sigma`, aerial pixels (also sets the default `min_roundness`).
+const PIXEL_SIGMA: f64 = 0.3;
+
 impl Default for AerialConfig {
     fn default() -> Self {
         Self {
@@ -135,15 +140,15 @@ impl Default for AerialConfig {
             frame_margin_px: 10.0,
             min_images: 2,
             template_half: 6,
-            search_radius: 3,
+            search_radius: SEARCH_RADIUS,
             min_ncc: 0.7,
             lsm: LsmConfig::default(),
             lsm_max_shift_px: 1.0,
             match_ransac: RansacConfig { threshold: 1.0, ..RansacConfig::default() },
             min_correspondences: 10,
             consistency_px: 1.5,
-            pixel_sigma: 0.3,
-            min_roundness: edge_roundness(0.3, 3.0),
+            pixel_sigma: PIXEL_SIGMA,
+            min_roundness: edge_roundness(PIXEL_SIGMA, SEARCH_RADIUS as f64),
             max_reprojection_px: 1.0,
             height_sigmas: 3.0,
             height_floor_m: 2.0,
