@@ -11,7 +11,8 @@
 //! every panorama with markings that was not matched, with each aerial image's fate); for experiments on the
 //! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
 //! `MM_BENCH_DG_SEARCH` (`true`/`false`) and `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too) override
-//! the defaults.
+//! the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama check off, `MM_BENCH_OFFSETS` (set) lists
+//! every checked panorama's aerial offset against the truth.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -49,6 +50,7 @@ fn config() -> PipelineConfig {
     c.aerial.search_radius = env("MM_BENCH_SEARCH_RADIUS", c.aerial.search_radius);
     c.aerial.dg_search = env("MM_BENCH_DG_SEARCH", c.aerial.dg_search);
     c.aerial.min_roundness = env("MM_BENCH_MIN_ROUNDNESS", c.aerial.min_roundness);
+    c.cross_check.enabled = env("MM_BENCH_CROSSCHECK", c.cross_check.enabled);
     c
 }
 
@@ -92,6 +94,8 @@ struct Row {
     explained: Vec<String>,
     /// The panoramas with markings that were not matched, described (`MM_BENCH_FAILED`).
     failed: Vec<String>,
+    /// The cross-panorama check scored against the truth.
+    crosscheck: diagnosis::crosscheck::Scored,
 }
 
 fn median(mut v: Vec<f64>) -> f64 {
@@ -127,6 +131,7 @@ fn run(name: &str, spec: &Spec) -> Row {
     wrong.push(format!("all points' σ_h q10/50/90/99 {:.3?} m", losses::sigma_quantiles(&result)));
     wrong.push(diagnosis::wrong::ambiguity(&campaign, &result, &run.traces, 2.0));
     let failed = losses::failed_panoramas(&campaign, &result, &marked);
+    let crosscheck = diagnosis::crosscheck::score(&campaign, &result);
     let marked_errors: Vec<f64> = result
         .ties
         .iter()
@@ -166,6 +171,7 @@ fn run(name: &str, spec: &Spec) -> Row {
         wrong,
         explained,
         failed,
+        crosscheck,
     }
 }
 
@@ -204,6 +210,7 @@ fn print_tables(rows: &[Row]) {
         let reasons: Vec<String> = r.reasons.iter().map(|(k, v)| format!("{k}: {v}")).collect();
         println!("| {} | {} |", r.name, reasons.join(", "));
     }
+    print_crosscheck(rows);
     print_causes(rows);
     let loss_rows: Vec<_> = rows.iter().map(|r| (r.name.as_str(), r.losses.clone())).collect();
     losses::print(&loss_rows);
@@ -272,6 +279,34 @@ fn print_split(rows: &[Row]) {
             );
         }
     }
+}
+
+fn print_crosscheck(rows: &[Row]) {
+    println!("\nCross-panorama check (paper 000 §3.9) against the truth: a registration is truly wrong when its");
+    println!("offset misses minus the true DG error by more than 2 aerial pixels ({:.2} m).", 2.0 * AERIAL_GSD);
+    println!(
+        "\n| profile | offsets checked | flagged | flagged truly wrong / right | kept truly wrong | kept unverified | motions contradicted: true error (m) | kept: max residual / bound, max residual (m) |"
+    );
+    println!("|---|---|---|---|---|---|---|---|");
+    for r in rows {
+        let c = &r.crosscheck;
+        let right = c.flagged - c.flagged_wrong;
+        let motions: Vec<String> = c.contradicted.iter().map(|(id, e)| format!("{id} {e:.2}")).collect();
+        println!(
+            "| {} | {} | {} | {} / {right} | {} | {} | {} | {:.2}, {:.3} |",
+            r.name,
+            c.checked,
+            c.flagged,
+            c.flagged_wrong,
+            c.kept_wrong,
+            c.unverified,
+            motions.join(", "),
+            c.margin.0,
+            c.margin.1
+        );
+    }
+    println!();
+    rows.iter().for_each(|r| r.crosscheck.lines.iter().for_each(|l| println!("- {}: {l}", r.name)));
 }
 
 fn print_causes(rows: &[Row]) {

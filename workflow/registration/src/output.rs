@@ -63,6 +63,11 @@ pub struct ImageDiagnostic {
     /// KAZE + RANSAC found no similarity with enough inliers and unit scale.
     #[serde(default)]
     pub motion: Option<ImageMotion>,
+    /// True when the cross-panorama check (paper 000 §3.9) found `motion` contradicted by the aerial offsets:
+    /// every comparison of matched panoramas across it disagreed by one shared residual. Not to be used as
+    /// a relative observation.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub motion_contradicted: bool,
     /// Corner counts through steps 3–4.
     pub corners: CornerCounts,
     /// One entry per aerial image overlapping the recording location (paper 000 §3.7–§3.8).
@@ -76,8 +81,60 @@ pub struct ImageDiagnostic {
     /// entry per tie with aerial coordinates; absent in results written before it existed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub aerial_frames: Vec<TieFrames>,
+    /// The DG error measured here: where the aerial points put the panorama's MM points (paper 000 §3.9);
+    /// absent when it has no aerial points (and in results written before it existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aerial_offset: Option<AerialOffset>,
+    /// What the cross-panorama check (paper 000 §3.9) concluded about `aerial_offset`; absent when the
+    /// check did not run on this panorama (not matched, or the check is off).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cross_check: Option<CrossCheck>,
     /// Why no aerial points came from this panorama (None = matched).
     pub discarded: Option<DiscardReason>,
+}
+
+/// A panorama's aerial offset: the median horizontal difference (aerial-derived − MM position) over its
+/// aerial points, the MM position being where the panorama's DG ortho-image shows the point. The MM side
+/// carries the DG error, so this is minus the DG position error at the panorama (plus the heading error
+/// times the points' lever, millimetres).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AerialOffset {
+    /// East and north offset, metres.
+    pub offset: [f64; 2],
+    /// σ of east and north: 1.4826 · MAD / √n, at least the points' own median σ (they share frames).
+    pub std: [f64; 2],
+    /// Aerial points it is the median of.
+    pub points: usize,
+}
+
+/// The cross-panorama check's verdict on one matched panorama's aerial offset (paper 000 §3.9).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(tag = "status", rename_all = "snake_case")]
+pub enum CrossCheck {
+    /// No other matched panorama is reachable through the image-derived motion chain: nothing to compare
+    /// with, the offset is unverified (but kept).
+    Unverified,
+    /// Compared with its partners (the panoramas listed); a flagged panorama is also discarded as
+    /// [`DiscardReason::Inconsistent`].
+    Compared {
+        /// Partners whose offsets agree with this one's through the chain.
+        agreeing: Vec<String>,
+        /// Partners whose offsets disagree.
+        disagreeing: Vec<String>,
+    },
+}
+
+/// One partner whose aerial offset disagrees with a panorama's (paper 000 §3.9).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Disagreement {
+    /// The partner panorama.
+    pub partner: String,
+    /// |(o_partner − o_this) − Σ chain change|, metres.
+    pub residual_m: f64,
+    /// The bound it exceeded, metres.
+    pub tolerance_m: f64,
 }
 
 /// The aerial frames one tie point's aerial coordinates were triangulated from (the rays the multi-image
@@ -136,6 +193,14 @@ pub enum DiscardReason {
     },
     /// The aerial registration discarded the patch (paper 000 §3.7–§3.9).
     Aerial(AerialDiscard),
+    /// The aerial registration succeeded but its offset disagrees with the partners' offsets carried
+    /// through the image-derived motion chain (the cross-panorama check of paper 000 §3.9).
+    Inconsistent {
+        /// The partners it disagrees with and by how much.
+        disagreements: Vec<Disagreement>,
+        /// How many partners agree with it.
+        agreeing: usize,
+    },
 }
 
 impl DiscardReason {
@@ -145,6 +210,7 @@ impl DiscardReason {
             Self::NoNeighbour { .. } => "no_neighbour".into(),
             Self::Failed { step, .. } => format!("failed.{step}"),
             Self::TooFewMmPoints { .. } => "too_few_mm_points".into(),
+            Self::Inconsistent { .. } => "inconsistent".into(),
             Self::Aerial(a) => {
                 let kind = serde_json::to_value(a).ok().and_then(|v| v["kind"].as_str().map(str::to_owned));
                 format!("aerial.{}", kind.unwrap_or_else(|| "other".into()))
@@ -161,6 +227,14 @@ impl fmt::Display for DiscardReason {
             Self::Failed { step, message } => write!(f, "{step} failed: {message}"),
             Self::TooFewMmPoints { points, needed } => write!(f, "{points} MM points triangulated, {needed} needed"),
             Self::Aerial(a) => write!(f, "{a}"),
+            Self::Inconsistent { disagreements, agreeing } => {
+                write!(f, "aerial offset inconsistent with")?;
+                for (k, d) in disagreements.iter().enumerate() {
+                    let sep = if k == 0 { "" } else { "," };
+                    write!(f, "{sep} {} (residual {:.2} m > {:.2} m)", d.partner, d.residual_m, d.tolerance_m)?;
+                }
+                write!(f, "; {agreeing} partner(s) agree")
+            }
         }
     }
 }

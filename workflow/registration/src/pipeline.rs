@@ -5,6 +5,7 @@
 //! Step 1 and the KAZE features run once per panorama, one panorama at a time if the caller wishes
 //! ([`prepare_panorama`]: the full panorama is not needed afterwards); pairs run in parallel (rayon).
 
+pub mod crosscheck;
 mod pair;
 mod prepared;
 mod ties;
@@ -16,7 +17,8 @@ use rayon::prelude::*;
 
 use crate::aerial::{AerialConfig, AerialReference, ImageTrace};
 use crate::mm::{MmConfig, PanoramaRig};
-use crate::output::{ImageDiagnostic, TileResult, TileResultV1, TileSummary};
+use crate::output::{CrossCheck, Disagreement, DiscardReason, ImageDiagnostic, TileResult, TileResultV1, TileSummary};
+use crosscheck::{Comparison, CrossCheckConfig, Link, Offset, Verdict};
 
 pub use pair::neighbour;
 pub use prepared::{PanoramaInfo, PreparedPanorama, panoramas_to_prepare, prepare_panorama, prepare_panoramas};
@@ -41,6 +43,8 @@ pub struct PipelineConfig {
     pub min_mm_points: usize,
     /// Keep MM↔MM points without an aerial match as ties (they link neighbouring panoramas).
     pub keep_mm_only_ties: bool,
+    /// The cross-panorama check of the aerial offsets (paper 000 §3.9).
+    pub cross_check: CrossCheckConfig,
 }
 
 impl Default for PipelineConfig {
@@ -52,6 +56,7 @@ impl Default for PipelineConfig {
             min_pair_distance: 1.0,
             min_mm_points: 10,
             keep_mm_only_ties: true,
+            cross_check: CrossCheckConfig::default(),
         }
     }
 }
@@ -112,7 +117,7 @@ pub fn register_tile(
 }
 
 /// [`register_tile`], calling `done` with each owned panorama's diagnostic as soon as it is registered
-/// (from several threads; for progress reports).
+/// (from several threads; for progress reports; before the cross-panorama check, which may still discard it).
 pub fn register_tile_reporting(
     tile: TileId,
     panoramas: &[PreparedPanorama],
@@ -129,14 +134,17 @@ pub fn register_tile_reporting(
     let poses: Vec<_> = order.iter().map(|p| &p.pano.pose).collect();
     let inputs = pair::TileInputs { order: &order, poses: &poses, rig, reference, config };
     let owned: Vec<usize> = (0..order.len()).filter(|&i| order[i].owned).collect();
-    let outcomes: Vec<pair::PairOutcome> = owned
-        .into_par_iter()
-        .map(|i| {
+    let mut outcomes: Vec<pair::PairOutcome> = owned
+        .par_iter()
+        .map(|&i| {
             let outcome = pair::process(i, &inputs);
             done(&outcome.diagnostic);
             outcome
         })
         .collect();
+    if config.cross_check.enabled {
+        cross_check(&order, &owned, &mut outcomes, config);
+    }
     let mut timings = StageTimings::default();
     order.iter().for_each(|p| timings.add(&p.timings));
     let (mut images, mut all_ties, mut traces) = (Vec::with_capacity(outcomes.len()), Vec::new(), Vec::new());
@@ -149,4 +157,92 @@ pub fn register_tile_reporting(
     let summary = TileSummary::of(&images, &all_ties);
     timings.total = start.elapsed();
     TileRun { result: TileResult::V1(TileResultV1 { tile, ties: all_ties, images, summary }), timings, traces }
+}
+
+/// The cross-panorama check over the tile (paper 000 §3.9): the matched panoramas' aerial offsets compared
+/// through the image-derived motions; a flagged panorama is discarded as inconsistent and its ties keep
+/// their MM rays but lose their aerial coordinates. `owned[k]` is the place of `outcomes[k]` in `order`.
+fn cross_check(
+    order: &[&PreparedPanorama],
+    owned: &[usize],
+    outcomes: &mut [pair::PairOutcome],
+    config: &PipelineConfig,
+) {
+    let mut at: Vec<Option<usize>> = vec![None; order.len()];
+    owned.iter().enumerate().for_each(|(k, &i)| at[i] = Some(k));
+    let diag = |i: usize| at[i].map(|k| &outcomes[k].diagnostic);
+    let offsets: Vec<Option<Offset>> = (0..order.len())
+        .map(|i| {
+            let d = diag(i).filter(|d| d.discarded.is_none())?;
+            d.aerial_offset.map(|o| Offset { value: o.offset, std: o.std })
+        })
+        .collect();
+    let links: Vec<Option<Link>> = (1..order.len()).map(|i| link(order, i - 1, &diag)).collect();
+    let checked = crosscheck::check(&offsets, &links, &config.cross_check);
+    for k in checked.broken_links {
+        for (i, other) in [(k, k + 1), (k + 1, k)] {
+            let Some(d) = at[i].map(|o| &mut outcomes[o].diagnostic) else { continue };
+            if d.motion.is_some() && d.neighbour.as_deref() == Some(order[other].pano.id.as_str()) {
+                d.motion_contradicted = true;
+            }
+        }
+    }
+    let name = |c: &Comparison| order[c.partner].pano.id.clone();
+    for (i, verdict) in checked.verdicts.iter().enumerate() {
+        let Some(outcome) = at[i].map(|k| &mut outcomes[k]) else { continue };
+        let (comparisons, flagged) = match verdict {
+            Verdict::Unchecked => continue,
+            Verdict::Unverified => (&[][..], false),
+            Verdict::Kept(c) => (&c[..], false),
+            Verdict::Flagged(c) => (&c[..], true),
+        };
+        let (agreeing, disagreeing): (Vec<&Comparison>, Vec<&Comparison>) =
+            comparisons.iter().partition(|c| c.agrees());
+        outcome.diagnostic.cross_check = Some(if comparisons.is_empty() {
+            CrossCheck::Unverified
+        } else {
+            CrossCheck::Compared {
+                agreeing: agreeing.iter().map(|c| name(c)).collect(),
+                disagreeing: disagreeing.iter().map(|c| name(c)).collect(),
+            }
+        });
+        if flagged {
+            let disagreements = disagreeing
+                .iter()
+                .map(|c| Disagreement { partner: name(c), residual_m: c.residual_m, tolerance_m: c.tolerance_m })
+                .collect();
+            discard(outcome, DiscardReason::Inconsistent { disagreements, agreeing: agreeing.len() }, config);
+        }
+    }
+}
+
+/// The link between panoramas `a` and `a + 1` of the time order: the image motion either measured (both
+/// are reported from the earlier to the later); the one with the smaller σ when both did.
+fn link<'a>(
+    order: &[&PreparedPanorama],
+    a: usize,
+    diag: &impl Fn(usize) -> Option<&'a ImageDiagnostic>,
+) -> Option<Link> {
+    let (pa, pb) = (&order[a].pano, &order[a + 1].pano);
+    let measured =
+        |i: usize, other: &str| diag(i).filter(|d| d.neighbour.as_deref() == Some(other)).and_then(|d| d.motion);
+    let horizontal = |m: &plumbline_navigation::ImageMotion| m.std[0].hypot(m.std[1]);
+    let motion = match (measured(a, &pb.id), measured(a + 1, &pa.id)) {
+        (Some(x), Some(y)) => Some(if horizontal(&y) < horizontal(&x) { y } else { x }),
+        (x, y) => x.or(y),
+    }?;
+    let dg = |p: &crate::mm::Panorama| [p.pose.translation.x(), p.pose.translation.y()];
+    Some(Link::of(&motion, dg(pa), dg(pb)))
+}
+
+/// Discard a matched panorama: its ties keep their MM rays (or go, without MM-only ties) but lose their
+/// aerial coordinates.
+fn discard(outcome: &mut pair::PairOutcome, reason: DiscardReason, config: &PipelineConfig) {
+    outcome.ties.iter_mut().for_each(|t| t.aerial = None);
+    if !config.keep_mm_only_ties {
+        outcome.ties.clear();
+    }
+    let d = &mut outcome.diagnostic;
+    (d.aerial_points, d.discarded) = (0, Some(reason));
+    d.aerial_frames.clear();
 }

@@ -2,6 +2,7 @@
 //! panorama (ground truth), failure reasons per group, and what happened in each aerial image of the
 //! panoramas with markings that failed the initial transformation (paper 000 §3.7).
 
+pub mod crosscheck;
 pub mod wrong;
 
 use std::collections::BTreeMap;

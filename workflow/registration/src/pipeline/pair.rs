@@ -7,9 +7,9 @@ use plumbline_adjustment::TiePoint;
 use plumbline_geo::MapFromBody;
 
 use super::{PipelineConfig, PreparedPanorama, StageTimings, ties};
-use crate::aerial::{AerialReference, ImageTrace, MmPatch, PatchPoint, register_patch};
-use crate::mm::{MmPoint, PanoramaRig, image_motion, match_corners, pair_transform, triangulate};
-use crate::output::{CornerCounts, DiscardReason, ImageDiagnostic};
+use crate::aerial::{AerialPointResult, AerialReference, ImageTrace, MmPatch, PatchPoint, register_patch};
+use crate::mm::{MmPoint, OrthoPatch, PanoramaRig, image_motion, match_corners, pair_transform, triangulate};
+use crate::output::{AerialOffset, CornerCounts, DiscardReason, ImageDiagnostic};
 
 /// Horizontal distance between the DG camera centres of two vehicle poses, metres.
 fn distance(a: &MapFromBody, b: &MapFromBody, rig: &PanoramaRig) -> f64 {
@@ -71,11 +71,14 @@ pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> PairOutcome {
         neighbour: None,
         transform: None,
         motion: None,
+        motion_contradicted: false,
         corners: CornerCounts::default(),
         aerial_images: Vec::new(),
         aerial_points: 0,
         dropped_ties: 0,
         aerial_frames: Vec::new(),
+        aerial_offset: None,
+        cross_check: None,
         discarded: None,
     };
     let (mut timings, mut trace) = (StageTimings::default(), Vec::new());
@@ -149,6 +152,7 @@ fn run(
     diag.aerial_images = outcome.images;
     *trace = outcome.trace;
     diag.aerial_points = ties.iter().filter(|t| t.aerial.is_some()).count();
+    diag.aerial_offset = aerial_offset(patch, &points, &outcome.points, config.cross_check.point_std_m);
     match outcome.discarded {
         Some(d) => Err((DiscardReason::Aerial(d), ties)),
         None => Ok(ties),
@@ -159,7 +163,7 @@ fn run(
 fn prepared<'a>(
     p: &'a PreparedPanorama,
     step: &str,
-) -> Result<&'a (crate::mm::OrthoPatch, plumbline_imaging::kaze::KazeFeatures), Discard> {
+) -> Result<&'a (OrthoPatch, plumbline_imaging::kaze::KazeFeatures), Discard> {
     match &p.patch {
         Some(Ok(prepared)) => Ok(prepared),
         Some(Err(e)) => Err((failed(step, e.to_string()), vec![])),
@@ -177,4 +181,55 @@ fn patch_points(points: &[MmPoint]) -> Vec<PatchPoint> {
             map: [p.position.x(), p.position.y(), p.position.z()],
         })
         .collect()
+}
+
+/// The panorama's aerial offset (paper 000 §3.9): the median of (aerial − MM) east and north over its
+/// aerial points, σ = max(1.4826 · MAD, `point_std`) / √n per axis (a MAD of two or three points means
+/// little), at least the points' median own σ (they share frames and blur, so their errors do not all
+/// average out). The MM position is where A's DG ortho-image shows the point (its corner on the ortho
+/// plane, §3.2): it carries A's DG error alone. The two-ray intersection (§3.5) would mix in B's DG error
+/// and its depth error along the rays (a few points of a district panorama put it 0.3 m off with the
+/// aerial points correct); flat ground is assumed, as the ortho-images themselves assume it.
+fn aerial_offset(
+    patch: &OrthoPatch,
+    points: &[MmPoint],
+    aerial: &[AerialPointResult],
+    point_std: f64,
+) -> Option<AerialOffset> {
+    let (differences, own): (Vec<[f64; 2]>, Vec<[f64; 2]>) = aerial
+        .iter()
+        .filter_map(|r| {
+            let [u, v] = points.get(r.index)?.corner.a;
+            let p = patch.ground_point(u, v);
+            let own = [0, 1].map(|c| r.covariance[c][c].max(0.0).sqrt());
+            Some(([r.position[0] - p.x(), r.position[1] - p.y()], own))
+        })
+        .unzip();
+    offset_of(&differences, &own, point_std)
+}
+
+/// [`aerial_offset`] of the differences (aerial − MM, east and north), the points' own σ and the prior σ of
+/// one point.
+pub(super) fn offset_of(differences: &[[f64; 2]], own: &[[f64; 2]], point_std: f64) -> Option<AerialOffset> {
+    let n = differences.len();
+    let axis = |c: usize| {
+        let d: Vec<f64> = differences.iter().map(|v| v[c]).collect();
+        let m = median(d.clone());
+        let mad = median(d.iter().map(|v| (v - m).abs()).collect());
+        let spread = (1.4826 * mad).max(point_std) / (n as f64).sqrt();
+        (m, spread.max(median(own.iter().map(|s| s[c]).collect())))
+    };
+    let ((east, se), (north, sn)) = (axis(0), axis(1));
+    let finite = n > 0 && [east, se, north, sn].iter().all(|v| v.is_finite());
+    finite.then_some(AerialOffset { offset: [east, north], std: [se, sn], points: n })
+}
+
+/// The median of a list (NaN when empty).
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
+        (Some(a), Some(b)) => 0.5 * (a + b),
+        _ => f64::NAN,
+    }
 }
