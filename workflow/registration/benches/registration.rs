@@ -10,9 +10,10 @@
 //! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error), `MM_BENCH_FAILED` (set: list
 //! every panorama with markings that was not matched, with each aerial image's fate); for experiments on the
 //! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
-//! `MM_BENCH_DG_SEARCH` (`true`/`false`) and `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too) override
-//! the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama check off, `MM_BENCH_OFFSETS` (set) lists
-//! every checked panorama's aerial offset against the truth.
+//! `MM_BENCH_DG_SEARCH` (`true`/`false`), `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too),
+//! `MM_BENCH_INITIAL_CANDIDATES` and `MM_BENCH_MIN_INITIAL_INLIERS` (§3.7) and `MM_BENCH_MIN_MM_POINTS`
+//! override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama check off, `MM_BENCH_OFFSETS`
+//! (set) lists every checked panorama's aerial offset against the truth.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -51,6 +52,9 @@ fn config() -> PipelineConfig {
     c.aerial.dg_search = env("MM_BENCH_DG_SEARCH", c.aerial.dg_search);
     c.aerial.min_roundness = env("MM_BENCH_MIN_ROUNDNESS", c.aerial.min_roundness);
     c.cross_check.enabled = env("MM_BENCH_CROSSCHECK", c.cross_check.enabled);
+    c.aerial.initial_candidates = env("MM_BENCH_INITIAL_CANDIDATES", c.aerial.initial_candidates);
+    c.aerial.min_initial_inliers = env("MM_BENCH_MIN_INITIAL_INLIERS", c.aerial.min_initial_inliers);
+    c.min_mm_points = env("MM_BENCH_MIN_MM_POINTS", c.min_mm_points);
     c
 }
 

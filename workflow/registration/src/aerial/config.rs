@@ -59,10 +59,14 @@ pub struct AerialConfig {
     /// Match KAZE descriptors only among pairs the DG georeferencing allows (within the plausibility bound;
     /// paper 000 §3.1), instead of over the whole window.
     pub guided_matching: bool,
-    /// RANSAC of the initial (similarity) transformation; threshold in aerial pixels.
-    pub initial_ransac: RansacConfig,
+    /// Distance within which KAZE matches agree on the initial translation, aerial pixels (keypoint
+    /// localisation at the coarser KAZE levels).
+    pub initial_threshold_px: f64,
     /// Fewest KAZE inliers for an initial transformation.
     pub min_initial_inliers: usize,
+    /// Plausible initial transformations the corner matching chooses between (1: the largest KAZE consensus
+    /// only; 2: also a second significant one, which a repeated marking matched one period off gives).
+    pub initial_candidates: usize,
     /// When KAZE finds no initial transformation, correlate the whole prepared patch instead (a translation;
     /// module `correlate`).
     pub correlation_fallback: bool,
@@ -130,8 +134,9 @@ impl Default for AerialConfig {
             kaze: KazeConfig { octaves: 2, sublevels: 4, threshold: 0.0005, upright: true, ..KazeConfig::default() },
             match_ratio: 0.85,
             guided_matching: true,
-            initial_ransac: RansacConfig { threshold: 1.5, ..RansacConfig::default() },
+            initial_threshold_px: 1.5,
             min_initial_inliers: 6,
+            initial_candidates: 2,
             correlation_fallback: true,
             min_correlation: 0.5,
             min_correlation_margin: 0.1,

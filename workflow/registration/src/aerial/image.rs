@@ -2,11 +2,14 @@
 //! MM side prepared for its orientation and the corner matching. The matches of an image with an initial
 //! transformation go unfiltered to the patch's common RANSAC (module `joint`).
 //!
-//! When KAZE and the whole-patch correlation find no plausible initial transformation, the corners are
-//! searched over the whole DG bound instead (`AerialConfig::dg_search`) and the image's own RANSAC (ten
-//! correspondences, §3.8) becomes its transformation; such an image reads `passed` with `initial_inliers` 0
-//! and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept matches, which passes
-//! the same plausibility check (paper 000 §3.7) as a KAZE transformation.
+//! When KAZE finds two plausible translations (a repeated marking matched one period off), the one under
+//! which more corners match is taken.
+//!
+//! When KAZE and the whole-patch correlation find no plausible initial transformation, the
+//! corners are searched over the whole DG bound instead (`AerialConfig::dg_search`) and the image's own
+//! RANSAC (ten correspondences, §3.8) becomes its transformation; such an image reads `passed` with
+//! `initial_inliers` 0 and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept
+//! matches, which passes the same plausibility check (paper 000 §3.7) as a KAZE transformation.
 
 use nalgebra::Matrix3;
 use plumbline_imaging::GrayImage;
@@ -14,7 +17,7 @@ use plumbline_imaging::kaze::KazeFeatures;
 
 use super::MmPatch;
 use super::config::AerialConfig;
-use super::correspond::{PointMatch, match_corners, remove_outliers};
+use super::correspond::{CornerMatches, PointMatch, match_corners, remove_outliers};
 use super::diagnostics::{AerialImageDiagnostic, ImageRejection};
 use super::initial::{check_plausibility, initial_transform};
 use super::prepare::Prepared;
@@ -83,11 +86,11 @@ pub(super) fn register_image(
         Err(e) => return fail(&mut diagnostic, imaging(e)),
     };
     let predicted = [local.pixel[0] - window.origin[0], local.pixel[1] - window.origin[1]];
+    let corners: Vec<[f64; 2]> = patch.points.iter().map(|p| prepared.pixel_of_mm(patch.grid, p.pixel)).collect();
     let initial = initial_transform(prepared, mm_features, &aerial, predicted, patch.position_sigma, config);
     diagnostic.initial_inliers = initial.inliers;
     diagnostic.offset_m = initial.offset_m;
     diagnostic.fallback_ncc = initial.fallback_ncc;
-    let corners: Vec<[f64; 2]> = patch.points.iter().map(|p| prepared.pixel_of_mm(patch.grid, p.pixel)).collect();
     let transform = match initial.transform {
         Ok(t) => t,
         Err(
@@ -101,12 +104,39 @@ pub(super) fn register_image(
         Err(r) => return fail(&mut diagnostic, r),
     };
     diagnostic.passed = true;
-    let found = match_corners(prepared, &corners, &aerial, &transform, config.search_radius, config);
+    let candidates: Vec<Matrix3<f64>> = std::iter::once(transform).chain(initial.alternatives).collect();
+    let (chosen, found) = choose(prepared, &corners, &aerial, &candidates, config);
+    if chosen > 0 {
+        let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
+        let (gsd, bounds) = (prepared.grid.gsd, &config.plausibility);
+        let check = check_plausibility(&candidates[chosen], centre, predicted, gsd, patch.position_sigma, bounds);
+        diagnostic.offset_m = Some(check.offset_m);
+    }
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
     let trace = ImageTrace::of(&diagnostic.frame, config.search_radius, &found.attempts, window.origin);
     // paper 000 §3.8: the outliers are removed over all images of the patch together (module `joint`)
     finish(diagnostic, &found.matches, window.origin, trace)
+}
+
+/// The initial transformation under which most corners match (paper 000 §3.8's NCC and LSM in a small
+/// window), with its matches: a repeated marking matched one period off by KAZE agrees with the dashes but
+/// not with the rest of the patch. Ties keep the earlier candidate (the larger KAZE consensus).
+fn choose(
+    prepared: &Prepared,
+    corners: &[[f64; 2]],
+    aerial: &GrayImage,
+    candidates: &[Matrix3<f64>],
+    config: &AerialConfig,
+) -> (usize, CornerMatches) {
+    let mut best = (0, CornerMatches::default());
+    for (k, t) in candidates.iter().enumerate() {
+        let found = match_corners(prepared, corners, aerial, t, config.search_radius, config);
+        if k == 0 || found.matches.len() > best.1.matches.len() {
+            best = (k, found);
+        }
+    }
+    best
 }
 
 /// The Wallis-filtered aerial window, where the DG georeferencing puts the patch centre in it, and its place
@@ -173,4 +203,64 @@ fn finish(
 pub(super) fn dg_transform(prepared: &Prepared, predicted: [f64; 2]) -> Matrix3<f64> {
     let (cu, cv) = (prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0);
     Matrix3::new(1.0, 0.0, predicted[0] - cu, 0.0, 1.0, predicted[1] - cv, 0.0, 0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use plumbline_imaging::Mask;
+    use plumbline_imaging::ortho::GroundGrid;
+
+    use super::*;
+
+    /// A street patch at the aerial GSD: dashes repeating every `PERIOD` pixels along u, and one corner-rich
+    /// marking (an arrow's head: two bars meeting at a right angle) that occurs once.
+    const PERIOD: f64 = 13.0;
+
+    fn paint(u: f64, v: f64) -> f32 {
+        let dash = (40.0..43.0).contains(&v) && u.rem_euclid(PERIOD) < 6.0;
+        let stem = (70.0..73.0).contains(&u) && (62.0..75.0).contains(&v);
+        let bar = (62.0..65.0).contains(&v) && (70.0..83.0).contains(&u);
+        if dash || stem || bar { 200.0 } else { 60.0 }
+    }
+
+    fn translation(t: [f64; 2]) -> Matrix3<f64> {
+        Matrix3::new(1.0, 0.0, t[0], 0.0, 1.0, t[1], 0.0, 0.0, 1.0)
+    }
+
+    #[test]
+    fn the_translation_under_which_more_corners_match_is_chosen_whichever_kaze_ranked_first() {
+        let (w, h) = (110, 100);
+        let image = GrayImage::from_fn(w, h, |c, r| paint(c as f64, r as f64));
+        let grid = GroundGrid::new([0.0, 0.0], 0.12, w, h, 0.0).expect("grid");
+        let prepared = Prepared { image, valid: Mask::from_fn(w, h, |_, _| true), grid };
+        // The aerial window shows the same street moved by the true translation.
+        let truth = [21.0, 17.0];
+        let window = GrayImage::from_fn(160, 150, |c, r| paint(c as f64 - truth[0], r as f64 - truth[1]));
+        // Corners: both ends of every dash and the arrow's corners.
+        let mut corners: Vec<[f64; 2]> = (1..8)
+            .flat_map(|k| {
+                let u = k as f64 * PERIOD;
+                [[u, 40.0], [u + 6.0, 43.0]]
+            })
+            .collect();
+        corners.extend([[70.0, 62.0], [83.0, 65.0], [73.0, 75.0], [73.0, 65.0]]);
+        let config = AerialConfig::default();
+        let right = translation(truth);
+        let wrong = translation([truth[0] + PERIOD, truth[1]]);
+        let (k, found) = choose(&prepared, &corners, &window, &[wrong, right], &config);
+        assert_eq!(k, 1, "the true translation, offered second, is chosen");
+        let (k2, found2) = choose(&prepared, &corners, &window, &[right, wrong], &config);
+        assert_eq!(k2, 0);
+        assert_eq!(found.matches.len(), found2.matches.len());
+        // Under the true translation the arrow's corners match where they are.
+        let arrow = found.matches.iter().filter(|m| m.prepared[1] > 60.0).count();
+        assert!(arrow >= 3, "{arrow} arrow corners matched");
+        for m in &found.matches {
+            let d = (m.window[0] - m.prepared[0] - truth[0]).hypot(m.window[1] - m.prepared[1] - truth[1]);
+            assert!(d < 0.5, "corner {:?} matched {d} px off", m.prepared);
+        }
+        // Under the wrong one, only dashes (one period off) match.
+        let off = choose(&prepared, &corners, &window, &[wrong], &config).1;
+        assert!(off.matches.len() < found.matches.len() && off.matches.iter().all(|m| m.prepared[1] < 50.0));
+    }
 }

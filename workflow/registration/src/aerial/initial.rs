@@ -1,18 +1,19 @@
 //! Step 6 of paper 000 (§3.7): the initial transformation between the prepared MM patch and one aerial
-//! patch by upright KAZE features and a RANSAC similarity, and its plausibility check against the DG
-//! georeferencing (only the translation's size and a near-identity rotation and scale can be tested, since
-//! the MM pose is what is being corrected).
+//! patch — a translation, since §3.6 gave the patch the aerial orientation and GSD — by upright KAZE
+//! features and their consensus, and its plausibility check against the DG georeferencing (only the
+//! translation's size and a near-identity rotation and scale can be tested, since the MM pose is what is
+//! being corrected).
 
 use nalgebra::Matrix3;
 use plumbline_imaging::kaze::{KazeFeatures, kaze, match_surf};
-use plumbline_imaging::models::{Correspondence, Model};
-use plumbline_imaging::ransac::ransac;
+use plumbline_imaging::models::Correspondence;
 use plumbline_imaging::{GrayImage, ImagingError};
 
 use super::config::{AerialConfig, Plausibility};
 use super::correlate::correlate;
 use super::diagnostics::ImageRejection;
 use super::guided::{Prior, guided_matches};
+use super::joint::{GroundPair, common_translation};
 use super::prepare::Prepared;
 
 /// Pixels added to the plausibility bound for the guided matching's search radius (keypoint localisation).
@@ -82,12 +83,15 @@ pub(crate) struct Initial {
     pub fallback_ncc: Option<f64>,
     /// Ground offset of the best transformation, metres.
     pub offset_m: Option<f64>,
+    /// Further plausible transformations: a second significant KAZE consensus (a repeated marking matched
+    /// one period off gives one), for the corner matching to decide between.
+    pub alternatives: Vec<Matrix3<f64>>,
 }
 
 /// KAZE on both Wallis-filtered patches, descriptor matching (guided by the DG georeferencing: pairs within
-/// the plausibility bound, module `guided`), RANSAC similarity (or, failing that, the
-/// whole-patch correlation), then the plausibility check. `predicted` is the aerial-window pixel of the
-/// patch centre under the DG georeferencing.
+/// the plausibility bound, module `guided`) and their consensus translations (the best; a second significant
+/// one as an alternative); failing that, the whole-patch correlation; then the plausibility check.
+/// `predicted` is the aerial-window pixel of the patch centre under the DG georeferencing.
 pub(crate) fn initial_transform(
     prepared: &Prepared,
     mm: &KazeFeatures,
@@ -96,18 +100,30 @@ pub(crate) fn initial_transform(
     position_sigma: f64,
     config: &AerialConfig,
 ) -> Initial {
+    let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
+    let (gsd, bounds) = (prepared.grid.gsd, &config.plausibility);
+    let check = |t: &Matrix3<f64>| check_plausibility(t, centre, predicted, gsd, position_sigma, bounds);
     let judge = |t: Matrix3<f64>, inliers, fallback_ncc| {
-        let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
-        let (gsd, bounds) = (prepared.grid.gsd, &config.plausibility);
-        let check = check_plausibility(&t, centre, predicted, gsd, position_sigma, bounds);
-        let transform = if check.passed { Ok(t) } else { Err(check.rejection()) };
-        Initial { transform, inliers, fallback_ncc, offset_m: Some(check.offset_m) }
+        let c = check(&t);
+        let transform = if c.passed { Ok(t) } else { Err(c.rejection()) };
+        Initial { transform, inliers, fallback_ncc, offset_m: Some(c.offset_m), alternatives: Vec::new() }
     };
-    let shift = [predicted[0] - prepared.grid.width as f64 / 2.0, predicted[1] - prepared.grid.height as f64 / 2.0];
+    let shift = [predicted[0] - centre[0], predicted[1] - centre[1]];
     // paper 000 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
     let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd + GUIDE_SLACK_PX;
     let failure = match kaze_transform(mm, window, &Prior { shift, radius }, config) {
-        Ok((t, inliers)) => return judge(t, inliers, None),
+        Ok(candidates) => {
+            let inliers = candidates.first().map_or(0, |c| c.1);
+            let mut plausible = candidates.iter().filter(|c| check(&c.0).passed).map(|c| c.0);
+            return match plausible.next() {
+                Some(t) => {
+                    let mut initial = judge(t, inliers, None);
+                    initial.alternatives = plausible.take(config.initial_candidates.saturating_sub(1)).collect();
+                    initial
+                }
+                None => judge(candidates[0].0, inliers, None),
+            };
+        }
         Err(failure) => failure,
     };
     let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd;
@@ -115,22 +131,34 @@ pub(crate) fn initial_transform(
         .correlation_fallback
         .then(|| correlate(prepared, window, predicted, radius, config.min_correlation_margin))
         .flatten();
-    match fallback.filter(|f| f.1 >= config.min_correlation) {
-        Some((t, score)) => judge(t, 0, Some(score)),
-        None => {
-            let inliers = if let ImageRejection::NoTransform { inliers, .. } = failure { inliers } else { 0 };
-            Initial { transform: Err(failure), inliers, fallback_ncc: fallback.map(|f| f.1), offset_m: None }
-        }
+    if let Some((t, score)) = fallback.filter(|f| f.1 >= config.min_correlation) {
+        return judge(t, 0, Some(score));
+    }
+    let inliers = if let ImageRejection::NoTransform { inliers, .. } = failure { inliers } else { 0 };
+    Initial {
+        transform: Err(failure),
+        inliers,
+        fallback_ncc: fallback.map(|f| f.1),
+        offset_m: None,
+        alternatives: Vec::new(),
     }
 }
 
-/// KAZE features of the aerial window matched with the MM ones and a RANSAC similarity with its inliers.
+/// KAZE features of the aerial window matched with the MM ones and the translation most of them agree on,
+/// with its inliers.
+///
+/// A translation, not a similarity: the prepared patch already has the aerial image's orientation and GSD
+/// (paper 000 §3.6), and what remains is the DG position error (paper 000 §3.1); the DG heading error
+/// (milliradians) moves a corner 15 m from the centre by a few centimetres, a fraction of a pixel. A
+/// similarity fitted to the handful of matches a street patch gives has a poorly determined rotation and
+/// scale (5–14 % scale errors on district canyon seed 2 with 6–8 inliers), which fail the plausibility
+/// check or throw the corner transfer pixels off at the patch edge.
 fn kaze_transform(
     mm: &KazeFeatures,
     window: &GrayImage,
     prior: &Prior,
     config: &AerialConfig,
-) -> Result<(Matrix3<f64>, usize), ImageRejection> {
+) -> Result<Vec<(Matrix3<f64>, usize)>, ImageRejection> {
     let aerial = kaze(window, &config.kaze).map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
     let (n_mm, n_aerial) = (mm.keypoints.len(), aerial.keypoints.len());
     if n_mm < config.min_initial_inliers || n_aerial < config.min_initial_inliers {
@@ -147,10 +175,65 @@ fn kaze_transform(
             })
             .collect()
     };
-    let no_transform = |inliers| ImageRejection::NoTransform { matches: pairs.len(), inliers };
-    let fit = ransac(Model::Similarity, &pairs, &config.initial_ransac).map_err(|_| no_transform(0))?;
-    let inliers = fit.inlier_count();
-    if inliers < config.min_initial_inliers { Err(no_transform(inliers)) } else { Ok((fit.transform, inliers)) }
+    // The area over which a false match's displacement scatters: the guided matching's disc, or the window.
+    let area = if config.guided_matching {
+        std::f64::consts::PI * prior.radius * prior.radius
+    } else {
+        (window.width() * window.height()) as f64
+    };
+    let floor = config.min_initial_inliers;
+    translation_consensus(&pairs, config.initial_threshold_px, area, floor)
+        .map_err(|inliers| ImageRejection::NoTransform { matches: pairs.len(), inliers })
+}
+
+/// The translations `pairs` (MM → aerial pixels) agree on within `threshold` pixels, with their inliers, best
+/// first: the largest consensus when it is more than false matches scattered over `area` px² reach by chance
+/// (and at least `floor`), then the largest consensus of the other matches at a clearly different
+/// translation when it is significant too. A repeated marking (dashes, zebra stripes) matched one period off
+/// gives such a second consensus, and the larger one is then not necessarily the true one: the corner
+/// matching decides (module `image`). Otherwise the best consensus's size.
+pub(crate) fn translation_consensus(
+    pairs: &[Correspondence],
+    threshold: f64,
+    area: f64,
+    floor: usize,
+) -> Result<Vec<(Matrix3<f64>, usize)>, usize> {
+    let needed = significant_inliers(pairs.len(), threshold, area).max(floor);
+    let displaced: Vec<GroundPair> = pairs.iter().map(|p| (p.a, p.b)).collect();
+    let (flags, t) = common_translation(&displaced, threshold, 1).ok_or(0usize)?;
+    let inliers = flags.iter().filter(|&&f| f).count();
+    if inliers < needed {
+        return Err(inliers);
+    }
+    let translation = |t: [f64; 2]| Matrix3::new(1.0, 0.0, t[0], 0.0, 1.0, t[1], 0.0, 0.0, 1.0);
+    let mut candidates = vec![(translation(t), inliers)];
+    // The best consensus among the other matches, at a translation clearly apart from the first.
+    let rest: Vec<GroundPair> = displaced.iter().zip(&flags).filter(|p| !*p.1).map(|p| *p.0).collect();
+    let second = common_translation(&rest, threshold, 1)
+        .filter(|(_, s)| (s[0] - t[0]).hypot(s[1] - t[1]) > 2.0 * threshold)
+        .map(|(f, s)| (s, f.iter().filter(|&&b| b).count()));
+    if let Some((s, n)) = second.filter(|s| s.1 >= significant_inliers(rest.len(), threshold, area)) {
+        candidates.push((translation(s), n));
+    }
+    Ok(candidates)
+}
+
+/// Acceptable chance that false descriptor matches alone produce a translation consensus.
+const FALSE_ALARM: f64 = 0.01;
+
+/// The fewest inliers of a translation consensus among `n` matches that false matches reach by chance with
+/// probability at most [`FALSE_ALARM`]: a false match's displacement scatters over `area` px², so it falls
+/// within `threshold` px of a given hypothesis with probability p = π·threshold²/area, and k − 1 of the
+/// other n − 1 do so for one of the n hypotheses with probability ≤ n·C(n − 1, k − 1)·p^(k − 1). Never
+/// fewer than three (two agreeing matches may share one structure).
+pub(crate) fn significant_inliers(n: usize, threshold: f64, area: f64) -> usize {
+    let p = (std::f64::consts::PI * threshold * threshold / area.max(1.0)).min(1.0);
+    let chance = |k: usize| {
+        let others = n.saturating_sub(1) as f64;
+        let binomial = (0..k - 1).fold(1.0, |b, i| b * (others - i as f64) / (i as f64 + 1.0));
+        n as f64 * binomial.max(0.0) * p.powi(k as i32 - 1)
+    };
+    (3..=n.max(3)).find(|&k| chance(k) <= FALSE_ALARM).unwrap_or(n.max(3))
 }
 
 /// Upright KAZE features of the prepared MM patch whose surroundings have MM samples (no rotated-away
@@ -171,6 +254,67 @@ mod tests {
         let (sn, cs) = angle.sin_cos();
         let (a, b) = (s * cs, s * sn);
         Matrix3::new(a, -b, 50.0 - a * 50.0 + b * 50.0 + d[0], b, a, 50.0 - b * 50.0 - a * 50.0 + d[1], 0.0, 0.0, 1.0)
+    }
+
+    #[test]
+    fn the_inliers_a_translation_needs_follow_the_false_alarm_probability() {
+        // Guided matching within 20 px (1257 px²), threshold 1.5 px: p = 0.005 63. Of 20 matches, three
+        // agreeing by chance has probability 20·C(19, 2)·p² = 0.11, four 20·C(19, 3)·p³ = 0.0035.
+        let area = std::f64::consts::PI * 400.0;
+        assert_eq!(significant_inliers(20, 1.5, area), 4);
+        // 7 matches: three already significant (7·C(6, 2)·p² = 0.0033); 50 matches need six.
+        assert_eq!(significant_inliers(7, 1.5, area), 3);
+        assert_eq!(significant_inliers(50, 1.5, area), 6);
+        // Unguided over a 300 × 300 window, three are enough among 40.
+        assert_eq!(significant_inliers(40, 1.5, 90_000.0), 3);
+    }
+
+    /// A deterministic scatter in [−1, 1).
+    fn scatter(k: usize, salt: u64) -> f64 {
+        let x = (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(salt.wrapping_mul(0xbf58_476d));
+        ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+
+    #[test]
+    fn five_true_matches_among_false_ones_give_the_translation_and_three_chance_ones_do_not() {
+        // True shift (7.3, −4.1) px, five matches with 0.3 px noise spread over a 200 px patch; 15 false
+        // matches displaced anywhere within 20 px of the DG prediction (0, 0).
+        let truth = [7.3, -4.1];
+        let pair = |a: [f64; 2], d: [f64; 2]| Correspondence { a, b: [a[0] + d[0], a[1] + d[1]] };
+        let mut pairs: Vec<Correspondence> = (0..5)
+            .map(|k| {
+                let a = [100.0 + 100.0 * scatter(k, 1), 100.0 + 100.0 * scatter(k, 2)];
+                pair(a, [truth[0] + 0.3 * scatter(k, 3), truth[1] + 0.3 * scatter(k, 4)])
+            })
+            .collect();
+        let false_pair = |k: usize| {
+            let a = [100.0 + 100.0 * scatter(k, 5), 100.0 + 100.0 * scatter(k, 6)];
+            pair(a, [14.0 * scatter(k, 7), 14.0 * scatter(k, 8)])
+        };
+        pairs.extend((0..15).map(false_pair));
+        let area = std::f64::consts::PI * 400.0;
+        let candidates = translation_consensus(&pairs, 1.5, area, 3).expect("a translation");
+        assert_eq!(candidates.len(), 1, "false matches make no second consensus");
+        let (t, inliers) = candidates[0];
+        assert_eq!(inliers, 5);
+        assert!((t[(0, 2)] - truth[0]).abs() < 0.2 && (t[(1, 2)] - truth[1]).abs() < 0.2, "{t}");
+        assert!(t[(0, 0)] == 1.0 && t[(0, 1)] == 0.0 && t[(1, 0)] == 0.0 && t[(1, 1)] == 1.0);
+        // Three false matches that happen to agree, among 17 others: not significant (four needed).
+        let mut chance: Vec<Correspondence> = (0..17).map(false_pair).collect();
+        chance.extend((0..3).map(|k| pair([20.0 + 50.0 * k as f64, 30.0], [-9.0, 5.0 + 0.2 * k as f64])));
+        assert_eq!(translation_consensus(&chance, 1.5, area, 3), Err(3));
+        // A repeated marking: the five true matches and six more one dash period (1.56 m = 13 px) along the
+        // street: two significant translations, the larger (wrong) one first; both are offered.
+        let mut periodic = pairs.clone();
+        periodic.extend((5..11).map(|k| {
+            let a = [100.0 + 100.0 * scatter(k, 1), 100.0 + 100.0 * scatter(k, 2)];
+            pair(a, [truth[0] + 13.0 + 0.3 * scatter(k, 3), truth[1] + 0.3 * scatter(k, 4)])
+        }));
+        let both = translation_consensus(&periodic, 1.5, area, 3).expect("two translations");
+        assert_eq!(both.iter().map(|c| c.1).collect::<Vec<_>>(), vec![6, 5]);
+        assert!((both[0].0[(0, 2)] - truth[0] - 13.0).abs() < 0.2 && (both[1].0[(0, 2)] - truth[0]).abs() < 0.2);
+        // The floor: five inliers are not enough when six are asked for.
+        assert_eq!(translation_consensus(&pairs, 1.5, area, 6), Err(5));
     }
 
     #[test]
