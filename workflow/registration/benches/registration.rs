@@ -11,9 +11,9 @@
 //! every panorama with markings that was not matched, with each aerial image's fate); for experiments on the
 //! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
 //! `MM_BENCH_DG_SEARCH` (`true`/`false`), `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too),
-//! `MM_BENCH_INITIAL_CANDIDATES` and `MM_BENCH_MIN_INITIAL_INLIERS` (§3.7) and `MM_BENCH_MIN_MM_POINTS`
-//! override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama check off, `MM_BENCH_OFFSETS`
-//! (set) lists every checked panorama's aerial offset against the truth.
+//! `MM_BENCH_INITIAL_CANDIDATES`, `MM_BENCH_MIN_INITIAL_INLIERS` and `MM_BENCH_POOL_WINDOWS` (§3.7) and
+//! `MM_BENCH_MIN_MM_POINTS` override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama
+//! check off, `MM_BENCH_OFFSETS` (set) lists every checked panorama's aerial offset against the truth.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -55,6 +55,7 @@ fn config() -> PipelineConfig {
     c.aerial.initial_candidates = env("MM_BENCH_INITIAL_CANDIDATES", c.aerial.initial_candidates);
     c.aerial.min_initial_inliers = env("MM_BENCH_MIN_INITIAL_INLIERS", c.aerial.min_initial_inliers);
     c.min_mm_points = env("MM_BENCH_MIN_MM_POINTS", c.min_mm_points);
+    c.aerial.pool_windows = env("MM_BENCH_POOL_WINDOWS", c.aerial.pool_windows);
     c
 }
 

@@ -26,6 +26,7 @@ mod image;
 mod initial;
 mod joint;
 mod points;
+mod pooled;
 mod prepare;
 mod register;
 mod trace;

@@ -67,6 +67,9 @@ pub struct AerialConfig {
     /// Plausible initial transformations the corner matching chooses between (1: the largest KAZE consensus
     /// only; 2: also a second significant one, which a repeated marking matched one period off gives).
     pub initial_candidates: usize,
+    /// Pool the KAZE matches of all windows of a patch for a common initial offset (module `pooled`), tried
+    /// beside each window's own.
+    pub pool_windows: bool,
     /// When KAZE finds no initial transformation, correlate the whole prepared patch instead (a translation;
     /// module `correlate`).
     pub correlation_fallback: bool,
@@ -137,6 +140,7 @@ impl Default for AerialConfig {
             initial_threshold_px: 1.5,
             min_initial_inliers: 6,
             initial_candidates: 2,
+            pool_windows: true,
             correlation_fallback: true,
             min_correlation: 0.5,
             min_correlation_margin: 0.1,

@@ -19,7 +19,8 @@ use super::MmPatch;
 use super::config::AerialConfig;
 use super::correspond::{CornerMatches, PointMatch, match_corners, remove_outliers};
 use super::diagnostics::{AerialImageDiagnostic, ImageRejection};
-use super::initial::{check_plausibility, initial_transform};
+use super::initial::{KazePairs, check_plausibility, initial_transform, kaze_pairs, match_area};
+use super::pooled::translation_for;
 use super::prepare::Prepared;
 use super::trace::ImageTrace;
 use super::view::{LocalGeometry, View};
@@ -43,15 +44,42 @@ pub(super) struct ImageResult {
     pub trace: ImageTrace,
 }
 
-/// Steps 5–7 for one aerial image.
-pub(super) fn register_image(
+/// One aerial image after step 6's KAZE matching, before its initial transformation is decided (the
+/// windows of a patch pool their matches first, module `pooled`).
+pub(super) struct Opened<'a> {
+    diagnostic: AerialImageDiagnostic,
+    /// The MM side prepared for this image's orientation.
+    side: &'a MmSide,
+    /// The Wallis-filtered aerial window and its place in the full image.
+    aerial: GrayImage,
+    origin: [f64; 2],
+    /// Where the DG georeferencing puts the patch centre in the window.
+    predicted: [f64; 2],
+    /// The window's KAZE matches.
+    pub kaze: KazePairs,
+}
+
+impl Opened<'_> {
+    /// The prepared MM patch's grid.
+    pub fn grid(&self) -> &plumbline_imaging::ortho::GroundGrid {
+        &self.side.prepared.grid
+    }
+
+    /// Area over which a false KAZE match's displacement scatters, px².
+    pub fn match_area(&self, prior: &super::guided::Prior, config: &AerialConfig) -> f64 {
+        match_area(prior, &self.aerial, config)
+    }
+}
+
+/// Steps 5–6 for one aerial image up to its KAZE matches; an image that fails before has its result (boxed).
+pub(super) fn open_image<'a>(
     patch: &MmPatch<'_>,
-    side: &Result<MmSide, ImageRejection>,
+    side: &'a Result<MmSide, ImageRejection>,
     view: &View<'_>,
     local: &LocalGeometry,
     config: &AerialConfig,
-) -> ImageResult {
-    let mut diagnostic = AerialImageDiagnostic {
+) -> Result<Opened<'a>, Box<ImageResult>> {
+    let diagnostic = AerialImageDiagnostic {
         frame: view.id().to_string(),
         passed: false,
         rejection: None,
@@ -62,32 +90,52 @@ pub(super) fn register_image(
         matched: 0,
         correspondences: 0,
     };
-    let fail = |d: &mut AerialImageDiagnostic, r| {
+    let fail = |mut d: AerialImageDiagnostic, r| {
         d.rejection = Some(r);
         let trace = ImageTrace { frame: d.frame.clone(), ..ImageTrace::default() };
-        ImageResult { diagnostic: d.clone(), matches: Vec::new(), trace }
+        Box::new(ImageResult { diagnostic: d, matches: Vec::new(), trace })
     };
     let imaging = |e: plumbline_imaging::ImagingError| ImageRejection::Imaging { message: e.to_string() };
     if let Some(reason) = view.problem() {
-        return fail(&mut diagnostic, ImageRejection::InvalidImage { reason });
+        return Err(fail(diagnostic, ImageRejection::InvalidImage { reason }));
     }
-    let (prepared, mm_features) = match side {
-        Ok(side) => (&side.prepared, &side.features),
-        Err(r) => return fail(&mut diagnostic, r.clone()),
+    let side = match side {
+        Ok(side) => side,
+        Err(r) => return Err(fail(diagnostic, r.clone())),
     };
+    let prepared = &side.prepared;
     // paper 000 §3.7: the aerial patch covers the MM patch plus the DG uncertainty
     let slack = config.plausibility.bound_m(patch.position_sigma) / local.gsd;
     let half = prepared.grid.width / 2 + slack.ceil() as usize + config.search_radius + config.template_half;
     let Some(window) = view.window(local.pixel, half) else {
-        return fail(&mut diagnostic, ImageRejection::PatchOutside);
+        return Err(fail(diagnostic, ImageRejection::PatchOutside));
     };
     let aerial = match config.wallis.apply(&window.image) {
         Ok(a) => a,
-        Err(e) => return fail(&mut diagnostic, imaging(e)),
+        Err(e) => return Err(fail(diagnostic, imaging(e))),
     };
     let predicted = [local.pixel[0] - window.origin[0], local.pixel[1] - window.origin[1]];
+    let kaze = kaze_pairs(prepared, &side.features, &aerial, predicted, patch.position_sigma, config);
+    Ok(Opened { diagnostic, side, aerial, origin: window.origin, predicted, kaze })
+}
+
+/// Steps 6–7 for an opened image: its initial transformation (its own KAZE consensus, the patch's pooled
+/// `offsets` (E, N metres from the DG georeferencing), the correlation fallback or the DG-bounded search)
+/// and the corner matching.
+pub(super) fn match_image(
+    opened: Opened<'_>,
+    patch: &MmPatch<'_>,
+    offsets: &[[f64; 2]],
+    config: &AerialConfig,
+) -> ImageResult {
+    let Opened { mut diagnostic, side, aerial, origin, predicted, kaze } = opened;
+    let prepared = &side.prepared;
+    let pooled: Vec<Matrix3<f64>> = match &kaze {
+        Ok((_, prior)) => offsets.iter().map(|&o| translation_for(&prepared.grid, prior, o)).collect(),
+        Err(_) => Vec::new(),
+    };
     let corners: Vec<[f64; 2]> = patch.points.iter().map(|p| prepared.pixel_of_mm(patch.grid, p.pixel)).collect();
-    let initial = initial_transform(prepared, mm_features, &aerial, predicted, patch.position_sigma, config);
+    let initial = initial_transform(prepared, &kaze, &aerial, predicted, patch.position_sigma, &pooled, config);
     diagnostic.initial_inliers = initial.inliers;
     diagnostic.offset_m = initial.offset_m;
     diagnostic.fallback_ncc = initial.fallback_ncc;
@@ -98,10 +146,14 @@ pub(super) fn register_image(
             | ImageRejection::FewFeatures { .. }
             | ImageRejection::Implausible { .. }),
         ) if config.dg_search => {
-            let aerial = AerialSide { image: &aerial, predicted, origin: window.origin };
+            let aerial = AerialSide { image: &aerial, predicted, origin };
             return dg_bounded(prepared, &corners, &aerial, patch.position_sigma, config, diagnostic, why);
         }
-        Err(r) => return fail(&mut diagnostic, r),
+        Err(r) => {
+            diagnostic.rejection = Some(r);
+            let trace = ImageTrace { frame: diagnostic.frame.clone(), ..ImageTrace::default() };
+            return ImageResult { diagnostic, matches: Vec::new(), trace };
+        }
     };
     diagnostic.passed = true;
     let candidates: Vec<Matrix3<f64>> = std::iter::once(transform).chain(initial.alternatives).collect();
@@ -114,9 +166,9 @@ pub(super) fn register_image(
     }
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
-    let trace = ImageTrace::of(&diagnostic.frame, config.search_radius, &found.attempts, window.origin);
+    let trace = ImageTrace::of(&diagnostic.frame, config.search_radius, &found.attempts, origin);
     // paper 000 §3.8: the outliers are removed over all images of the patch together (module `joint`)
-    finish(diagnostic, &found.matches, window.origin, trace)
+    finish(diagnostic, &found.matches, origin, trace)
 }
 
 /// The initial transformation under which most corners match (paper 000 §3.8's NCC and LSM in a small

@@ -88,16 +88,57 @@ pub(crate) struct Initial {
     pub alternatives: Vec<Matrix3<f64>>,
 }
 
-/// KAZE on both Wallis-filtered patches, descriptor matching (guided by the DG georeferencing: pairs within
-/// the plausibility bound, module `guided`) and their consensus translations (the best; a second significant
-/// one as an alternative); failing that, the whole-patch correlation; then the plausibility check.
-/// `predicted` is the aerial-window pixel of the patch centre under the DG georeferencing.
-pub(crate) fn initial_transform(
+/// The guided KAZE matches of one aerial window (prepared MM pixels → window pixels) and the DG prior they
+/// were drawn under, or why there are none.
+pub(crate) type KazePairs = Result<(Vec<Correspondence>, Prior), ImageRejection>;
+
+/// KAZE on the Wallis-filtered aerial window and descriptor matching with the MM features, guided by the DG
+/// georeferencing (pairs within the plausibility bound, module `guided`). `predicted` is the aerial-window
+/// pixel of the patch centre under the DG georeferencing.
+pub(crate) fn kaze_pairs(
     prepared: &Prepared,
     mm: &KazeFeatures,
     window: &GrayImage,
     predicted: [f64; 2],
     position_sigma: f64,
+    config: &AerialConfig,
+) -> KazePairs {
+    let shift = [predicted[0] - prepared.grid.width as f64 / 2.0, predicted[1] - prepared.grid.height as f64 / 2.0];
+    // paper 000 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
+    let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd + GUIDE_SLACK_PX;
+    let prior = Prior { shift, radius };
+    let aerial = kaze(window, &config.kaze).map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
+    let (n_mm, n_aerial) = (mm.keypoints.len(), aerial.keypoints.len());
+    if n_mm < config.min_initial_inliers || n_aerial < config.min_initial_inliers {
+        return Err(ImageRejection::FewFeatures { mm: n_mm, aerial: n_aerial });
+    }
+    let pairs: Vec<Correspondence> = if config.guided_matching {
+        guided_matches(mm, &aerial, &prior, config.match_ratio)
+    } else {
+        match_surf(&mm.descriptors, &aerial.descriptors, config.match_ratio, true)
+            .into_iter()
+            .map(|(i, j, _)| {
+                let (a, b) = (&mm.keypoints[i], &aerial.keypoints[j]);
+                Correspondence { a: [a.u, a.v], b: [b.u, b.v] }
+            })
+            .collect()
+    };
+    Ok((pairs, prior))
+}
+
+/// The initial transformation of one aerial window (paper 000 §3.7): the translations its KAZE matches
+/// agree on (`kaze`, module docs), then `pooled` (translations all windows of the patch agree on, module
+/// `pooled`), the plausible ones in that order, the first as the transformation and the others as
+/// alternatives for the corner matching; failing all, the whole-patch correlation; each through the
+/// plausibility check. `predicted` is the aerial-window pixel of the patch centre under the DG
+/// georeferencing.
+pub(crate) fn initial_transform(
+    prepared: &Prepared,
+    kaze: &KazePairs,
+    window: &GrayImage,
+    predicted: [f64; 2],
+    position_sigma: f64,
+    pooled: &[Matrix3<f64>],
     config: &AerialConfig,
 ) -> Initial {
     let centre = [prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0];
@@ -108,22 +149,33 @@ pub(crate) fn initial_transform(
         let transform = if c.passed { Ok(t) } else { Err(c.rejection()) };
         Initial { transform, inliers, fallback_ncc, offset_m: Some(c.offset_m), alternatives: Vec::new() }
     };
-    let shift = [predicted[0] - centre[0], predicted[1] - centre[1]];
-    // paper 000 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
-    let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd + GUIDE_SLACK_PX;
-    let failure = match kaze_transform(mm, window, &Prior { shift, radius }, config) {
-        Ok(candidates) => {
-            let inliers = candidates.first().map_or(0, |c| c.1);
-            let mut plausible = candidates.iter().filter(|c| check(&c.0).passed).map(|c| c.0);
-            return match plausible.next() {
-                Some(t) => {
-                    let mut initial = judge(t, inliers, None);
-                    initial.alternatives = plausible.take(config.initial_candidates.saturating_sub(1)).collect();
-                    initial
-                }
-                None => judge(candidates[0].0, inliers, None),
-            };
+    let own =
+        kaze.as_ref().map_err(Clone::clone).and_then(|(pairs, prior)| kaze_consensus(pairs, prior, window, config));
+    let inliers = match &own {
+        Ok(c) => c.first().map_or(0, |c| c.1),
+        Err(ImageRejection::NoTransform { inliers, .. }) => *inliers,
+        Err(_) => 0,
+    };
+    let own_plausible = own.iter().flatten().map(|c| c.0).filter(|t| check(t).passed);
+    let mut plausible: Vec<Matrix3<f64>> = Vec::new();
+    let distinct = |t: &Matrix3<f64>, others: &[Matrix3<f64>]| {
+        others.iter().all(|o| (o[(0, 2)] - t[(0, 2)]).hypot(o[(1, 2)] - t[(1, 2)]) > config.initial_threshold_px)
+    };
+    for t in
+        own_plausible.take(config.initial_candidates.max(1)).chain(pooled.iter().copied().filter(|t| check(t).passed))
+    {
+        if distinct(&t, &plausible) {
+            plausible.push(t);
         }
+    }
+    if let Some((&first, rest)) = plausible.split_first() {
+        let mut initial = judge(first, inliers, None);
+        initial.alternatives = rest.to_vec();
+        return initial;
+    }
+    let failure = match own {
+        // a consensus that failed the plausibility check
+        Ok(c) => return judge(c[0].0, inliers, None),
         Err(failure) => failure,
     };
     let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd;
@@ -134,7 +186,6 @@ pub(crate) fn initial_transform(
     if let Some((t, score)) = fallback.filter(|f| f.1 >= config.min_correlation) {
         return judge(t, 0, Some(score));
     }
-    let inliers = if let ImageRejection::NoTransform { inliers, .. } = failure { inliers } else { 0 };
     Initial {
         transform: Err(failure),
         inliers,
@@ -144,8 +195,7 @@ pub(crate) fn initial_transform(
     }
 }
 
-/// KAZE features of the aerial window matched with the MM ones and the translation most of them agree on,
-/// with its inliers.
+/// The translations one window's KAZE matches agree on, with their inliers (module docs).
 ///
 /// A translation, not a similarity: the prepared patch already has the aerial image's orientation and GSD
 /// (paper 000 §3.6), and what remains is the DG position error (paper 000 §3.1); the DG heading error
@@ -153,37 +203,24 @@ pub(crate) fn initial_transform(
 /// similarity fitted to the handful of matches a street patch gives has a poorly determined rotation and
 /// scale (5–14 % scale errors on district canyon seed 2 with 6–8 inliers), which fail the plausibility
 /// check or throw the corner transfer pixels off at the patch edge.
-fn kaze_transform(
-    mm: &KazeFeatures,
-    window: &GrayImage,
+fn kaze_consensus(
+    pairs: &[Correspondence],
     prior: &Prior,
+    window: &GrayImage,
     config: &AerialConfig,
 ) -> Result<Vec<(Matrix3<f64>, usize)>, ImageRejection> {
-    let aerial = kaze(window, &config.kaze).map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
-    let (n_mm, n_aerial) = (mm.keypoints.len(), aerial.keypoints.len());
-    if n_mm < config.min_initial_inliers || n_aerial < config.min_initial_inliers {
-        return Err(ImageRejection::FewFeatures { mm: n_mm, aerial: n_aerial });
-    }
-    let pairs: Vec<Correspondence> = if config.guided_matching {
-        guided_matches(mm, &aerial, prior, config.match_ratio)
-    } else {
-        match_surf(&mm.descriptors, &aerial.descriptors, config.match_ratio, true)
-            .into_iter()
-            .map(|(i, j, _)| {
-                let (a, b) = (&mm.keypoints[i], &aerial.keypoints[j]);
-                Correspondence { a: [a.u, a.v], b: [b.u, b.v] }
-            })
-            .collect()
-    };
-    // The area over which a false match's displacement scatters: the guided matching's disc, or the window.
-    let area = if config.guided_matching {
+    let floor = config.min_initial_inliers;
+    translation_consensus(pairs, config.initial_threshold_px, match_area(prior, window, config), floor)
+        .map_err(|inliers| ImageRejection::NoTransform { matches: pairs.len(), inliers })
+}
+
+/// The area over which a false match's displacement scatters, px²: the guided matching's disc, or the window.
+pub(crate) fn match_area(prior: &Prior, window: &GrayImage, config: &AerialConfig) -> f64 {
+    if config.guided_matching {
         std::f64::consts::PI * prior.radius * prior.radius
     } else {
         (window.width() * window.height()) as f64
-    };
-    let floor = config.min_initial_inliers;
-    translation_consensus(&pairs, config.initial_threshold_px, area, floor)
-        .map_err(|inliers| ImageRejection::NoTransform { matches: pairs.len(), inliers })
+    }
 }
 
 /// The translations `pairs` (MM → aerial pixels) agree on within `threshold` pixels, with their inliers, best

@@ -7,10 +7,11 @@ use rayon::prelude::*;
 use super::config::AerialConfig;
 use super::correspond::consistent;
 use super::diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
-use super::image::{ImageResult, MmSide, register_image};
+use super::image::{ImageResult, MmSide, Opened, match_image, open_image};
 use super::initial::mm_features;
 use super::joint;
 use super::points::{ortho_points, triangulate_points};
+use super::pooled::{WindowMatches, pooled_offsets};
 use super::prepare::{BlurredPatch, blur_patch, prepare};
 use super::trace::ImageTrace;
 use super::view::{LocalGeometry, View};
@@ -56,8 +57,31 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
     let (group, representatives) = orientation_groups(&overlapping);
     let sides: Vec<Result<MmSide, ImageRejection>> =
         representatives.par_iter().map(|g| mm_side(&blurred, g, config)).collect();
-    let mut results: Vec<ImageResult> =
-        overlapping.par_iter().zip(&group).map(|((v, g), &k)| register_image(patch, &sides[k], v, g, config)).collect();
+    let opened: Vec<Result<Opened<'_>, Box<ImageResult>>> =
+        overlapping.par_iter().zip(&group).map(|((v, g), &k)| open_image(patch, &sides[k], v, g, config)).collect();
+    // paper 000 §3.7 for all windows together: one DG error (module `pooled`)
+    let windows: Vec<WindowMatches<'_>> = opened
+        .iter()
+        .zip(&group)
+        .filter_map(|(o, &k)| {
+            let o = o.as_ref().ok()?;
+            let (pairs, prior) = o.kaze.as_ref().ok()?;
+            Some(WindowMatches { group: k, grid: o.grid(), pairs, prior, area_px: o.match_area(prior, config) })
+        })
+        .collect();
+    let offsets = if config.pool_windows {
+        pooled_offsets(&windows, config.initial_threshold_px, config.min_initial_inliers)
+    } else {
+        Vec::new()
+    };
+    drop(windows);
+    let mut results: Vec<ImageResult> = opened
+        .into_par_iter()
+        .map(|o| match o {
+            Ok(o) => match_image(o, patch, &offsets, config),
+            Err(done) => *done,
+        })
+        .collect();
     let passed = results.iter().filter(|r| r.diagnostic.passed).count();
     if passed < needed {
         return discard(results, AerialDiscard::TooFewPlausible { passed, needed });
