@@ -145,9 +145,10 @@ fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
 }
 
 /// The image-derived motions between neighbouring panoramas of a tile (paper 000 §3.3): each diagnostic's
-/// motion to its neighbour, where KAZE + RANSAC measured one.
+/// motion to its neighbour, where KAZE + RANSAC measured one and the registration's cross-panorama check
+/// (paper 000 §3.9) did not find it contradicted by the aerial offsets on both sides.
 pub fn motions_of(result: &TileResultV1) -> Vec<ImageMotion> {
-    result.images.iter().filter_map(|d| d.motion).collect()
+    result.images.iter().filter(|d| !d.motion_contradicted).filter_map(|d| d.motion).collect()
 }
 
 #[cfg(test)]
@@ -164,6 +165,24 @@ mod tests {
     fn golden() -> TileResultV1 {
         let text = plumbline_testkit::schemas::example("tile-result.v1.json");
         serde_json::from_str::<plumbline_registration::TileResult>(&text).expect("example parses").into_latest()
+    }
+
+    #[test]
+    fn a_motion_the_cross_check_contradicted_is_not_used() {
+        let mut result = golden();
+        let motion =
+            ImageMotion { start: 1.0, end: 1.5, displacement: [4.0, 0.5], heading_change: 0.0, std: [0.01; 3] };
+        let template = result.images[0].clone();
+        result.images = (0..3)
+            .map(|k| {
+                let mut d = template.clone();
+                d.motion = Some(ImageMotion { start: k as f64, end: k as f64 + 0.5, ..motion });
+                d.motion_contradicted = k == 1;
+                d
+            })
+            .collect();
+        let starts: Vec<f64> = motions_of(&result).iter().map(|m| m.start).collect();
+        assert_eq!(starts, vec![0.0, 2.0]);
     }
 
     #[test]
