@@ -124,7 +124,7 @@ pub struct Checked {
 /// partners than agree with it; the worst first, and a flagged one no longer counts for or against others.
 /// Two partners that disagree with nobody else to ask are both flagged. A wrong image motion makes every
 /// comparison across it disagree by the same residual: such a link (between groups of at least
-/// [`MIN_GROUP`] panoramas) is dropped instead, like a missing motion, when that explains more
+/// three panoramas (`MIN_GROUP`)) is dropped instead, like a missing motion, when that explains more
 /// disagreements than flagging the worst panorama would, net of its agreements.
 pub fn check(offsets: &[Option<Offset>], links: &[Option<Link>], config: &CrossCheckConfig) -> Checked {
     let mut links = links.to_vec();
