@@ -140,6 +140,25 @@ fn a_wrong_image_motion_between_consistent_groups_is_dropped_and_no_panorama_fla
     assert_eq!((flagged(&checked.verdicts), checked.broken_links), (vec![3, 5], vec![]));
 }
 
+#[test]
+fn a_wrong_motion_about_the_size_of_the_bound_is_dropped_although_long_chains_across_it_agree() {
+    // Link 6 measured 0.30 m wrong between seven and eleven matched panoramas: chains across it of up to 9
+    // links disagree, longer ones (wider bounds) agree. Most comparisons across disagree by one residual,
+    // so the motion is blamed, not the seven panoramas on one side.
+    let (offsets, mut links) = street(&drifting(18), &(0..18).collect::<Vec<_>>(), &[]);
+    links[6].iter_mut().for_each(|l| l.change[0] += 0.30);
+    let checked = check(&offsets, &links, &CrossCheckConfig::default());
+    let across: Vec<bool> = comparisons(&offsets, &links, &CrossCheckConfig::default())
+        .iter()
+        .filter(|q| q.a <= 6 && 6 < q.b)
+        .map(|q| q.residual_m <= q.tolerance_m)
+        .collect();
+    let agreeing = across.iter().filter(|&&a| a).count();
+    assert!(agreeing > 0 && 2 * agreeing < across.len(), "{agreeing} of {} agree", across.len());
+    assert_eq!(checked.broken_links, [6]);
+    assert!(flagged(&checked.verdicts).is_empty(), "{:?}", flagged(&checked.verdicts));
+}
+
 /// A standard normal draw (Box–Muller).
 fn normal(rng: &mut ChaCha8Rng) -> f64 {
     let (u, v): (f64, f64) = (rng.random_range(1e-12..1.0), rng.random_range(0.0..1.0));
