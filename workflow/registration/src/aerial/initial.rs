@@ -285,6 +285,7 @@ pub(crate) fn mm_features(prepared: &Prepared, config: &AerialConfig) -> Result<
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aerial::tests::scatter;
 
     /// A similarity of rotation `angle`, scale `s` about (50, 50), then translated by `d`.
     fn similarity(angle: f64, s: f64, d: [f64; 2]) -> Matrix3<f64> {
@@ -304,12 +305,6 @@ mod tests {
         assert_eq!(significant_inliers(50, 1.5, area), 6);
         // Unguided over a 300 × 300 window, three are enough among 40.
         assert_eq!(significant_inliers(40, 1.5, 90_000.0), 3);
-    }
-
-    /// A deterministic scatter in [−1, 1).
-    fn scatter(k: usize, salt: u64) -> f64 {
-        let x = (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(salt.wrapping_mul(0xbf58_476d));
-        ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
     #[test]

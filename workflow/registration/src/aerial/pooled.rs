@@ -15,6 +15,7 @@ use plumbline_imaging::ortho::GroundGrid;
 
 use super::guided::Prior;
 use super::initial::significant_inliers;
+use crate::stats::upper_median as median;
 
 /// The KAZE matches of one window.
 pub(crate) struct WindowMatches<'a> {
@@ -110,23 +111,13 @@ fn consensus(items: &[&Item], threshold: f64) -> Option<([f64; 2], usize)> {
     (count > 0).then_some((mean, count))
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied()
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aerial::tests::scatter;
 
     fn grid(up_heading: f64) -> GroundGrid {
         GroundGrid::new([1000.0, 2000.0], 0.12, 200, 200, up_heading).expect("grid")
-    }
-
-    /// A deterministic scatter in [−1, 1).
-    fn scatter(k: usize, salt: u64) -> f64 {
-        let x = (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(salt.wrapping_mul(0xbf58_476d));
-        ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
     }
 
     /// Matches of one window: `keypoints` MM keypoints moved by the ground `offset` through `grid`, plus

@@ -30,6 +30,12 @@ const AT_TOLERANCE: f64 = 0.1;
 /// Two aerial pixels at 12 cm: the paper's correctness bound (issue 5).
 const CORRECT_M: f64 = 0.24;
 
+/// A deterministic scatter in [−1, 1) for test data (`k`-th draw of stream `salt`).
+pub(super) fn scatter(k: usize, salt: u64) -> f64 {
+    let x = (k as u64 + 1).wrapping_mul(0x9e37_79b9_7f4a_7c15).wrapping_add(salt.wrapping_mul(0xbf58_476d));
+    ((x >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+}
+
 /// The synthetic scene every test shares.
 struct Fixture {
     world: World,

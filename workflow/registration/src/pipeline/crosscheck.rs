@@ -289,9 +289,8 @@ fn worst_link(pairs: &[Pair], active: &[bool], links: &[Option<Link>]) -> Option
 }
 
 /// The median of a non-empty list (the upper middle for an even count).
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+fn median(v: Vec<f64>) -> f64 {
+    crate::stats::upper_median(v).unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]
