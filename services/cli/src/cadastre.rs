@@ -8,9 +8,7 @@ use std::process::ExitCode;
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand};
 use plumbline_campaign::count_diagnostics;
-use plumbline_runtime::cadastre::{
-    CadastreError, CadastreInspection, CadastreSource, LayerInspection, inspect_cadastre,
-};
+use plumbline_runtime::cadastre::{CadastreInspection, CadastreSource, LayerInspection, inspect_cadastre};
 
 use crate::exit::invalid;
 use crate::io::Context;
@@ -56,7 +54,7 @@ async fn inspect(ctx: &Context, args: InspectArgs) -> anyhow::Result<ExitCode> {
     .context("the inspection task failed")?;
     let report = match report {
         Ok(report) => report,
-        Err(e @ CadastreError::Open { .. }) => return Err(invalid(e.to_string())),
+        Err(e) if e.is_file_problem() => return Err(invalid(e.to_string())),
         Err(e) => return Err(e.into()),
     };
     if args.json {

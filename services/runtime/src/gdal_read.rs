@@ -11,7 +11,7 @@ use gdal::Dataset;
 use gdal::errors::GdalError;
 use gdal::raster::{GdalDataType, GdalType};
 
-use crate::crs::route_gdal_messages;
+use crate::gdal_messages::route_gdal_messages;
 use crate::gdal_write::{Raster, RasterData};
 
 /// Why a raster could not be read, naming the raster and the step.
@@ -69,6 +69,9 @@ impl RasterSource {
     pub fn open_path(path: &Path) -> Result<Self, GdalReadError> {
         route_gdal_messages();
         let name = path.display().to_string();
+        if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
+            return Err(GdalReadError::Unusable { name, problem: "is empty (0 bytes)".into() });
+        }
         let dataset = Dataset::open(path).map_err(failed(&name, "open the raster"))?;
         Self::from_dataset(name, dataset, Vec::new())
     }
@@ -103,6 +106,11 @@ impl RasterSource {
         let dir = crate::gdal_write::vsimem_path("dir");
         let mut held = Vec::new();
         let mut hold = |relative: &str, bytes: Vec<u8>| {
+            // GDAL takes ownership of the buffer; an empty `Vec` has no allocation for it to free.
+            if bytes.is_empty() {
+                let problem = format!("{relative} is empty (0 bytes)");
+                return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
+            }
             let path = PathBuf::from(format!("{dir}/{relative}"));
             let result = gdal::vsi::create_mem_file(&path, bytes);
             held.push(path);
@@ -147,6 +155,24 @@ impl RasterSource {
     /// GDAL geotransform of the whole raster.
     pub fn geotransform(&self) -> [f64; 6] {
         self.geotransform
+    }
+
+    /// Number of bands.
+    pub fn band_count(&self) -> usize {
+        self.dataset.raster_count()
+    }
+
+    /// The pixel type of band 1 as GDAL names it (`Byte`, `UInt16`, `Float32`, …).
+    pub fn pixel_type(&self) -> Result<String, GdalReadError> {
+        let band = self.dataset.rasterband(1).map_err(failed(&self.name, "open band 1"))?;
+        Ok(band.band_type().name())
+    }
+
+    /// The raster's extent in its own CRS.
+    pub fn extent(&self) -> MapBox {
+        let g = &self.geotransform;
+        let (e1, n0) = (g[0] + self.width as f64 * g[1], g[3] + self.height as f64 * g[5]);
+        MapBox { min_e: g[0], min_n: n0, max_e: e1, max_n: g[3] }
     }
 
     /// EPSG code of the raster's CRS, when it has one GDAL can name.
@@ -335,6 +361,21 @@ mod tests {
         let all = MapBox { min_e: 0.0, min_n: 0.0, max_e: 4.0, max_n: 2.0 };
         let w = source.window(&all).unwrap().unwrap();
         assert_eq!(w.data, raster.data);
+    }
+
+    #[test]
+    fn empty_rasters_are_refused_before_gdal_sees_them() {
+        // An empty `Vec` handed to GDAL's in-memory file system was freed by GDAL: a segfault.
+        let e = RasterSource::open_bytes("s3://b/empty.tif", Vec::new()).unwrap_err();
+        assert_eq!(e.to_string(), "s3://b/empty.tif: raster.tif is empty (0 bytes)");
+        let e = RasterSource::open_mosaic_bytes("m.vrt", b"<VRTDataset/>".to_vec(), vec![("t.tif".into(), vec![])])
+            .unwrap_err();
+        assert!(e.to_string().contains("t.tif is empty (0 bytes)"), "{e}");
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("empty.tif");
+        std::fs::write(&path, b"").unwrap();
+        let e = RasterSource::open_path(&path).unwrap_err();
+        assert!(e.to_string().ends_with("empty.tif: is empty (0 bytes)"), "{e}");
     }
 
     #[test]

@@ -11,7 +11,7 @@ use gdal::spatial_ref::{AxisMappingStrategy, SpatialRef};
 use gdal::vector::{Feature, FieldDefn, Geometry, LayerAccess, LayerOptions, OGRFieldType, OGRwkbGeometryType};
 use gdal::{Dataset, DriverManager};
 
-use crate::crs::route_gdal_messages;
+use crate::gdal_messages::route_gdal_messages;
 
 /// Why encoding failed: the GDAL step, or the item and field that were bad.
 #[derive(Debug, thiserror::Error)]

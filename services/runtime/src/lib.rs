@@ -20,6 +20,7 @@ pub mod config;
 pub mod crs;
 pub mod errors;
 pub mod files;
+pub mod gdal_messages;
 pub mod gdal_read;
 pub mod gdal_write;
 pub mod logging;

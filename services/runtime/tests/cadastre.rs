@@ -319,7 +319,8 @@ fn a_file_that_is_not_a_geopackage_is_an_open_error_naming_it() {
     let bytes = b"fid,x,y\n1,2,3\n";
     let source = CadastreSource::Bytes { name: "memory:///not.gpkg", bytes };
     let err = read_cadastre(source, &spec(&["lights"]), UTM32, None).unwrap_err();
-    assert!(matches!(err, CadastreError::Open { .. }) && err.to_string().contains("memory:///not.gpkg"), "{err}");
+    assert!(matches!(err, CadastreError::NotVector { .. }) && err.to_string().contains("memory:///not.gpkg"), "{err}");
+    assert!(err.to_string().contains("no SQLite header"), "{err}");
     let err = inspect_cadastre(CadastreSource::Path(Path::new("/nonexistent/x.gpkg")), None).unwrap_err();
     assert!(err.to_string().contains("/nonexistent/x.gpkg"), "{err}");
 }
@@ -360,4 +361,166 @@ fn inspect_lists_layers_geometry_counts_crs_fields_class_values_and_problems() {
     assert_eq!(table, [(DiagnosticKind::NotAPoint, None), (DiagnosticKind::NullGeometry, Some(1))]);
     let fids: Vec<u64> = got.diagnostics.iter().filter(|d| d.layer == "poles").filter_map(|d| d.fid).collect();
     assert_eq!(fids, [2, 3, 4, 5, 6, 11]);
+}
+
+// --- Damaged and wrong files: named for what they are, never a crash, never a silently shorter read ---------
+
+/// The root page of `table` (1-based) and the file's page size, through GDAL's SQL on the GeoPackage.
+fn root_page(path: &Path, table: &str) -> (usize, usize) {
+    let ds = gdal::Dataset::open(path).unwrap();
+    let sql = format!("SELECT rootpage FROM sqlite_master WHERE name = '{table}'");
+    let mut rows = ds.execute_sql(&sql, None, gdal::vector::sql::Dialect::DEFAULT).unwrap().unwrap();
+    let root = rows.features().next().unwrap().field_as_integer(0).unwrap().unwrap();
+    let bytes = std::fs::read(path).unwrap();
+    let size = match u16::from_be_bytes([bytes[16], bytes[17]]) {
+        1 => 65_536,
+        n => usize::from(n),
+    };
+    (usize::try_from(root).unwrap(), size)
+}
+
+/// Overwrite page `page` (1-based) of the SQLite file with garbage.
+fn smash_page(path: &Path, page: usize, size: usize) {
+    let mut bytes = std::fs::read(path).unwrap();
+    bytes[(page - 1) * size..page * size].fill(0xAB);
+    std::fs::write(path, bytes).unwrap();
+}
+
+/// The child page in the middle of an interior table page (SQLite b-tree page type 5).
+fn middle_child(path: &Path, page: usize, size: usize) -> usize {
+    let bytes = std::fs::read(path).unwrap();
+    let p = &bytes[(page - 1) * size..page * size];
+    assert_eq!(p[0], 0x05, "the root page of a 3000-row table is an interior page");
+    let cells = usize::from(u16::from_be_bytes([p[3], p[4]]));
+    let at = 12 + 2 * (cells / 2);
+    let cell = usize::from(u16::from_be_bytes([p[at], p[at + 1]]));
+    u32::from_be_bytes([p[cell], p[cell + 1], p[cell + 2], p[cell + 3]]) as usize
+}
+
+fn two_layers(dir: &Path) -> PathBuf {
+    let many = grid(55, 0.0001); // 3025 points: a table of many pages
+    write_gpkg(dir, "two.gpkg", &[grid_layer("lights", &many), grid_layer("trees", &grid(5, 0.001))])
+}
+
+#[test]
+fn a_corrupted_page_is_a_diagnostic_and_the_features_before_it_and_the_other_layers_are_kept() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = two_layers(dir.path());
+    let (root, size) = root_page(&path, "lights");
+    smash_page(&path, middle_child(&path, root, size), size);
+    let got = read(&path, &spec(&["lights", "trees"]), None);
+    let failed: Vec<_> = got.diagnostics.iter().filter(|d| d.kind == DiagnosticKind::ReadFailed).collect();
+    assert_eq!(failed.len(), 1, "{:?}", got.diagnostics);
+    assert_eq!((failed[0].layer.as_str(), failed[0].consequence), ("lights", Consequence::Kept));
+    assert!(failed[0].detail.contains("of 3025 features") && failed[0].detail.contains("malformed"), "{failed:?}");
+    let lights = &got.layers[0];
+    assert!(lights.used > 100 && lights.used < 3025, "the rows before the damaged page are kept: {lights:?}");
+    assert_eq!(got.layers[1].used, 25, "the intact layer is read whole");
+    // The run reads through the spatial filter of its tile box: the same.
+    let everywhere = [0.0, 0.0, 1e7, 1e7];
+    let boxed = read(&path, &spec(&["lights", "trees"]), Some(everywhere));
+    assert!(boxed.diagnostics.iter().any(|d| d.kind == DiagnosticKind::ReadFailed && d.layer == "lights"));
+    assert_eq!(boxed.layers[1].used, 25);
+    // inspect says the same.
+    let inspected = inspect_cadastre(CadastreSource::Path(&path), Some("art")).unwrap();
+    assert!(inspected.diagnostics.iter().any(|d| d.kind == DiagnosticKind::ReadFailed && d.layer == "lights"));
+    assert_eq!(inspected.layers[1].feature_count, 25);
+}
+
+#[test]
+fn a_corrupted_root_page_skips_its_layer_loudly_and_reads_the_next() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = two_layers(dir.path());
+    let (root, size) = root_page(&path, "lights");
+    smash_page(&path, root, size);
+    let got = read(&path, &spec(&["lights", "trees"]), None);
+    let failed: Vec<_> = got.diagnostics.iter().filter(|d| d.kind == DiagnosticKind::ReadFailed).collect();
+    assert_eq!(failed.len(), 1, "{:?}", got.diagnostics);
+    assert_eq!(failed[0].consequence, Consequence::LayerSkipped);
+    assert!(failed[0].detail.starts_with("reading stopped after 0 of 3025 features"), "{failed:?}");
+    assert_eq!((got.layers[0].used, got.layers[1].used), (0, 25));
+}
+
+#[test]
+fn an_undecodable_geometry_blob_is_told_apart_from_a_null_geometry() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = write_gpkg(dir.path(), "blobs.gpkg", &[grid_layer("lights", &grid(3, 0.001))]);
+    {
+        let options = gdal::DatasetOptions {
+            open_flags: gdal::GdalOpenFlags::GDAL_OF_VECTOR | gdal::GdalOpenFlags::GDAL_OF_UPDATE,
+            ..Default::default()
+        };
+        let ds = gdal::Dataset::open_ex(&path, options).unwrap();
+        for sql in [
+            "UPDATE lights SET geom = X'47500001DEADBEEF' WHERE fid = 3",
+            "UPDATE lights SET geom = NULL WHERE fid = 4",
+        ] {
+            ds.execute_sql(sql, None, gdal::vector::sql::Dialect::DEFAULT).unwrap();
+        }
+    }
+    let got = read(&path, &spec(&["lights"]), None);
+    let kinds: Vec<_> = got.diagnostics.iter().map(|d| (d.kind, d.fid)).collect();
+    assert_eq!(kinds, [(DiagnosticKind::BadGeometry, Some(3)), (DiagnosticKind::NullGeometry, Some(4))]);
+    assert!(got.diagnostics[0].detail.contains("cannot be decoded"), "{:?}", got.diagnostics[0]);
+    assert_eq!(got.features.len(), 7);
+}
+
+#[test]
+fn a_3d_point_layer_gives_one_aggregated_line_not_one_per_feature() {
+    let dir = tempfile::tempdir().unwrap();
+    let points = grid(20, 0.0005);
+    let layer = points.iter().fold(layer("lights", srs(4258)), |l, (x, y)| {
+        l.add(Some(&format!("POINT Z ({x} {y} 12.5)")), Some("Lichtmast"), real(0.3))
+    });
+    let path = write_gpkg(dir.path(), "z.gpkg", &[layer]);
+    let got = read(&path, &spec(&["lights"]), None);
+    assert_eq!(got.features.len(), 400);
+    assert_eq!(got.diagnostics.len(), 1, "{:?}", got.diagnostics);
+    let d = &got.diagnostics[0];
+    assert_eq!((d.kind, d.fid), (DiagnosticKind::HeightDropped, None));
+    assert!(d.detail.starts_with("400 features, the first is feature 1"), "{d:?}");
+    let inspected = inspect_cadastre(CadastreSource::Path(&path), None).unwrap();
+    assert_eq!(inspected.diagnostics.len(), 1, "{:?}", inspected.diagnostics);
+}
+
+#[test]
+fn files_that_are_no_vector_geopackage_are_named_for_what_they_are() {
+    let dir = tempfile::tempdir().unwrap();
+    let empty = dir.path().join("empty.gpkg");
+    std::fs::write(&empty, b"").unwrap();
+    let text = dir.path().join("text.gpkg");
+    std::fs::write(&text, b"layer,x,y\nlights,1,2\n").unwrap();
+    let raster = dir.path().join("raster.gpkg");
+    {
+        let driver = DriverManager::get_driver_by_name("GPKG").unwrap();
+        let mut ds = driver.create_with_band_type::<u8, _>(&raster, 16, 16, 1).unwrap();
+        ds.set_geo_transform(&[500_000.0, 1.0, 0.0, 5_000_016.0, 0.0, -1.0]).unwrap();
+        ds.set_spatial_ref(&SpatialRef::from_epsg(25832).unwrap()).unwrap();
+        ds.rasterband(1).unwrap().fill(7.0, None).unwrap();
+    }
+    let sqlite = dir.path().join("plain.gpkg");
+    {
+        let driver = DriverManager::get_driver_by_name("SQLite").unwrap();
+        let mut ds = driver.create_vector_only(&sqlite).unwrap();
+        ds.create_layer(LayerOptions { name: "t", ..Default::default() }).unwrap();
+    }
+    let empty_bytes: &[u8] = &[];
+    let cases: [(CadastreSource<'_>, &str); 5] = [
+        (CadastreSource::Path(&empty), "the file is empty (0 bytes"),
+        (CadastreSource::Bytes { name: "s3://b/upload.gpkg", bytes: empty_bytes }, "the file is empty (0 bytes"),
+        (CadastreSource::Path(&text), "no SQLite header (the file's 21 bytes start with `layer,x,y.lights`)"),
+        (CadastreSource::Path(&raster), "it holds raster tiles only"),
+        (CadastreSource::Path(&sqlite), "GDAL: "),
+    ];
+    for (source, expected) in cases {
+        for e in [
+            read_cadastre(source, &spec(&["lights"]), UTM32, None).unwrap_err(),
+            inspect_cadastre(source, None).unwrap_err(),
+        ] {
+            assert!(matches!(e, CadastreError::NotVector { .. }), "{e:?}");
+            let text = e.to_string();
+            assert!(text.starts_with(&format!("{} is not a GeoPackage with vector layers: ", source.name())), "{text}");
+            assert!(text.contains(expected), "{text} should contain {expected}");
+        }
+    }
 }

@@ -73,6 +73,12 @@ pub enum DiagnosticKind {
     NullDiameter,
     /// The diameter attribute is not a positive finite number (wrong type or value).
     BadDiameter,
+    /// A feature's geometry is stored but cannot be decoded (a damaged geometry blob).
+    BadGeometry,
+    /// Reading the layer stopped early on a damaged file (e.g. a corrupted database page).
+    ReadFailed,
+    /// The manifest's `epsg` differs from the SRS the layer has (the layer's own is used).
+    SrsConflict,
 }
 
 /// What happened to the item a diagnostic names.

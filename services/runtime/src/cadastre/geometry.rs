@@ -31,6 +31,22 @@ fn present(geometry: Option<&Geometry>) -> Option<&Geometry> {
     geometry.filter(|g| g.geometry_type() != OGRwkbGeometryType::wkbUnknown)
 }
 
+/// The points of `geometry` as GDAL fetched it, `failures` being the GDAL failures raised by the fetch: a
+/// geometry missing because its stored blob could not be decoded is [`DiagnosticKind::BadGeometry`], not a
+/// null geometry.
+pub(crate) fn points_fetched(
+    geometry: Option<&Geometry>,
+    failures: &[String],
+) -> Result<FeaturePoints, GeometryProblem> {
+    if present(geometry).is_none()
+        && let Some(message) = failures.last()
+    {
+        let detail = format!("the stored geometry cannot be decoded: GDAL: {message}");
+        return Err((DiagnosticKind::BadGeometry, detail));
+    }
+    points(geometry)
+}
+
 /// The points of `geometry`.
 pub(crate) fn points(geometry: Option<&Geometry>) -> Result<FeaturePoints, GeometryProblem> {
     let Some(g) = present(geometry) else {

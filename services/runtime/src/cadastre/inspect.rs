@@ -9,6 +9,7 @@ use serde::Serialize;
 
 use super::attributes::value_text;
 use super::srs::{self, LayerSrs};
+use super::walk::{Diagnostics, stopped_early, walk_features};
 use super::{CadastreError, CadastreSource, OpenCadastre, geometry};
 
 /// Distinct values listed per class field; the rest are counted as `other`.
@@ -98,11 +99,13 @@ pub fn inspect_cadastre(
 ) -> Result<CadastreInspection, CadastreError> {
     let open = OpenCadastre::open(source)?;
     let mut out = CadastreInspection { file: source.name(), layers: Vec::new(), diagnostics: Vec::new() };
+    let mut diagnostics = Diagnostics::default();
     for mut layer in open.dataset.layers() {
-        let mut sink = Sink { file: &out.file, layer: layer.name(), out: &mut out.diagnostics };
+        let mut sink = Sink { file: &out.file, layer: layer.name(), out: &mut diagnostics };
         let inspection = inspect_layer(&mut layer, class_attribute, &mut sink);
         out.layers.push(inspection);
     }
+    out.diagnostics = diagnostics.finish();
     Ok(out)
 }
 
@@ -111,7 +114,7 @@ pub fn inspect_cadastre(
 struct Sink<'a> {
     file: &'a str,
     layer: String,
-    out: &'a mut Vec<CadastreDiagnostic>,
+    out: &'a mut Diagnostics,
 }
 
 impl Sink<'_> {
@@ -148,11 +151,11 @@ fn inspect_layer(layer: &mut Layer<'_>, class_attribute: Option<&str>, sink: &mu
         .collect();
     let mut geometry_counts = BTreeMap::new();
     let mut feature_count = 0;
-    for (sequence, feature) in layer.features().enumerate() {
+    let announced = layer.feature_count();
+    let end = walk_features(layer, |fid, feature, failures| {
         feature_count += 1;
-        let fid = feature.fid().unwrap_or(sequence as u64);
         *geometry_counts.entry(geometry::type_name(feature.geometry())).or_insert(0) += 1;
-        match geometry::points(feature.geometry()) {
+        match geometry::points_fetched(feature.geometry(), failures) {
             Ok(points) => {
                 points.notes.into_iter().for_each(|(k, d)| sink.report(k, Consequence::Kept, Some(fid), None, d))
             }
@@ -165,8 +168,11 @@ fn inspect_layer(layer: &mut Layer<'_>, class_attribute: Option<&str>, sink: &mu
                 sink.report(kind, Consequence::FeatureSkipped, Some(fid), field, "null or empty".into());
             }
         }
+    });
+    if let Some(d) = stopped_early(sink.file, &sink.layer, &end, announced) {
+        sink.out.push(d);
     }
-    if feature_count == 0 {
+    if feature_count == 0 && end.stopped_by.is_none() {
         sink.report(DiagnosticKind::EmptyLayer, Consequence::Kept, None, None, "no features".into());
     }
     LayerInspection { name: layer.name(), crs, feature_count, geometry_counts, fields, class_values }

@@ -8,6 +8,7 @@ use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, CadastreFeatureId,
 use super::attributes::Fields;
 use super::geometry;
 use super::srs::{self, LayerFrame, LayerSrs};
+use super::walk::{Diagnostics, stopped_early, walk_features};
 use super::{CadastreError, CadastreRead, CadastreSource, LayerCounts, OpenCadastre};
 
 /// Reads the layers `spec` names from `source` into the campaign CRS `campaign`.
@@ -30,12 +31,28 @@ pub fn read_cadastre(
     let campaign_srs =
         srs::from_epsg(campaign.0).map_err(|source| CadastreError::CampaignCrs { epsg: campaign, source })?;
     let open = OpenCadastre::open(source)?;
-    let mut reader = Reader { file: source.name(), spec, campaign_srs, bbox, out: CadastreRead::default() };
+    let mut reader = Reader {
+        file: source.name(),
+        spec,
+        campaign_srs,
+        bbox,
+        out: CadastreRead::default(),
+        diagnostics: Diagnostics::default(),
+    };
     for (index, name) in spec.layers.iter().enumerate() {
         let counts = reader.layer(&open, index, name);
         reader.out.layers.push(counts);
     }
+    reader.out.diagnostics = reader.diagnostics.finish();
     Ok(reader.out)
+}
+
+/// A feature as GDAL handed it out, with the GDAL failures raised while fetching it.
+#[derive(Debug, Clone, Copy)]
+struct Fetched<'a, 'f> {
+    fid: u64,
+    feature: &'a Feature<'f>,
+    failures: &'a [String],
 }
 
 /// One object waiting for reprojection.
@@ -54,6 +71,7 @@ struct Reader<'a> {
     campaign_srs: SpatialRef,
     bbox: Option<[f64; 4]>,
     out: CadastreRead,
+    diagnostics: Diagnostics,
 }
 
 impl Reader<'_> {
@@ -69,14 +87,23 @@ impl Reader<'_> {
             self.layer_problem(name, DiagnosticKind::NotAPoint, None, detail);
             return counts;
         }
-        let frame =
-            match LayerFrame::resolve(LayerSrs::classify(layer.spatial_ref()), self.spec.epsg, &self.campaign_srs) {
-                Ok(frame) => frame,
-                Err((kind, detail)) => {
-                    self.layer_problem(name, kind, None, detail);
-                    return counts;
-                }
-            };
+        let own_srs = LayerSrs::classify(layer.spatial_ref());
+        if let (LayerSrs::Defined { epsg: Some(own), .. }, Some(given)) = (&own_srs, self.spec.epsg)
+            && *own != given.0
+        {
+            let detail = format!(
+                "the layer's own SRS is EPSG:{own}, the manifest's epsg is {given}: the layer's own is used (`epsg` \
+                 only supplies a missing SRS)"
+            );
+            self.push(name, DiagnosticKind::SrsConflict, Consequence::Kept, None, None, detail);
+        }
+        let frame = match LayerFrame::resolve(own_srs, self.spec.epsg, &self.campaign_srs) {
+            Ok(frame) => frame,
+            Err((kind, detail)) => {
+                self.layer_problem(name, kind, None, detail);
+                return counts;
+            }
+        };
         let fields = match Fields::resolve(layer.defn(), self.spec) {
             Ok((fields, problem)) => {
                 if let Some((kind, field, detail)) = problem {
@@ -116,13 +143,17 @@ impl Reader<'_> {
             }
         }
         let name = layer.name();
+        let announced = if self.bbox.is_none() { layer.feature_count() } else { 0 };
         let mut pending = Vec::new();
-        for (sequence, feature) in layer.features().enumerate() {
+        let end = walk_features(layer, |fid, feature, failures| {
             counts.examined += 1;
-            let fid = feature.fid().unwrap_or(sequence as u64);
-            if !self.feature(&name, &feature, fid, fields, layer_index, &mut pending) {
+            let fetched = Fetched { fid, feature, failures };
+            if !self.feature(&name, &fetched, fields, layer_index, &mut pending) {
                 counts.skipped += 1;
             }
+        });
+        if let Some(d) = stopped_early(&self.file, &name, &end, announced) {
+            self.diagnostics.push(d);
         }
         pending
     }
@@ -131,13 +162,13 @@ impl Reader<'_> {
     fn feature(
         &mut self,
         layer: &str,
-        feature: &Feature<'_>,
-        fid: u64,
+        fetched: &Fetched<'_, '_>,
         fields: &Fields<'_>,
         layer_index: u32,
         pending: &mut Vec<Pending>,
     ) -> bool {
-        let points = match geometry::points(feature.geometry()) {
+        let Fetched { fid, feature, failures } = *fetched;
+        let points = match geometry::points_fetched(feature.geometry(), failures) {
             Ok(points) => points,
             Err((kind, detail)) => {
                 self.push(layer, kind, Consequence::FeatureSkipped, Some(fid), None, detail);
@@ -213,7 +244,6 @@ impl Reader<'_> {
         detail: String,
     ) {
         let (file, layer) = (self.file.clone(), layer.to_owned());
-        self.out.diagnostics.push(CadastreDiagnostic { kind, consequence, file, layer, fid, field, detail });
-        tracing::debug!(?kind, ?consequence, fid, "cadastre diagnostic");
+        self.diagnostics.push(CadastreDiagnostic { kind, consequence, file, layer, fid, field, detail });
     }
 }

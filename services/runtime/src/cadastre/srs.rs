@@ -47,7 +47,7 @@ pub(crate) fn gis_order(mut srs: SpatialRef) -> SpatialRef {
 
 /// The SRS of `epsg` in GIS axis order.
 pub(crate) fn from_epsg(epsg: u32) -> Result<SpatialRef, gdal::errors::GdalError> {
-    crate::crs::route_gdal_messages();
+    crate::gdal_messages::route_gdal_messages();
     SpatialRef::from_epsg(epsg).map(gis_order)
 }
 

@@ -103,7 +103,7 @@ impl CrsTransform {
 
 /// The spatial reference of `code`, in traditional GIS axis order.
 fn spatial_ref(code: u32) -> Result<SpatialRef, CrsError> {
-    route_gdal_messages();
+    crate::gdal_messages::route_gdal_messages();
     let mut srs = SpatialRef::from_epsg(code).map_err(|source| CrsError::UnknownEpsg { code, source })?;
     srs.set_axis_mapping_strategy(AxisMappingStrategy::TraditionalGisOrder);
     Ok(srs)
@@ -117,15 +117,4 @@ pub fn is_projected(epsg: u32) -> Result<bool, CrsError> {
 /// The CRS's name, e.g. `ETRS89 / UTM zone 32N` for 25832.
 pub fn crs_name(epsg: u32) -> Result<String, CrsError> {
     Ok(spatial_ref(epsg)?.name().unwrap_or_else(|| format!("EPSG:{epsg}")))
-}
-
-/// Send GDAL's own error printing to `tracing` (once per process): failures already come back as typed
-/// errors, so GDAL's duplicate lines on stderr would only confuse users.
-pub fn route_gdal_messages() {
-    static ONCE: std::sync::Once = std::sync::Once::new();
-    ONCE.call_once(|| {
-        gdal::config::set_error_handler(|class, code, message| {
-            tracing::debug!(target: "gdal", ?class, code, message, "gdal message");
-        });
-    });
 }
