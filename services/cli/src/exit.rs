@@ -7,3 +7,6 @@ pub const INVALID: u8 = 2;
 
 /// Exit code of `status --watch` for a campaign that finished without some of its tiles (dead-lettered).
 pub const PARTIAL: u8 = 3;
+
+/// Exit code of `run --strict` when a named input gave no control (the outputs are still written).
+pub const NO_CONTROL: u8 = 4;

@@ -22,6 +22,7 @@ use plumbline_worker::{
 };
 use serde::{Deserialize, Serialize};
 
+use crate::exit::NO_CONTROL;
 use crate::io::Context;
 
 /// Arguments of `run`.
@@ -41,6 +42,10 @@ pub struct Args {
     /// Progress as JSON lines on stderr.
     #[arg(long, conflicts_with = "quiet")]
     pub json: bool,
+    /// Exit with code 4 when a named input gave no control (a cadastre with no pole update, an aerial
+    /// reference no panorama matched, point clouds); without it such inputs are warnings.
+    #[arg(long)]
+    pub strict: bool,
 }
 
 /// What a finished run leaves in the output prefix to recognise its tiles on a re-run.
@@ -56,6 +61,19 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let progress = reporter(style);
     let outcome = run_campaign(ctx.files(), &args.manifest, args.fresh, usize::from(args.jobs), progress).await?;
     print_summary(&outcome);
+    let warnings = &outcome.finished.report.warnings;
+    if warnings.is_empty() {
+        return Ok(ExitCode::SUCCESS);
+    }
+    let n = warnings.len();
+    eprintln!("warning: {n} named input(s) gave no control; the trajectory was corrected without them:");
+    for w in warnings {
+        eprintln!("  {w}");
+    }
+    if args.strict {
+        eprintln!("--strict: exit code {NO_CONTROL}");
+        return Ok(ExitCode::from(NO_CONTROL));
+    }
     Ok(ExitCode::SUCCESS)
 }
 
@@ -216,6 +234,9 @@ pub fn print_summary(outcome: &Outcome) {
     );
     if outcome.resumed > 0 {
         println!("{} tile(s) reused from an earlier run", outcome.resumed);
+    }
+    for w in &report.warnings {
+        println!("WARNING no control from {w}");
     }
     if !report.skipped.is_empty() {
         println!("{} input item(s) skipped (listed in the report):", report.skipped.len());

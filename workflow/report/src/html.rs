@@ -34,6 +34,7 @@ pub fn render(report: &Report) -> String {
         c.crs,
         escape(&c.generated_by)
     );
+    warnings(&mut s, report);
     summary(&mut s, report);
     accuracy(&mut s, report);
     plots(&mut s, report);
@@ -43,6 +44,24 @@ pub fn render(report: &Report) -> String {
     events(&mut s, report);
     s.push_str("</body></html>\n");
     s
+}
+
+/// Named inputs that gave no control, first on the page.
+fn warnings(s: &mut String, r: &Report) {
+    if r.warnings.is_empty() {
+        return;
+    }
+    s.push_str("<h2 class=\"bad\">Inputs that gave no control</h2><ul>");
+    for w in &r.warnings {
+        let _ = write!(
+            s,
+            "<li class=\"bad\"><b>{}</b> <code>{}</code>: {}</li>",
+            escape(&w.input),
+            escape(&w.location),
+            escape(&w.message)
+        );
+    }
+    s.push_str("</ul>");
 }
 
 fn summary(s: &mut String, r: &Report) {

@@ -14,9 +14,9 @@ mod model;
 pub mod svg;
 
 pub use model::{
-    Accuracy, CampaignInfo, CorrectionSeries, CrossTrackSeries, Figures, FlaggedEpoch, HeightBiasLine, MapData,
-    MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, SkippedItem, Stage, Summary, TileLine,
-    TrackPoint,
+    Accuracy, CampaignInfo, CorrectionSeries, CrossTrackSeries, Figures, FlaggedEpoch, HeightBiasLine, InputWarning,
+    MapData, MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, SkippedItem, Stage, Summary,
+    TileLine, TrackPoint,
 };
 
 /// File name of the report schema under `schemas/`.

@@ -46,6 +46,28 @@ pub struct Report {
     /// The estimated height bias of each aerial frame set (absent in reports written before it existed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub height_biases: Vec<HeightBiasLine>,
+    /// Inputs the manifest names that gave the adjustment no control at all (absent when every named input
+    /// contributed).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<InputWarning>,
+}
+
+/// A named input that yielded no control: the run went on without it, and says so loudly.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct InputWarning {
+    /// The manifest field that names the input, e.g. `cadastres[1]`, `aerial.orthophoto`, `point_clouds[0]`.
+    pub input: String,
+    /// Its location as the manifest gives it.
+    pub location: String,
+    /// What it yielded and the likely reasons.
+    pub message: String,
+}
+
+impl std::fmt::Display for InputWarning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} (`{}`): {}", self.input, self.location, self.message)
+    }
 }
 
 /// Identity of the campaign.

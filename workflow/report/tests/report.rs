@@ -164,3 +164,20 @@ fn report_schema_is_current() {
     let schema = plumbline_report::report_schema();
     plumbline_testkit::schemas::assert_current(plumbline_report::REPORT_SCHEMA_FILE, &schema, "plumbline-report");
 }
+
+#[test]
+fn inputs_that_gave_no_control_lead_the_page_and_are_in_the_json() {
+    let warning = plumbline_report::InputWarning {
+        input: "cadastres[0]".into(),
+        location: "cadastre/<poles>.gpkg".into(),
+        message: "0 pole updates from 2 layer(s)".into(),
+    };
+    let report = Report { warnings: vec![warning.clone()], ..sample() };
+    let page = html::render(&report);
+    let heading = page.find("Inputs that gave no control").expect("a warnings section");
+    assert!(heading < page.find("Summary").unwrap_or(usize::MAX), "before everything else");
+    assert!(page.contains("cadastre/&lt;poles&gt;.gpkg"), "escaped");
+    let ReportDoc::V1(back) = serde_json::from_slice::<ReportDoc>(&report.to_json()).unwrap();
+    assert_eq!(back.warnings, [warning]);
+    assert!(!html::render(&sample()).contains("gave no control"), "no section when every input contributed");
+}

@@ -3,6 +3,9 @@
 //! rejected observations and flagged epochs.
 
 pub mod series;
+mod warnings;
+
+pub use warnings::input_warnings;
 
 use std::collections::HashSet;
 
@@ -58,6 +61,7 @@ pub fn build_report(
         rejected: rejected(merged, result),
         flags: flags(solved),
         height_biases: height_biases(result),
+        warnings: input_warnings(&campaign.manifest, merged),
     }
 }
 
