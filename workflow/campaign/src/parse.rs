@@ -180,3 +180,82 @@ fn position_of(text: &str, offset: usize) -> Position {
     let line_start = before.rfind('\n').map_or(0, |i| i + 1);
     Position { line: before.matches('\n').count() + 1, column: before[line_start..].chars().count() + 1 }
 }
+
+#[cfg(test)]
+mod tests {
+    use proptest::prelude::*;
+
+    use super::*;
+    use crate::mutation::{edits, mutate};
+
+    const FULL_TOML: &str = include_str!("../../../schemas/examples/manifest.v1.full.toml");
+    const FULL_JSON: &str = include_str!("../../../schemas/examples/manifest.v1.full.json");
+
+    /// Both readers on `bytes` (lossy UTF-8, as a caller that decoded them would pass text): a manifest holds
+    /// no more list entries than the text has room for (3 bytes: `"",`), an error names a field path or a
+    /// position (the toml crate gives its recursion limit no position: see `deep_nesting_is_an_error`).
+    fn check(bytes: &[u8]) -> Result<(), TestCaseError> {
+        let text = String::from_utf8_lossy(bytes);
+        for outcome in [Manifest::from_toml_str(&text), Manifest::from_json_str(&text)] {
+            match outcome {
+                Ok(Manifest::V1(m)) => {
+                    let entries = m.trajectory.len() + m.depth.len() + m.point_clouds.len() + m.cadastres.len();
+                    prop_assert!(entries * 3 <= text.len(), "{entries} entries");
+                }
+                Err(ParseError::Syntax { position: None, message, .. }) => {
+                    prop_assert!(message.contains("recursion limit"), "{message}");
+                }
+                Err(e) => prop_assert!(e.path().is_some() || e.position().is_some(), "{e}"),
+            }
+        }
+        Ok(())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 256,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(22),
+            ..ProptestConfig::default()
+        })]
+
+        #[test]
+        fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..4096)) {
+            check(&bytes)?;
+        }
+
+        #[test]
+        fn arbitrary_manifest_like_text_never_panics(text in "[a-z0-9_.=\\[\\]{}\":, \\n#-]{0,4000}") {
+            check(format!("version = \"1\"\n{text}").as_bytes())?;
+            check(format!("{{\"version\": \"1\", {text}").as_bytes())?;
+        }
+
+        #[test]
+        fn mutated_manifests_parse_or_name_the_field(json in any::<bool>(), edits in edits()) {
+            let valid = if json { FULL_JSON } else { FULL_TOML };
+            check(&mutate(valid.as_bytes().to_vec(), &edits))?;
+        }
+    }
+
+    /// 100 000 open brackets or dotted keys: an error from the parsers' recursion limits, not a stack
+    /// overflow (which would abort the process).
+    #[test]
+    fn deep_nesting_is_an_error() {
+        let n = 100_000;
+        for text in [
+            format!("version = \"1\"\nx = {}", "[".repeat(n)),
+            format!("version = \"1\"\nx = {}1{}", "{a=".repeat(n), "}".repeat(n)),
+            format!("version = \"1\"\n[{}]", vec!["a"; n].join(".")),
+        ] {
+            let e = Manifest::from_toml_str(&text).unwrap_err();
+            assert!(e.to_string().starts_with("TOML syntax error") && e.to_string().contains("recursion"), "{e}");
+        }
+        let e = Manifest::from_json_str(&format!("{{\"version\": \"1\", \"x\": {}", "[".repeat(n))).unwrap_err();
+        assert_eq!(e.to_string(), "JSON syntax error at line 1, column 149: recursion limit exceeded");
+    }
+
+    #[test]
+    fn the_mutated_examples_parse_unmutated() {
+        assert!(Manifest::from_toml_str(FULL_TOML).is_ok());
+        assert!(Manifest::from_json_str(FULL_JSON).is_ok());
+    }
+}

@@ -204,6 +204,8 @@ fn split(line: &str) -> Result<Vec<String>, String> {
 
 #[cfg(test)]
 mod tests {
+    use proptest::prelude::*;
+
     use super::*;
 
     #[test]
@@ -253,5 +255,57 @@ mod tests {
         let t = read_index("i.csv", b"image_id,time,file\n\"a,1,a.jpg\nb,2,b.jpg\n").unwrap();
         assert_eq!(t.rows.len(), 1);
         assert_eq!(t.skipped[0].line, 2);
+    }
+
+    /// Rows and skipped rows are at most one per line; a table error or a skipped row names the file.
+    fn check<R>(bytes: &[u8], outcome: Result<Table<R>, RowProblem>) -> Result<(), TestCaseError> {
+        match outcome {
+            Ok(table) => {
+                let lines = bytes.iter().filter(|b| **b == b'\n').count() + 1;
+                prop_assert!(table.rows.len() + table.skipped.len() < lines);
+                for p in &table.skipped {
+                    prop_assert!(p.file == "in.csv" && p.line >= 2 && p.line <= lines, "{p}");
+                    prop_assert!(p.to_string().starts_with("in.csv line "), "{p}");
+                }
+            }
+            Err(e) => prop_assert!(e.file == "in.csv" && e.to_string().starts_with("in.csv line 1"), "{e}"),
+        }
+        Ok(())
+    }
+
+    const INDEX: &str = "image_id,time,file\na,10.5,a.jpg\nb,11,\"b,1.jpg\"\n\nc,12.25,c.jpg\n";
+    const EXTERIOR: &str = "image_id,file,x,y,z,omega_deg,phi_deg,kappa_deg\n\
+                            a0,a0.jpg,564793.6,5932847.5,1508.0,0.1,-0.2,90\n\
+                            a1,a1.jpg,564841.6,5932847.5,1508.0,0.1,0.3,90\n";
+
+    proptest! {
+        #![proptest_config(ProptestConfig {
+            cases: 256,
+            rng_seed: proptest::test_runner::RngSeed::Fixed(21),
+            ..ProptestConfig::default()
+        })]
+
+        #[test]
+        fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..4096)) {
+            check(&bytes, read_index("in.csv", &bytes))?;
+            check(&bytes, read_exterior("in.csv", &bytes))?;
+        }
+
+        #[test]
+        fn arbitrary_table_like_text_never_panics(body in "[a-z0-9_.,\"\r\n\u{e9} -]{0,4000}") {
+            for header in ["image_id,time,file\n", "image_id,file,x,y,z,omega_deg,phi_deg,kappa_deg\n"] {
+                let text = format!("{header}{body}");
+                check(text.as_bytes(), read_index("in.csv", text.as_bytes()))?;
+                check(text.as_bytes(), read_exterior("in.csv", text.as_bytes()))?;
+            }
+        }
+
+        #[test]
+        fn mutated_tables_read_or_name_the_file(edits in crate::mutation::edits()) {
+            let index = crate::mutation::mutate(INDEX.as_bytes().to_vec(), &edits);
+            check(&index, read_index("in.csv", &index))?;
+            let exterior = crate::mutation::mutate(EXTERIOR.as_bytes().to_vec(), &edits);
+            check(&exterior, read_exterior("in.csv", &exterior))?;
+        }
     }
 }

@@ -5,12 +5,41 @@ use std::io::Cursor;
 
 use las::Reader;
 
+use crate::las_header::{LasHeader, LasHeaderError, parse_las_header, take};
+
 /// Points read per batch; a failing batch names its first record.
 const BATCH: u64 = 65_536;
+/// Bytes of an extended VLR's header: reserved (2), user id (16), record id (2), record length (8),
+/// description (32).
+const EVLR_HEADER_LEN: u64 = 60;
 
 /// Why a point cloud could not be read.
 #[derive(Debug, thiserror::Error)]
 pub enum LasError {
+    /// The header is not a LAS header, or announces what the file cannot hold (checked before the `las`
+    /// crate reads it, which would allocate from the announced sizes).
+    #[error("point cloud {0}")]
+    HeaderField(LasHeaderError),
+    /// A LAZ chunk table announces more chunks than the compressed points have room for (each chunk starts
+    /// with one point stored whole).
+    #[error(
+        "point cloud {file}: LAZ chunk table at byte {table} announces {chunks} chunks, but the {room} bytes of \
+         compressed points before it hold at most {max} of {record_length}-byte first points"
+    )]
+    ChunkTable {
+        /// The file.
+        file: String,
+        /// Byte offset of the chunk table.
+        table: u64,
+        /// Chunks announced.
+        chunks: u32,
+        /// Bytes between the chunk-table offset field and the table.
+        room: u64,
+        /// Chunks that fit (one may be empty).
+        max: u64,
+        /// Bytes of one point record.
+        record_length: u16,
+    },
     /// The header cannot be read.
     #[error("point cloud {file}: header: {source}")]
     Header {
@@ -72,19 +101,27 @@ pub struct LasPoints {
 }
 
 /// Read a LAS or LAZ file from memory. `file` names it in errors.
+///
+/// The header, the first extended VLR and a LAZ chunk table are checked against the file's length first, so
+/// that a corrupt count is an error rather than a huge allocation in the `las` or `laz` crate. The `laz`
+/// decoder can panic on corrupt compressed data (laz-rs issue #43: a division by zero, and debug assertions);
+/// such a panic becomes the error of the header or the batch of records being read.
 pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
-    let mut reader =
-        Reader::new(Cursor::new(bytes)).map_err(|source| LasError::Header { file: file.to_owned(), source })?;
+    let checked = check_extents(file, &bytes)?;
+    // Never more than the bytes hold uncompressed (LAZ grows the vector as points arrive).
+    let capacity = (bytes.len() as u64 / u64::from(checked.point_record_length)).min(checked.point_count);
+    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
+        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
     let format = *reader.header().point_format();
     if !format.has_gps_time {
         return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
     }
     let total = reader.header().number_of_points();
-    let mut points = Vec::with_capacity(usize::try_from(total).unwrap_or(0).min(1 << 26));
+    let mut points = Vec::with_capacity(usize::try_from(capacity).unwrap_or(0));
     let mut first = 0u64;
     while first < total {
         let n = BATCH.min(total - first);
-        let batch = reader.read_points(n).map_err(|source| LasError::Records {
+        let batch = unpanicked(|| reader.read_points(n)).map_err(|source| LasError::Records {
             file: file.to_owned(),
             first,
             last: first + n - 1,
@@ -100,6 +137,71 @@ pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
         first += n;
     }
     Ok(LasPoints { points, compressed: format.is_compressed })
+}
+
+/// `read`, with a panic inside (the `laz` decoder on corrupt data) turned into an error. The reader is not
+/// used after a panic: its error ends the read.
+fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
+    std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)).unwrap_or_else(|_| {
+        let message = "corrupt compressed data: the LAZ decoder failed (panicked)";
+        Err(las::Error::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, message)))
+    })
+}
+
+/// The header checked, and what the `las` and `laz` crates would allocate from it bounded by the file:
+/// the end of the point records representable, the first extended VLR inside the file, a LAZ chunk table's
+/// count within what the compressed points can hold. A truncated point section is left to the reader, whose
+/// error names the failing records.
+fn check_extents(file: &str, bytes: &[u8]) -> Result<LasHeader, LasError> {
+    let header = parse_las_header(file, bytes, None).map_err(LasError::HeaderField)?;
+    let invalid =
+        |field, problem| LasError::HeaderField(LasHeaderError::Invalid { file: file.to_owned(), field, problem });
+    let offset = u64::from(header.offset_to_point_data);
+    let record_length = u64::from(header.point_record_length);
+    if header.point_count.checked_mul(record_length).and_then(|n| n.checked_add(offset)).is_none() {
+        let problem = format!("{} records of {record_length} bytes end past any file", header.point_count);
+        return Err(invalid("point_count", problem));
+    }
+    let len = bytes.len() as u64;
+    // The reader reads the first EVLR when both fields are non-zero.
+    let evlr = header.start_of_first_evlr;
+    if evlr > 0 && header.number_of_evlrs > 0 {
+        let data_len = evlr.checked_add(20).and_then(|at| take::<8>(bytes, at)).map(u64::from_le_bytes);
+        let end = data_len.and_then(|n| evlr.checked_add(EVLR_HEADER_LEN)?.checked_add(n)).filter(|end| *end <= len);
+        if end.is_none() {
+            let problem = format!("the extended VLR at byte {evlr} does not end within the file ({len} bytes)");
+            return Err(invalid("start_of_first_evlr", problem));
+        }
+    }
+    if header.compressed {
+        check_chunk_table(file, bytes, offset, header.point_record_length)?;
+    }
+    Ok(header)
+}
+
+/// The LAZ chunk table's count against the compressed bytes before it. Its offset is the first 8 bytes of
+/// the point data, or the file's last 8 when the writer could not go back (as the `laz` crate finds it); a
+/// table the reader will not find is left to it.
+fn check_chunk_table(file: &str, bytes: &[u8], data_start: u64, record_length: u16) -> Result<(), LasError> {
+    // A negative offset counts as "not written", like one before the data.
+    let offset_at = |at: u64| take::<8>(bytes, at).map(|b| u64::try_from(i64::from_le_bytes(b)).unwrap_or(0));
+    let Some(mut table) = offset_at(data_start) else { return Ok(()) };
+    if table <= data_start {
+        let last = (bytes.len() as u64).saturating_sub(8);
+        let Some(at_end) = offset_at(last) else { return Ok(()) };
+        table = at_end;
+    }
+    if table <= data_start {
+        return Ok(());
+    }
+    let Some(chunks) = take::<4>(bytes, table + 4).map(u32::from_le_bytes) else { return Ok(()) };
+    // Every chunk but a last, empty one starts with its first point stored whole.
+    let room = table.saturating_sub(data_start + 8);
+    let max = room / u64::from(record_length) + 1;
+    if u64::from(chunks) > max {
+        return Err(LasError::ChunkTable { file: file.to_owned(), table, chunks, room, max, record_length });
+    }
+    Ok(())
 }
 
 fn append(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<LasPoint>) -> Result<(), LasError> {

@@ -11,11 +11,13 @@
 //!    [`report::frame_reports`] into the versioned per-frame diagnostics.
 //!
 //! [`pipeline::process_depth_frames`] runs all of it for a drive's depth images (the CLI's entry point).
+//! [`las_header::parse_las_header`] checks a point cloud's header from its first bytes, without the points.
 
 pub mod cupt;
 pub mod depth;
 pub mod detect;
 pub mod las;
+pub mod las_header;
 pub mod matching;
 pub mod pipeline;
 pub mod points;
@@ -28,6 +30,7 @@ pub use detect::{
     ground_from_neighbours,
 };
 pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las};
+pub use las_header::{LAS_PREFIX_BYTES, LasCrs, LasHeader, LasHeaderError, parse_las_header};
 pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};
 pub use pipeline::{DepthFrame, PointFrame, PoleConfig, PoleOutput, process_depth_frames, process_point_frames};
 pub use points::{FramePoint, FramePoints};

@@ -1,11 +1,13 @@
 //! LAS/LAZ from bytes: points and GPS times as written by the `las` writer, and errors that name the
-//! failing records (truncated file), the format (no GPS time) or the header (not a LAS file).
+//! failing records (truncated file), the format (no GPS time) or the header (not a LAS file); corrupt and
+//! arbitrary bytes are errors, never panics or allocations from a corrupt count.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use std::io::Cursor;
 
 use las::{Builder, Point, Transform, Vector, Writer, point::Format};
 use plumbline_poles::{LasError, read_las};
+use proptest::prelude::*;
 
 fn write(format: u8, compressed: bool, n: usize) -> Vec<u8> {
     let mut builder = Builder::from((1, 2));
@@ -65,7 +67,7 @@ fn errors_name_records_format_and_header() {
     let err = read_las("old.las", write(0, false, 3)).unwrap_err();
     assert!(matches!(err, LasError::NoGpsTime { format: 0, .. }), "{err}");
     let err = read_las("junk.las", b"not a point cloud at all".to_vec()).unwrap_err();
-    assert!(matches!(err, LasError::Header { .. }) && err.to_string().contains("junk.las"), "{err}");
+    assert!(matches!(err, LasError::HeaderField(_)) && err.to_string().contains("junk.las"), "{err}");
 }
 
 /// A scanner driving north past a pole and a facade: one LAS slice per second, detected like a depth frame.
@@ -115,5 +117,136 @@ fn a_scanned_pole_is_detected_in_cloud_frames() {
         // approximately the one seen from the slice's middle position: decimetre-level, not millimetre.
         assert!(e < 0.1, "{d:?}");
         assert!((d.diameter_m - 2.0 * radius).abs() < 0.1, "{d:?}");
+    }
+}
+
+/// A LAS 1.4 format-6 file with one extended VLR after the points.
+fn write_1_4_with_evlr(compressed: bool, n: usize) -> Vec<u8> {
+    let mut builder = Builder::from((1, 4));
+    builder.point_format = Format::new(6).unwrap();
+    builder.point_format.is_compressed = compressed;
+    builder.evlrs.push(las::Vlr {
+        user_id: "plumbline".into(),
+        record_id: 1,
+        description: String::new(),
+        data: vec![7; 100],
+    });
+    let mut writer = Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+    for i in 0..n {
+        let f = i as f64;
+        writer.write_point(Point { x: f, y: 2.0 * f, z: 1.0, gps_time: Some(f), ..Default::default() }).unwrap();
+    }
+    writer.into_inner().unwrap().into_inner()
+}
+
+/// Counts the `las` and `laz` crates would allocate from are checked against the file first: before, a chunk
+/// count of u32::MAX made the `laz` crate reserve 64 GiB (the process aborted), an extended VLR length of
+/// 2^62 the `las` crate as much, and a 64-bit point count overflowed its end-of-points offset.
+#[test]
+fn corrupt_counts_are_errors_not_allocations() {
+    let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
+    let laz = write(1, true, 200);
+    assert_eq!(read_las("ok.laz", laz.clone()).unwrap().points.len(), 200);
+    let data_start = u32_at(&laz, 96) as usize;
+    let table = usize::try_from(i64::from_le_bytes(laz[data_start..data_start + 8].try_into().unwrap())).unwrap();
+    let mut bad = laz.clone();
+    bad[table + 4..table + 8].copy_from_slice(&u32::MAX.to_le_bytes());
+    let err = read_las("chunks.laz", bad).unwrap_err();
+    assert!(matches!(err, LasError::ChunkTable { chunks: u32::MAX, .. }), "{err}");
+    assert!(err.to_string().starts_with("point cloud chunks.laz: LAZ chunk table at byte"), "{err}");
+
+    for compressed in [false, true] {
+        let file = write_1_4_with_evlr(compressed, 50);
+        let read = read_las("evlr.las", file.clone()).unwrap();
+        assert_eq!(read.points.len(), 50);
+        let evlr = usize::try_from(u64::from_le_bytes(file[235..243].try_into().unwrap())).unwrap();
+        let mut bad = file.clone();
+        bad[evlr + 20..evlr + 28].copy_from_slice(&(1u64 << 62).to_le_bytes());
+        let err = read_las("evlr.las", bad).unwrap_err().to_string();
+        assert!(err.starts_with("point cloud evlr.las: header field `start_of_first_evlr`: the extended VLR"), "{err}");
+        let mut bad = file;
+        bad[107..111].copy_from_slice(&0u32.to_le_bytes()); // no legacy count to disagree with
+        bad[247..255].copy_from_slice(&(u64::MAX / 2).to_le_bytes());
+        let err = read_las("count.las", bad).unwrap_err().to_string();
+        assert!(err.starts_with("point cloud count.las: header field `point_count`: "), "{err}");
+    }
+    // An empty LAZ file has no chunk (or one empty chunk): still read.
+    assert!(read_las("empty.laz", write(1, true, 0)).unwrap().points.is_empty());
+}
+
+/// One flipped bit in the compressed points (found by the property test below) trips an assertion in the
+/// `laz` decoder (debug builds; laz-rs issue #43 has a division by zero in release ones): an error naming the
+/// records, not a panic.
+#[test]
+fn a_laz_decoder_panic_is_an_error_naming_the_records() {
+    let mut laz = write(1, true, 200);
+    assert_eq!(laz.len(), 1490, "the writer changed: find a new byte to flip");
+    laz[1272] ^= 1;
+    match read_las("flip.laz", laz) {
+        Err(err) => {
+            let text = err.to_string();
+            assert!(text.starts_with("point cloud flip.laz: point records 0–199 (of 200): "), "{text}");
+            if cfg!(debug_assertions) {
+                assert!(text.ends_with("the LAZ decoder failed (panicked)"), "{text}");
+            }
+        }
+        // Release builds skip the decoder's assertions and may decode the flipped bit into other points.
+        Ok(read) if !cfg!(debug_assertions) => assert_eq!(read.points.len(), 200),
+        Ok(read) => panic!("{} points read from corrupt data", read.points.len()),
+    }
+}
+
+/// Edits of a byte string: `(kind, where, byte)`; kind 0 flips a bit, 1 overwrites, 2 inserts, 3 deletes,
+/// 4 truncates.
+type Edit = (u8, prop::sample::Index, u8);
+
+fn mutate(mut bytes: Vec<u8>, edits: &[Edit]) -> Vec<u8> {
+    for (kind, at, byte) in edits {
+        let i = at.index(bytes.len() + 1);
+        match kind {
+            0 if i < bytes.len() => bytes[i] ^= 1 << (byte % 8),
+            1 if i < bytes.len() => bytes[i] = *byte,
+            2 => bytes.insert(i, *byte),
+            3 if i < bytes.len() => drop(bytes.remove(i)),
+            4 => bytes.truncate(i),
+            _ => {}
+        }
+    }
+    bytes
+}
+
+static VALID: std::sync::LazyLock<[Vec<u8>; 3]> =
+    std::sync::LazyLock::new(|| [write(1, false, 200), write(1, true, 200), write_1_4_with_evlr(true, 200)]);
+
+/// A read either holds no more points than the bytes do (uncompressed) or fails naming the file.
+fn check_read(bytes: Vec<u8>) -> Result<(), TestCaseError> {
+    let len = bytes.len();
+    match read_las("m.laz", bytes) {
+        Ok(read) => prop_assert!(read.compressed || read.points.len() * 20 <= len, "{} points", read.points.len()),
+        Err(e) => prop_assert!(e.to_string().starts_with("point cloud m.laz"), "{e}"),
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig {
+        cases: 256,
+        rng_seed: proptest::test_runner::RngSeed::Fixed(23),
+        ..ProptestConfig::default()
+    })]
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..4096), laz in prop::option::of(any::<bool>())) {
+        // Most cases carry a LAS 1.2 header so that they reach the reader.
+        let mut bytes = bytes;
+        if let (Some(compressed), Some(start)) = (laz, bytes.get_mut(..227)) {
+            start.copy_from_slice(&VALID[usize::from(compressed)][..227]);
+        }
+        check_read(bytes)?;
+    }
+
+    #[test]
+    fn mutated_clouds_read_or_name_the_file(which in 0usize..3, edits in prop::collection::vec((0u8..5, any::<prop::sample::Index>(), any::<u8>()), 1..8)) {
+        check_read(mutate(VALID[which].clone(), &edits))?;
     }
 }

@@ -8,6 +8,7 @@ use proptest::prelude::*;
 
 use super::*;
 use crate::attitude::NovatelAttitude;
+use crate::formats::mutation::{edits, mutate};
 
 const APPLANIX: AttitudeConvention = AttitudeConvention::Applanix;
 
@@ -303,5 +304,47 @@ proptest! {
                 other => prop_assert!(false, "std presence changed: {:?}", other),
             }
         }
+    }
+}
+
+/// A parse either holds at most one record per 13 bytes (7 numbers and 6 separators) and per line, or its
+/// error names the input.
+fn check_parse(bytes: &[u8]) -> Result<(), TestCaseError> {
+    for convention in [APPLANIX, AttitudeConvention::Novatel] {
+        match parse_csv(bytes, "in.csv", convention) {
+            Ok(parsed) => {
+                let records = parsed.trajectory.records.len();
+                let lines = bytes.iter().filter(|b| **b == b'\n').count() + 1;
+                prop_assert!(records * 13 <= bytes.len() && records < lines, "{records} records");
+            }
+            Err(e) => prop_assert!(e.to_string().starts_with("in.csv"), "{e}"),
+        }
+    }
+    Ok(())
+}
+
+/// CSV-like text: digits, signs, separators, brackets, letters of the column names, line ends.
+fn csv_like() -> impl Strategy<Value = String> {
+    let header =
+        prop_oneof![Just(""), Just(HEADER), Just("time,latitude[rad],longitude,height,roll,pitch,azimuth[deg]")];
+    (header, "[0-9eE.+\\-,; \\[\\]#\"a-z_\r\n\u{feff}]{0,4000}").prop_map(|(h, body)| format!("{h}\n{body}"))
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(6), ..ProptestConfig::default() })]
+
+    #[test]
+    fn arbitrary_bytes_never_panic(bytes in prop::collection::vec(any::<u8>(), 0..4096)) {
+        check_parse(&bytes)?;
+    }
+
+    #[test]
+    fn arbitrary_csv_like_text_never_panics(text in csv_like()) {
+        check_parse(text.as_bytes())?;
+    }
+
+    #[test]
+    fn mutated_csv_parses_or_names_the_input(raw in trajectory_strategy(), edits in edits()) {
+        check_parse(&mutate(write_csv(&raw), &edits))?;
     }
 }

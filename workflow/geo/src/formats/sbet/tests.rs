@@ -5,6 +5,7 @@
 use proptest::prelude::*;
 
 use super::*;
+use crate::formats::mutation::{edits, mutate};
 use crate::formats::{raw_to_smrmsg, write_smrmsg};
 
 /// Distinct, plausible values in the documented field order.
@@ -175,5 +176,38 @@ proptest! {
         let parsed = crate::formats::parse_smrmsg(&bytes, "p").unwrap();
         prop_assert_eq!(&parsed, &records);
         prop_assert_eq!(write_smrmsg(&parsed), bytes);
+    }
+}
+
+/// A binary parse either holds exactly the records the length allows, or names the input.
+fn check_binary<R>(bytes: &[u8], record_len: usize, outcome: Result<Vec<R>, FormatError>) -> Result<(), TestCaseError> {
+    match outcome {
+        Ok(records) => {
+            prop_assert!(bytes.len().is_multiple_of(record_len) && records.len() == bytes.len() / record_len)
+        }
+        Err(e) => {
+            prop_assert!(!bytes.len().is_multiple_of(record_len));
+            prop_assert!(e.to_string().starts_with("in.bin: truncated"), "{e}");
+        }
+    }
+    Ok(())
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(12), ..ProptestConfig::default() })]
+
+    #[test]
+    fn arbitrary_bytes_never_panic_sbet_or_smrmsg(bytes in prop::collection::vec(any::<u8>(), 0..4096)) {
+        check_binary(&bytes, SBET_RECORD_LEN, parse_sbet(&bytes, "in.bin"))?;
+        check_binary(&bytes, crate::formats::smrmsg::SMRMSG_RECORD_LEN, crate::formats::parse_smrmsg(&bytes, "in.bin"))?;
+    }
+
+    #[test]
+    fn mutated_sbet_and_smrmsg_parse_or_name_the_input(n in 0usize..6, edits in edits()) {
+        let sbet = mutate(write_sbet(&vec![SbetRecord::from_array(FIELD_VALUES); n]), &edits);
+        check_binary(&sbet, SBET_RECORD_LEN, parse_sbet(&sbet, "in.bin"))?;
+        let smrmsg = write_smrmsg(&vec![SmrmsgRecord::from_array([0.5; 10]); n]);
+        let smrmsg = mutate(smrmsg, &edits);
+        check_binary(&smrmsg, crate::formats::smrmsg::SMRMSG_RECORD_LEN, crate::formats::parse_smrmsg(&smrmsg, "in.bin"))?;
     }
 }
