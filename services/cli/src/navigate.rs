@@ -79,6 +79,9 @@ fn model_of(grade: Grade) -> ImuModel {
     }
 }
 
+/// Skipped fixes named one by one on stderr (all of them are in `summary.json`).
+const SKIPPED_LISTED: usize = 10;
+
 /// Run `navigate`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let adaptation = Adaptation { alpha: args.alpha, window: args.window, ..Adaptation::default() };
@@ -117,6 +120,14 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         flags.len(),
         forward.skipped.len()
     );
+    let gnss_name = file_name(&args.gnss);
+    for s in forward.skipped.iter().take(SKIPPED_LISTED) {
+        // Fix indices are 0-based data rows: the file's line is two further on (1-based, after the header).
+        eprintln!("warning: {gnss_name} line {}: fix skipped: {}", s.fix + 2, s.reason);
+    }
+    if forward.skipped.len() > SKIPPED_LISTED {
+        eprintln!("warning: {gnss_name}: {} more fixes skipped (summary.json)", forward.skipped.len() - SKIPPED_LISTED);
+    }
     println!("{prefix}summary.json");
     Ok(ExitCode::SUCCESS)
 }

@@ -123,6 +123,9 @@ pub(crate) struct Checker {
     problems: Vec<Problem>,
 }
 
+/// Longest free text (a campaign's name, its agency) a manifest may hold: reports and job states repeat it.
+const MAX_TEXT_CHARS: usize = 1000;
+
 impl Checker {
     /// Records a problem at `path`.
     pub(crate) fn report(&mut self, path: &FieldPath, found: impl Into<String>, expected: impl Into<String>) {
@@ -162,6 +165,10 @@ impl Checker {
     pub(crate) fn not_blank(&mut self, path: &FieldPath, value: &str) {
         if value.trim().is_empty() {
             self.report(path, "it is empty", "a non-empty text");
+        }
+        let chars = value.chars().count();
+        if chars > MAX_TEXT_CHARS {
+            self.report(path, format!("it is {chars} characters long"), format!("at most {MAX_TEXT_CHARS} characters"));
         }
     }
 

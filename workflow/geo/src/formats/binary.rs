@@ -30,6 +30,28 @@ pub(crate) fn read_records<const N: usize>(
     Ok(chunks.map(decode).collect())
 }
 
+/// The first field of any record that fails its check: `checks[i]` = (field name, test, what a failure means)
+/// for field `i`; fields without a check are not looked at.
+pub(crate) fn check_records<const N: usize>(
+    records: &[[f64; N]],
+    input: &str,
+    format: &'static str,
+    checks: &[(usize, &'static str, fn(f64) -> bool, &'static str)],
+) -> Result<(), FormatError> {
+    if records.is_empty() {
+        return Err(FormatError::Empty { input: input.to_owned(), format });
+    }
+    for (index, record) in records.iter().enumerate() {
+        for &(i, field, ok, problem) in checks {
+            let value = record[i];
+            if !ok(value) {
+                return Err(FormatError::BadValue { input: input.to_owned(), format, index, field, value, problem });
+            }
+        }
+    }
+    Ok(())
+}
+
 /// Encode records of `N` `f64` as little-endian bytes.
 pub(crate) fn write_records<const N: usize>(records: impl ExactSizeIterator<Item = [f64; N]>) -> Vec<u8> {
     let mut out = Vec::with_capacity(records.len() * N * F64_LEN);

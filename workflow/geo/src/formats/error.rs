@@ -49,6 +49,19 @@ pub enum FormatError {
          {present} of its {record_len} bytes present"
     )]
     Truncated { input: String, format: &'static str, index: usize, offset: usize, present: usize, record_len: usize },
+    /// A binary file with no record at all.
+    #[error("{input}: empty (0 bytes): no {format} record")]
+    Empty { input: String, format: &'static str },
+    /// A binary record's field holds a value the field cannot have (NaN, a latitude beyond ±90°, a negative σ).
+    #[error("{input}: {format} record {index}, field `{field}`: {value} {problem}")]
+    BadValue {
+        input: String,
+        format: &'static str,
+        index: usize,
+        field: &'static str,
+        value: f64,
+        problem: &'static str,
+    },
     /// The format holds geographic coordinates only.
     #[error("{format} holds geographic coordinates (latitude/longitude), but the trajectory is projected")]
     NotGeographic { format: &'static str },

@@ -19,7 +19,7 @@
 //! and zero specific force and angular rate. Standard deviations live in the companion
 //! [`smrmsg`](super::smrmsg) file.
 
-use super::binary::{read_records, write_records};
+use super::binary::{check_records, read_records, write_records};
 use super::smrmsg::{SmrmsgRecord, StdTrack};
 use super::{FormatError, Horizontal, RawRecord, RawTrajectory};
 use crate::attitude::Attitude;
@@ -145,9 +145,29 @@ impl SbetRecord {
     }
 }
 
-/// Parse an SBET file; a length that is not a multiple of 136 bytes is an error naming the offset.
+/// Parse an SBET file; a length that is not a multiple of 136 bytes is an error naming the offset, and so are
+/// an empty file and a record whose time, position or attitude is not finite or whose latitude lies beyond
+/// ±90° (named by record and field).
 pub fn parse_sbet(bytes: &[u8], source: &str) -> Result<Vec<SbetRecord>, FormatError> {
-    Ok(read_records::<FIELDS>(bytes, source, FORMAT)?.into_iter().map(SbetRecord::from_array).collect())
+    let records = read_records::<FIELDS>(bytes, source, FORMAT)?;
+    let finite: fn(f64) -> bool = f64::is_finite;
+    let not_finite = "is not finite";
+    check_records(
+        &records,
+        source,
+        FORMAT,
+        &[
+            (0, "time", finite, not_finite),
+            (1, "latitude", |v| v.abs() <= std::f64::consts::FRAC_PI_2, "rad is not a latitude (NaN or beyond ±π/2)"),
+            (2, "longitude", |v| v.abs() <= 2.0 * std::f64::consts::PI, "rad is not a longitude (NaN or beyond ±2π)"),
+            (3, "altitude", finite, not_finite),
+            (7, "roll", finite, not_finite),
+            (8, "pitch", finite, not_finite),
+            (9, "platform_heading", finite, not_finite),
+            (10, "wander_angle", finite, not_finite),
+        ],
+    )?;
+    Ok(records.into_iter().map(SbetRecord::from_array).collect())
 }
 
 /// Encode SBET records.

@@ -13,7 +13,7 @@
 //! NOAA's `kluster` SBET/smrmsg reader); it is converted to radians only when the σ enter a
 //! [`RawTrajectory`] (see [`crate::formats::sbet_to_raw`]).
 
-use super::binary::{read_records, write_records};
+use super::binary::{check_records, read_records, write_records};
 use super::{FormatError, RawTrajectory};
 use crate::trajectory::PoseStd;
 
@@ -100,9 +100,28 @@ impl SmrmsgRecord {
     }
 }
 
-/// Parse an smrmsg file; a length that is not a multiple of 80 bytes is an error naming the offset.
+/// Parse an smrmsg file; a length that is not a multiple of 80 bytes is an error naming the offset, and so are
+/// an empty file, a time that is not finite and a position or attitude σ that is not a finite non-negative
+/// number (named by record and field).
 pub fn parse_smrmsg(bytes: &[u8], source: &str) -> Result<Vec<SmrmsgRecord>, FormatError> {
-    Ok(read_records::<FIELDS>(bytes, source, FORMAT)?.into_iter().map(SmrmsgRecord::from_array).collect())
+    let records = read_records::<FIELDS>(bytes, source, FORMAT)?;
+    let sigma: fn(f64) -> bool = |v| v.is_finite() && v >= 0.0;
+    let not_sigma = "is not a standard deviation (NaN, infinite or negative)";
+    check_records(
+        &records,
+        source,
+        FORMAT,
+        &[
+            (0, "time", f64::is_finite, "is not finite"),
+            (1, "north", sigma, not_sigma),
+            (2, "east", sigma, not_sigma),
+            (3, "down", sigma, not_sigma),
+            (7, "roll_arcmin", sigma, not_sigma),
+            (8, "pitch_arcmin", sigma, not_sigma),
+            (9, "heading_arcmin", sigma, not_sigma),
+        ],
+    )?;
+    Ok(records.into_iter().map(SmrmsgRecord::from_array).collect())
 }
 
 /// Encode smrmsg records.

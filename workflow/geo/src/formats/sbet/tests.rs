@@ -160,8 +160,10 @@ proptest! {
     #![proptest_config(ProptestConfig { cases: 256, rng_seed: proptest::test_runner::RngSeed::Fixed(11), ..ProptestConfig::default() })]
 
     #[test]
-    fn sbet_bytes_round_trip(values in prop::collection::vec(prop::array::uniform17(any_f64()), 0..8)) {
-        let records: Vec<_> = values.into_iter().map(SbetRecord::from_array).collect();
+    fn sbet_bytes_round_trip(values in prop::collection::vec(prop::array::uniform17(any_f64()), 1..8)) {
+        // Latitudes within ±π/2 and longitudes within ±2π: the parser refuses others.
+        let valid = |mut a: [f64; 17]| { a[1] %= 1.5; a[2] %= 6.0; a };
+        let records: Vec<_> = values.into_iter().map(|a| SbetRecord::from_array(valid(a))).collect();
         let bytes = write_sbet(&records);
         prop_assert_eq!(bytes.len(), records.len() * SBET_RECORD_LEN);
         let parsed = parse_sbet(&bytes, "p").unwrap();
@@ -170,8 +172,10 @@ proptest! {
     }
 
     #[test]
-    fn smrmsg_bytes_round_trip(values in prop::collection::vec(prop::array::uniform10(any_f64()), 0..8)) {
-        let records: Vec<_> = values.into_iter().map(SmrmsgRecord::from_array).collect();
+    fn smrmsg_bytes_round_trip(values in prop::collection::vec(prop::array::uniform10(any_f64()), 1..8)) {
+        // Position and attitude σ are non-negative: the parser refuses others.
+        let valid = |mut a: [f64; 10]| { for i in [1, 2, 3, 7, 8, 9] { a[i] = a[i].abs(); } a };
+        let records: Vec<_> = values.into_iter().map(|a| SmrmsgRecord::from_array(valid(a))).collect();
         let bytes = write_smrmsg(&records);
         let parsed = crate::formats::parse_smrmsg(&bytes, "p").unwrap();
         prop_assert_eq!(&parsed, &records);
@@ -185,10 +189,15 @@ fn check_binary<R>(bytes: &[u8], record_len: usize, outcome: Result<Vec<R>, Form
         Ok(records) => {
             prop_assert!(bytes.len().is_multiple_of(record_len) && records.len() == bytes.len() / record_len)
         }
-        Err(e) => {
-            prop_assert!(!bytes.len().is_multiple_of(record_len));
+        Err(e) if !bytes.len().is_multiple_of(record_len) => {
             prop_assert!(e.to_string().starts_with("in.bin: truncated"), "{e}");
         }
+        // Whole records, but none, or one with a value its field cannot hold: named by record and field.
+        Err(e) => prop_assert!(
+            matches!(e, FormatError::Empty { .. } | FormatError::BadValue { .. })
+                && e.to_string().starts_with("in.bin: "),
+            "{e}"
+        ),
     }
     Ok(())
 }
@@ -210,4 +219,27 @@ proptest! {
         let smrmsg = mutate(smrmsg, &edits);
         check_binary(&smrmsg, crate::formats::smrmsg::SMRMSG_RECORD_LEN, crate::formats::parse_smrmsg(&smrmsg, "in.bin"))?;
     }
+}
+
+#[test]
+fn empty_files_and_impossible_values_are_named_by_record_and_field() {
+    use crate::formats::parse_smrmsg;
+    let e = parse_sbet(&[], "dg.sbet").unwrap_err();
+    assert_eq!(e.to_string(), "dg.sbet: empty (0 bytes): no SBET record");
+    let e = parse_smrmsg(&[], "dg.smrmsg").unwrap_err();
+    assert_eq!(e.to_string(), "dg.smrmsg: empty (0 bytes): no smrmsg record");
+    let good = SbetRecord { latitude: 0.9, longitude: 0.17, ..SbetRecord::default() };
+    let mut records = vec![good; 4];
+    records[2].latitude = f64::NAN;
+    let e = parse_sbet(&write_sbet(&records), "dg.sbet").unwrap_err();
+    assert!(e.to_string().starts_with("dg.sbet: SBET record 2, field `latitude`: NaN"), "{e}");
+    records[2].latitude = 2.0;
+    assert!(parse_sbet(&write_sbet(&records), "dg.sbet").is_err(), "beyond ±π/2");
+    let mut sigmas = vec![SmrmsgRecord { north: 0.02, ..SmrmsgRecord::default() }; 3];
+    sigmas[1].east = -0.1;
+    let e = parse_smrmsg(&write_smrmsg(&sigmas), "dg.smrmsg").unwrap_err();
+    assert!(
+        e.to_string().starts_with("dg.smrmsg: smrmsg record 1, field `east`: -0.1 is not a standard deviation"),
+        "{e}"
+    );
 }
