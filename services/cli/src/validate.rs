@@ -14,12 +14,13 @@ use crate::io::{Context, file_name};
 pub struct Args {
     /// The manifest (TOML, or JSON when it ends in `.json`), by path or URL.
     pub manifest: String,
-    /// Only check the manifest itself: do not look for the input files it names.
+    /// Only check the manifest itself: do not open the input files it names.
     #[arg(long)]
     pub offline: bool,
 }
 
-/// Run `validate`.
+/// Run `validate`: the manifest's own checks, then (unless `--offline`) every named input opened cheaply
+/// (headers, schemas, the first image of each index). Every problem at once; exit code 2 when any.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let name = file_name(&args.manifest).to_owned();
     let manifest = plumbline_scheduler::parse_manifest(&name, &ctx.read(&args.manifest).await?)?;
@@ -32,11 +33,17 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         problems.extend(crs_problems(&latest));
     }
     let mut unchecked = Vec::new();
+    let mut warnings = Vec::new();
     if !args.offline {
         missing_inputs(ctx, &args.manifest, &latest, &mut problems, &mut unchecked).await;
+        if problems.is_empty() && unchecked.is_empty() {
+            let found = plumbline_scheduler::check_inputs(ctx.files(), &args.manifest, &latest).await;
+            problems.extend(found.problems);
+            warnings.extend(found.warnings);
+        }
     }
-    for u in &unchecked {
-        eprintln!("warning: {u}");
+    for w in unchecked.iter().chain(&warnings) {
+        eprintln!("warning: {w}");
     }
     if !problems.is_empty() {
         eprintln!("{name}: {} problem{}", problems.len(), if problems.len() == 1 { "" } else { "s" });
@@ -51,7 +58,12 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             unchecked.len()
         );
     }
-    println!("{name}: valid (campaign `{}`, EPSG:{})", latest.campaign.id.as_str(), latest.crs.0);
+    let opened = if args.offline { "inputs not opened (--offline)" } else { "every named input opened" };
+    let warned = match warnings.len() {
+        0 => String::new(),
+        n => format!(", {n} warning(s)"),
+    };
+    println!("{name}: valid (campaign `{}`, EPSG:{}; {opened}{warned})", latest.campaign.id.as_str(), latest.crs.0);
     Ok(ExitCode::SUCCESS)
 }
 

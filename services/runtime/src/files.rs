@@ -4,7 +4,7 @@ use anyhow::Context as _;
 use bytes::Bytes;
 
 use crate::errors::invalid;
-use crate::store::{S3Options, StoreErrorKind, head_url, read_url, write_url};
+use crate::store::{S3Options, StoreErrorKind, head_url, read_url, read_url_prefix, write_url};
 
 /// Reads and writes files by path or URL (`file://`, `s3://`, plain paths).
 #[derive(Clone, Debug, Default)]
@@ -26,6 +26,14 @@ impl Files {
     /// Read a whole file. A missing file is invalid input naming it.
     pub async fn read(&self, url: &str) -> anyhow::Result<Bytes> {
         read_url(url, &self.s3).await.map_err(|e| {
+            if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
+        })
+    }
+
+    /// The first `max` bytes of a file (fewer when it is shorter) and its total size, with one range read. A
+    /// missing file is invalid input naming it.
+    pub async fn read_prefix(&self, url: &str, max: u64) -> anyhow::Result<(Bytes, u64)> {
+        read_url_prefix(url, &self.s3, max).await.map_err(|e| {
             if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
         })
     }

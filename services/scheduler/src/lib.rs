@@ -12,9 +12,11 @@
 
 pub mod api;
 pub mod bus;
+pub mod check;
 pub mod client;
 mod load;
 pub mod messages;
 pub mod service;
 
+pub use check::{InputCheck, check_inputs};
 pub use load::{Campaign, SkippedInput, load_campaign, manifest_base, parse_manifest};

@@ -134,6 +134,7 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<
         )));
     };
     let trajectory = load_trajectory(files, &trajectory_input(source, &resolve)?, Some(epsg)).await?;
+    enough_records(&trajectory).map_err(invalid)?;
     tracing::info!(file = %trajectory.name, records = trajectory.trajectory.len(), "trajectory loaded");
     let reference = match source.reference() {
         Some(location) => {
@@ -209,8 +210,20 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<
     Ok(Campaign { base, manifest: manifest.clone(), output, trajectory, reference, aerial_frames, plan, skipped })
 }
 
+/// A DG trajectory spans time: one record cannot place any image.
+pub(crate) fn enough_records(loaded: &LoadedTrajectory) -> Result<(), String> {
+    match loaded.trajectory.len() {
+        0 | 1 => Err(format!(
+            "{}: {} record(s); a trajectory needs at least two to place images in time",
+            loaded.name,
+            loaded.trajectory.len()
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// The DG trajectory's input description, locations resolved.
-fn trajectory_input(
+pub(crate) fn trajectory_input(
     source: &TrajectorySource,
     resolve: &impl Fn(&Location) -> anyhow::Result<String>,
 ) -> anyhow::Result<TrajectoryInput> {

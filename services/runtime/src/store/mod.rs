@@ -115,6 +115,19 @@ pub async fn read_url(url: &str, s3: &S3Options) -> Result<Bytes, StoreError> {
         .map_err(|e| StoreError::from_store("read body of", url, e))
 }
 
+/// Reads at most the first `max` bytes of the object an object URL names (one range request), and its
+/// total size: for headers (point clouds, images) without fetching whole files.
+pub async fn read_url_prefix(url: &str, s3: &S3Options, max: u64) -> Result<(Bytes, u64), StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    let meta = store.head(&key).await.map_err(|e| StoreError::from_store("head", url, e))?;
+    let end = meta.size.min(max);
+    if end == 0 {
+        return Ok((Bytes::new(), meta.size));
+    }
+    let bytes = store.get_range(&key, 0..end).await.map_err(|e| StoreError::from_store("read range of", url, e))?;
+    Ok((bytes, meta.size))
+}
+
 /// Writes `bytes` as the object an object URL names, replacing it; local parent directories are created.
 pub async fn write_url(url: &str, s3: &S3Options, bytes: Bytes) -> Result<(), StoreError> {
     let (store, key) = open_object(url, s3)?;
