@@ -1,9 +1,11 @@
-//! Image primitives: ortho-projection, filters, KAZE/AKAZE, corners, NCC, least-squares matching, RANSAC.
+//! Image primitives: bounded decoding of PNG/JPEG bytes, ortho-projection, filters, KAZE/AKAZE, corners, NCC,
+//! least-squares matching, RANSAC.
 //!
 //! Synchronous and I/O-free; rayon parallelism inside. Pixel coordinates follow ARCHITECTURE.md.
 
 pub mod akaze;
 pub mod corners;
+pub mod decode;
 pub mod error;
 pub mod filter;
 pub mod image;
@@ -19,4 +21,4 @@ mod stencil;
 pub mod warp;
 
 pub use error::ImagingError;
-pub use image::{GrayImage, Mask};
+pub use self::image::{GrayImage, Mask};
