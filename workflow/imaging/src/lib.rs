@@ -20,5 +20,5 @@ pub mod ransac;
 mod stencil;
 pub mod warp;
 
-pub use error::ImagingError;
 pub use self::image::{GrayImage, Mask};
+pub use error::ImagingError;
