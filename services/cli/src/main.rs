@@ -1,8 +1,9 @@
 //! The `plumbline` command-line tool: run campaigns (`run`, `demo`), validate manifests, simulate, and the
 //! tools for trajectories, matching, cadastres, adjustment and navigation.
 //!
-//! Exit codes: 0 success, 1 failure while working (I/O, store, internal), 2 invalid input (a bad manifest,
-//! a malformed or implausible trajectory, an unknown CRS, a bad argument).
+//! Exit codes: 0 success, 1 failure while working (I/O, store, internal; `match` finding no reliable
+//! transform), 2 invalid input (a bad manifest, a malformed or implausible trajectory, an unknown CRS, a bad
+//! argument, an image over its pixel budget).
 
 mod adjust;
 mod cadastre;

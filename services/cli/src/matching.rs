@@ -1,5 +1,9 @@
 //! `plumbline match`: register two images with KAZE or AKAZE features and RANSAC, print the transform (A pixels →
 //! B pixels), the inlier count and the residuals as JSON, and optionally draw the matches side by side.
+//!
+//! Images are decoded within a pixel budget (`--max-pixels`, checked on the header before any pixel is
+//! decoded; invalid input otherwise). A consensus too small to be a solution ([`min_inliers`],
+//! `--min-inlier-ratio`) is a failure: no matrix is printed.
 
 use std::process::ExitCode;
 
@@ -7,13 +11,35 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_imaging::GrayImage;
 use plumbline_imaging::akaze::{AkazeConfig, Keypoint, akaze, match_descriptors};
+use plumbline_imaging::decode::{Bounds, DecodeError, decode_gray};
 use plumbline_imaging::kaze::{KazeConfig, kaze, match_surf};
 use plumbline_imaging::models::{Correspondence, Model};
 use plumbline_imaging::ransac::{RansacConfig, RansacFit, ransac};
 use serde_json::json;
 
-use crate::exit::OrInvalid;
-use crate::io::{Context, file_name};
+use crate::exit::invalid;
+use crate::io::Context;
+
+/// Default of `--max-pixels`: 64 Mi px, an 8192 × 8192 image. KAZE keeps ~16 full-resolution f32 levels
+/// (4 GiB at this size), so larger images are better cut or downsampled first.
+pub const DEFAULT_MAX_PIXELS: u64 = 8_192 * 8_192;
+
+/// Default of `--min-inlier-ratio`: a consensus of fewer than 5 % of the matches is not reported. Chance
+/// consensus does not grow with the number of matches the way a real one does (a degenerate homography
+/// collapsing image A onto a line of B gathers ≈ 0.6 % of random matches on a 1024² image at 2 px).
+pub const DEFAULT_MIN_INLIER_RATIO: f64 = 0.05;
+
+/// Fewest inliers for a fit of `model` to count as a solution: four times its minimal sample, at least 10 —
+/// similarity 10, affine 12, homography 16. A minimal sample fits itself exactly (a homography any four
+/// pairs), so its own points prove nothing; among random matches a hypothesis gathers chance inliers at
+/// rate p ≈ π t² / area of B per match (≈ 2·10⁻⁴ for 2 px on a 256² image), and over RANSAC's up to 10⁴
+/// hypotheses with a few hundred matches a handful of extras beyond the sample do occur (issue 18: a
+/// homography "fitted" to 4–5 inliers). Eight or more extras at once stay improbable even if clustered
+/// keypoints make p ten times larger; a homography, which can also collapse a region of A onto a few
+/// points of B, needs twelve.
+pub fn min_inliers(model: Model) -> usize {
+    (4 * model.min_samples()).max(10)
+}
 
 /// The transform to fit.
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -59,11 +85,25 @@ pub struct Args {
     /// Write a PNG with both images side by side and the inlier matches drawn.
     #[arg(long, value_name = "PNG")]
     pub matches: Option<String>,
+    /// Largest image accepted, in pixels (width × height, read from the header before decoding).
+    #[arg(long, value_name = "PIXELS", default_value_t = DEFAULT_MAX_PIXELS)]
+    pub max_pixels: u64,
+    /// Fewest RANSAC inliers that count as a solution [default: 10 for similarity, 12 for affine, 16 for
+    /// homography].
+    #[arg(long, value_name = "N")]
+    pub min_inliers: Option<usize>,
+    /// Smallest share of the matches that must be inliers for a solution.
+    #[arg(long, value_name = "SHARE", default_value_t = DEFAULT_MIN_INLIER_RATIO)]
+    pub min_inlier_ratio: f64,
 }
 
 /// Run `match`.
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
-    let (a, b) = (load(ctx, &args.a).await?, load(ctx, &args.b).await?);
+    if !(0.0..=1.0).contains(&args.min_inlier_ratio) {
+        return Err(invalid(format!("--min-inlier-ratio {}: must lie in [0, 1]", args.min_inlier_ratio)));
+    }
+    let budget = Bounds::budget(args.max_pixels);
+    let (a, b) = (load(ctx, &args.a, &budget).await?, load(ctx, &args.b, &budget).await?);
     let detector = args.detector;
     let model = match args.model {
         ModelArg::Similarity => Model::Similarity,
@@ -78,6 +118,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         Ok((a, b, fa, fb, pairs, fit))
     })
     .await??;
+    let needed = args.min_inliers.unwrap_or_else(|| min_inliers(model));
+    reliable(model, fit.inlier_count(), pairs.len(), needed, args.min_inlier_ratio)?;
     println!("{}", serde_json::to_string_pretty(&report(&args, model, [fa, fb], &pairs, &fit))?);
     if let Some(out) = &args.matches {
         ctx.write(out, draw(&a, &b, &pairs, &fit)?).await?;
@@ -85,14 +127,33 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// Read and decode an image to grey values 0–255; undecodable bytes are invalid input naming the file.
-async fn load(ctx: &Context, url: &str) -> anyhow::Result<GrayImage> {
+/// Whether `inliers` of `matches` are a solution: at least `needed` and at least `ratio` of the matches;
+/// otherwise the failure that says why (exit code 1: the inputs are fine, there is no answer in them).
+fn reliable(model: Model, inliers: usize, matches: usize, needed: usize, ratio: f64) -> anyhow::Result<()> {
+    let share = inliers as f64 / matches.max(1) as f64;
+    let name = model.name();
+    if inliers < needed {
+        anyhow::bail!("no reliable {name}: {inliers} inliers of {matches} matches, need ≥ {needed} (--min-inliers)");
+    }
+    if share < ratio {
+        anyhow::bail!(
+            "no reliable {name}: {inliers} inliers of {matches} matches ({:.1} %), need ≥ {:.1} % of the matches \
+             (--min-inlier-ratio)",
+            100.0 * share,
+            100.0 * ratio
+        );
+    }
+    Ok(())
+}
+
+/// Read and decode an image to grey values 0–255 within `budget` (checked on the header, before any pixel
+/// is decoded); undecodable bytes and an image over the budget are invalid input naming the file.
+async fn load(ctx: &Context, url: &str, budget: &Bounds) -> anyhow::Result<GrayImage> {
     let bytes = ctx.read(url).await?;
-    let img = image::load_from_memory(&bytes).or_invalid(&format!("{}: not a PNG or JPEG image", file_name(url)))?;
-    let luma = img.to_luma8();
-    let (w, h) = (luma.width() as usize, luma.height() as usize);
-    GrayImage::new(w, h, luma.into_raw().into_iter().map(f32::from).collect())
-        .or_invalid(&format!("{}: empty image", file_name(url)))
+    decode_gray(url, &bytes, budget).map_err(|e| match e {
+        DecodeError::OverBudget { .. } => invalid(format!("{e}; raise --max-pixels to admit it")),
+        e => invalid(e.to_string()),
+    })
 }
 
 /// Detect, describe and match: (keypoints in A, keypoints in B, mutual ratio-test correspondences).

@@ -4,10 +4,13 @@
 //! - [`MotoServer`]: an S3-compatible server (`moto_server`, PyPI `moto[server]`);
 //! - [`FlakyProxy`]: a TCP proxy that can go down and come back, to give a client an outage of a server
 //!   whose state must survive it (moto's objects live in memory);
-//! - [`schemas`]: the checked-in JSON Schemas kept equal to the generated ones.
+//! - [`schemas`]: the checked-in JSON Schemas kept equal to the generated ones;
+//! - [`images`]: PNGs whose header claims more pixels than their bytes hold (a forged header, a real
+//!   decompression bomb), for the decoders' pixel budgets.
 //!
 //! Missing binaries fail the test with an install hint; `.ci/run` installs both.
 
+pub mod images;
 mod moto;
 mod nats;
 mod proxy;

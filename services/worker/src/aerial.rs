@@ -8,13 +8,14 @@ use plumbline_campaign::tables::ExteriorRow;
 use plumbline_geo::camera::{CameraModel, MetricInterior, Pinhole};
 use plumbline_geo::tiling::BBox;
 use plumbline_geo::{Map, MapFromCamera, OmegaPhiKappa, Point3, Pose};
+use plumbline_imaging::decode::{AERIAL_FRAME_PIXELS, Bounds, DecodeError, decode_gray};
 use plumbline_registration::aerial::{AerialFrame, AerialReference, Orthophoto};
 use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, file_name, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 use rayon::prelude::*;
 
-use crate::fetch::{SkipReason, blocking, decode_gray, read_all, skipped};
+use crate::fetch::{SkipReason, blocking, read_all, refused, skipped};
 use crate::raster::{gray, read_window, terrain};
 
 const STAGE: &str = "registration";
@@ -147,6 +148,9 @@ async fn frames(
     Ok(LoadedReference { reference: AerialReference::Frames(out), skipped: skipped_items, read_s, decode_s })
 }
 
+/// Decode a frame to gray within [`AERIAL_FRAME_PIXELS`] and the interior orientation's size (both checked
+/// on the header, before any pixel is decoded); a refused frame is skipped ([`SkipReason::Size`] or
+/// [`SkipReason::Decode`]).
 fn decode_frame(
     id: String,
     pose: MapFromCamera,
@@ -154,15 +158,14 @@ fn decode_frame(
     bytes: bytes::Bytes,
     camera: Pinhole,
 ) -> Result<AerialFrame, SkippedInput> {
-    let image = decode_gray(url, &bytes).map_err(|e| skipped(STAGE, url, SkipReason::Decode, e))?;
-    let found = (image.width() as u32, image.height() as u32);
-    if found != (camera.width, camera.height) {
-        let detail = format!(
-            "{url}: aerial frame is {} × {} px, the interior orientation says {} × {} px",
-            found.0, found.1, camera.width, camera.height
-        );
-        return Err(skipped(STAGE, url, SkipReason::Size, detail));
-    }
+    let bounds = Bounds::budget(AERIAL_FRAME_PIXELS).expecting(camera.width, camera.height);
+    let image = decode_gray(url, &bytes, &bounds).map_err(|e| {
+        let mut s = refused(STAGE, url, &e);
+        if matches!(e, DecodeError::Size { .. }) {
+            s.detail.push_str(" (the interior orientation's size)");
+        }
+        s
+    })?;
     Ok(AerialFrame { id, image, camera, pose })
 }
 

@@ -1,6 +1,6 @@
-//! Reading a tile's files a few at a time and decoding images to gray, off the async runtime (with progress
-//! forwarded from the blocking work). Every failure is a [`SkippedInput`] naming the file; the caller goes
-//! on with the rest.
+//! Reading a tile's files a few at a time, off the async runtime (with progress forwarded from the blocking
+//! work); images are decoded by `plumbline_imaging::decode` within a pixel budget. Every failure is a
+//! [`SkippedInput`] naming the file; the caller goes on with the rest.
 
 use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -9,7 +9,7 @@ use std::time::Duration;
 use bytes::Bytes;
 use futures::StreamExt as _;
 use plumbline_campaign::progress::Progress;
-use plumbline_imaging::{GrayImage, Mask};
+use plumbline_imaging::decode::DecodeError;
 use plumbline_runtime::{Files, is_invalid};
 use plumbline_scheduler::SkippedInput;
 
@@ -26,7 +26,7 @@ pub(crate) enum SkipReason {
     Read,
     /// The bytes are not a readable image.
     Decode,
-    /// The image has another size than expected.
+    /// The image has another size than expected, or its header claims more pixels than the budget.
     Size,
     /// The file's URL cannot be formed from the manifest.
     Url,
@@ -160,30 +160,13 @@ pub(crate) async fn counted<T: Send + 'static>(
     out
 }
 
-/// Luma of an RGB pixel (ITU-R BT.601 weights), the panoramas' and aerial frames' gray value.
-fn luma(rgb: &[u8]) -> f32 {
-    0.299 * f32::from(rgb[0]) + 0.587 * f32::from(rgb[1]) + 0.114 * f32::from(rgb[2])
-}
-
-/// Decode a JPEG/PNG (any colour type) to a gray image; the error names the file.
-pub(crate) fn decode_gray(url: &str, bytes: &[u8]) -> Result<GrayImage, String> {
-    let decoded = image::load_from_memory(bytes).map_err(|e| format!("{url}: not a readable image: {e}"))?;
-    let rgb = decoded.into_rgb8();
-    let (w, h) = (rgb.width() as usize, rgb.height() as usize);
-    let raw = rgb.as_raw();
-    Ok(GrayImage::from_fn(w, h, |c, r| {
-        let k = (r * w + c) * 3;
-        luma(&raw[k..k + 3])
-    }))
-}
-
-/// Decode a vehicle mask (non-zero = vehicle, the manifest's convention) into a [`Mask`] (set = vehicle).
-pub(crate) fn decode_mask(url: &str, bytes: &[u8]) -> Result<Mask, String> {
-    let decoded = image::load_from_memory(bytes).map_err(|e| format!("{url}: not a readable image: {e}"))?;
-    let gray = decoded.to_luma8();
-    let (w, h) = (gray.width() as usize, gray.height() as usize);
-    let raw = gray.as_raw();
-    Ok(Mask::from_fn(w, h, |c, r| raw[r * w + c] != 0))
+/// The skipped item of an image the bounded decoder refused: [`SkipReason::Size`] when its header's size was
+/// refused (over the pixel budget, other than expected, empty), [`SkipReason::Decode`] when its bytes were.
+/// The detail is the decoder's message, which names the file and the size found against the budget or the
+/// size expected.
+pub(crate) fn refused(stage: &str, url: &str, e: &DecodeError) -> SkippedInput {
+    let reason = if e.is_size() { SkipReason::Size } else { SkipReason::Decode };
+    skipped(stage, url, reason, e.to_string())
 }
 
 /// Run CPU-bound work on tokio's blocking pool.
@@ -194,22 +177,6 @@ pub(crate) async fn blocking<T: Send + 'static>(work: impl FnOnce() -> T + Send 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    fn png_rgb(w: u32, h: u32, f: impl Fn(u32, u32) -> [u8; 3]) -> Vec<u8> {
-        let img = image::RgbImage::from_fn(w, h, |x, y| image::Rgb(f(x, y)));
-        let mut out = std::io::Cursor::new(Vec::new());
-        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
-        out.into_inner()
-    }
-
-    #[test]
-    fn gray_is_the_luma_of_the_pixel_at_the_same_place() {
-        let png = png_rgb(6, 4, |x, y| [(10 * x) as u8, (20 * y) as u8, 200]);
-        let g = decode_gray("a.png", &png).unwrap();
-        assert_eq!((g.width(), g.height()), (6, 4));
-        let expect = 0.299 * 50.0 + 0.587 * 60.0 + 0.114 * 200.0;
-        assert!((g.get(5, 3) - expect).abs() < 1e-4, "{}", g.get(5, 3));
-    }
 
     /// Sums what it is told per stage.
     #[derive(Default)]
@@ -271,12 +238,18 @@ mod tests {
     }
 
     #[test]
-    fn mask_marks_non_zero_pixels_as_vehicle_and_garbage_names_the_file() {
-        let png = png_rgb(4, 2, |x, y| if y == 1 && x >= 2 { [255, 255, 255] } else { [0, 0, 0] });
-        let m = decode_mask("mask.png", &png).unwrap();
-        assert_eq!(m.count(), 2);
-        assert!(m.get(3, 1) && !m.get(0, 0));
-        let e = decode_gray("dir/broken.jpg", b"not an image").unwrap_err();
-        assert!(e.starts_with("dir/broken.jpg: "), "{e}");
+    fn a_refused_image_is_skipped_for_its_size_or_for_its_bytes_naming_the_file() {
+        use plumbline_imaging::decode::{Bounds, PANORAMA_PIXELS, header};
+        let budget = Bounds::budget(PANORAMA_PIXELS);
+        let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
+        let e = header("dir/p7.png", &forged, &budget).unwrap_err();
+        let s = refused("registration", "dir/p7.png", &e);
+        assert_eq!((s.stage.as_str(), s.item.as_str()), ("registration", "dir/p7.png"));
+        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Size));
+        assert!(s.detail.starts_with("dir/p7.png: 20000 × 20000 px") && s.detail.contains("budget"), "{}", s.detail);
+        let e = header("dir/broken.jpg", b"not an image", &budget).unwrap_err();
+        let s = refused("registration", "dir/broken.jpg", &e);
+        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Decode));
+        assert!(s.detail.starts_with("dir/broken.jpg: "), "{}", s.detail);
     }
 }

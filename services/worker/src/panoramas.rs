@@ -8,13 +8,14 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::Tile;
 use plumbline_geo::{PositionInterpolation, TrajectoryRecord};
+use plumbline_imaging::decode::{Bounds, DecodeError, PANORAMA_PIXELS, decode_gray, decode_mask, header};
 use plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M;
 use plumbline_registration::mm::{Panorama, PanoramaRig};
 use plumbline_registration::pipeline::PanoramaInfo;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{SkipReason, blocking, decode_gray, decode_mask, read_all, read_one, skipped};
+use crate::fetch::{SkipReason, blocking, read_all, read_one, refused, skipped};
 use crate::raster::{around, height_at, read_window, terrain};
 
 pub(crate) const STAGE: &str = "registration";
@@ -97,8 +98,11 @@ pub(crate) fn place(
     placed
 }
 
-/// The panorama size: the manifest's, else the header of the first panorama that can be read (no pixels are
-/// decoded). When neither exists, every panorama's failure as a skipped item.
+/// What a panorama (and the vehicle mask) may be before it is decoded: [`PANORAMA_PIXELS`] at most.
+const BUDGET: Bounds = Bounds::budget(PANORAMA_PIXELS);
+
+/// The panorama size: the manifest's, else the header of the first panorama that can be read and fits the
+/// pixel budget (no pixels are decoded). When neither exists, every panorama's failure as a skipped item.
 pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> Result<(u32, u32), Vec<SkippedInput>> {
     if let Some(size) = spec.width_px.zip(spec.height_px) {
         return Ok(size);
@@ -107,11 +111,9 @@ pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> 
     for p in placed {
         let url = &p.url;
         match read_one(files, url, STAGE).await {
-            Ok(bytes) => match image_size(&bytes) {
-                Ok(size) => return Ok(size),
-                Err(e) => {
-                    failures.push(skipped(STAGE, url, SkipReason::Decode, format!("{url}: not a readable image: {e}")))
-                }
+            Ok(bytes) => match header(url, &bytes, &BUDGET) {
+                Ok(h) => return Ok((h.width, h.height)),
+                Err(e) => failures.push(refused(STAGE, url, &e)),
             },
             Err(s) => failures.push(s),
         }
@@ -119,24 +121,12 @@ pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> 
     Err(failures)
 }
 
-/// Width and height from an image's header.
-pub(crate) fn image_size(bytes: &[u8]) -> Result<(u32, u32), String> {
-    image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
-        .into_dimensions()
-        .map_err(|e| e.to_string())
-}
-
-/// Decode a panorama to gray and check its size: the gray [`Panorama`] at its DG pose, or the skipped item.
+/// Decode a panorama to gray within the pixel budget and the tile's panorama `size` (both checked on the
+/// header, before any pixel is decoded): the gray [`Panorama`] at its DG pose, or the skipped item
+/// ([`SkipReason::Size`] or [`SkipReason::Decode`]).
 pub(crate) fn decode(placed: &Placed, bytes: &[u8], size: (u32, u32)) -> Result<Panorama, SkippedInput> {
     let url = &placed.url;
-    let gray = decode_gray(url, bytes).map_err(|e| skipped(STAGE, url, SkipReason::Decode, e))?;
-    let found = (gray.width() as u32, gray.height() as u32);
-    if found != size {
-        let detail = format!("{url}: panorama is {} × {} px, expected {} × {} px", found.0, found.1, size.0, size.1);
-        return Err(skipped(STAGE, url, SkipReason::Size, detail));
-    }
+    let gray = decode_gray(url, bytes, &BUDGET.expecting(size.0, size.1)).map_err(|e| refused(STAGE, url, &e))?;
     let info = &placed.info;
     Ok(Panorama {
         id: info.id.clone(),
@@ -199,28 +189,20 @@ pub(crate) async fn rig(
             let bytes = read_all(files, std::slice::from_ref(&url), 1, STAGE).await.pop();
             let mask = match bytes {
                 Some(Ok(bytes)) => {
-                    let u = url.clone();
-                    blocking(move || decode_mask(&u, &bytes))
-                        .await?
-                        .map_err(|e| skipped(STAGE, &url, SkipReason::Decode, e))
+                    // The mask has the panoramas' size (the manifest's convention), checked on its header.
+                    let (u, bounds) = (url.clone(), BUDGET.expecting(size.0, size.1));
+                    blocking(move || decode_mask(&u, &bytes, &bounds)).await?.map_err(|e| {
+                        let mut s = refused(STAGE, &url, &e);
+                        if matches!(e, DecodeError::Size { .. }) {
+                            s.detail.push_str(" (the panoramas' size)");
+                        }
+                        s.detail.push_str("; processing without a mask");
+                        s
+                    })
                 }
                 Some(Err(s)) => Err(s),
                 None => Err(skipped(STAGE, &url, SkipReason::Read, format!("{url}: not read"))),
             };
-            let mask = mask.and_then(|m| {
-                if (m.width(), m.height()) == (size.0 as usize, size.1 as usize) {
-                    Ok(m)
-                } else {
-                    let detail = format!(
-                        "{url}: vehicle mask is {} × {} px, the panoramas {} × {} px; processing without a mask",
-                        m.width(),
-                        m.height(),
-                        size.0,
-                        size.1
-                    );
-                    Err(skipped(STAGE, &url, SkipReason::Size, detail))
-                }
-            });
             mask.map_err(|s| skipped_items.push(s)).ok()
         }
         None => None,
@@ -248,10 +230,8 @@ mod tests {
     }
 
     #[test]
-    fn the_size_comes_from_the_header_and_a_panorama_of_another_size_is_skipped_naming_it() {
+    fn a_panorama_of_another_size_or_over_the_budget_is_skipped_naming_it() {
         let bytes = jpeg(64, 32);
-        assert_eq!(image_size(&bytes), Ok((64, 32)));
-        assert!(image_size(b"no image").is_err());
         let p = placed("file:///c/panoramas/p7.jpg");
         let pano = decode(&p, &bytes, (64, 32)).unwrap();
         assert_eq!((pano.id.as_str(), pano.time, pano.image.width(), pano.image.height()), ("pano7", 12.5, 64, 32));
@@ -261,5 +241,33 @@ mod tests {
         assert!(wrong.detail.contains("p7.jpg") && wrong.detail.contains("64 × 32"), "{}", wrong.detail);
         let garbage = decode(&p, b"no image", (64, 32)).unwrap_err();
         assert_eq!(garbage.reason, "decode");
+        // Issue 18: a header claiming 20000² px is refused before any pixel is decoded, whatever size the tile
+        // expects.
+        let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
+        for size in [(64, 32), (20_000, 20_000)] {
+            let bomb = decode(&p, &forged, size).unwrap_err();
+            assert_eq!(bomb.reason, "size");
+            assert!(bomb.detail.contains("20000 × 20000 px") && bomb.detail.contains("budget"), "{}", bomb.detail);
+        }
+    }
+
+    #[tokio::test]
+    async fn without_a_manifest_size_the_first_header_within_the_budget_gives_it() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = |name: &str| dir.path().join(name).to_str().unwrap().to_owned();
+        std::fs::write(path("bomb.png"), plumbline_testkit::images::png_claiming(20_000, 10_000)).unwrap();
+        std::fs::write(path("p8.jpg"), jpeg(64, 32)).unwrap();
+        let spec: Panoramas = serde_json::from_value(serde_json::json!({
+            "index": "panoramas.csv",
+            "images": "panoramas/",
+            "mount": { "lever_arm_m": [0.0, 0.0, -2.0], "boresight_deg": [0.0, 0.0, 0.0] },
+        }))
+        .unwrap();
+        let placed = [placed(&path("bomb.png")), placed(&path("p8.jpg"))];
+        assert_eq!(size(&Files::default(), &spec, &placed).await.unwrap(), (64, 32));
+        let failures = size(&Files::default(), &spec, &placed[..1]).await.unwrap_err();
+        assert_eq!(failures.len(), 1);
+        assert_eq!(failures[0].reason, "size");
+        assert!(failures[0].detail.contains("bomb.png: 20000 × 10000 px"), "{}", failures[0].detail);
     }
 }

@@ -138,3 +138,70 @@ fn decode_and_prepare(
     let decode_s = t0.elapsed().as_secs_f64();
     (pano.map(|p| prepare_panorama(&p, one.info.owned, rig, mm)), decode_s)
 }
+
+#[cfg(test)]
+mod tests {
+    use plumbline_geo::camera::Equirectangular;
+    use plumbline_geo::dg::{Boresight, CameraMount};
+    use plumbline_geo::{MapFromBody, Point3, Rotation};
+    use plumbline_registration::pipeline::PanoramaInfo;
+    use plumbline_testkit::images::{png_bomb, png_claiming};
+
+    use super::*;
+
+    /// A textured 256 × 128 panorama as JPEG.
+    fn jpeg() -> Vec<u8> {
+        let img = image::RgbImage::from_fn(256, 128, |x, y| {
+            let v = ((x * 37 + y * 91) % 251) as u8;
+            image::Rgb([v, v / 2, 255 - v])
+        });
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Jpeg).unwrap();
+        out.into_inner()
+    }
+
+    /// Issue 18: among a tile's panoramas, a forged 20000² header and a real 12000² decompression bomb are
+    /// skipped for their size (nothing allocated for their pixels) while the others are decoded and prepared.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn bomb_panoramas_are_skipped_with_their_reason_and_the_others_are_prepared() {
+        let dir = tempfile::tempdir().unwrap();
+        let files = [
+            ("p1.jpg", jpeg()),
+            ("p2.png", png_claiming(20_000, 20_000)),
+            ("p3.jpg", jpeg()),
+            ("p4.png", png_bomb(12_000, 12_000)),
+            ("p5.jpg", jpeg()),
+        ];
+        let placed: Vec<Placed> = files
+            .iter()
+            .enumerate()
+            .map(|(k, (name, bytes))| {
+                let path = dir.path().join(name);
+                std::fs::write(&path, bytes).unwrap();
+                let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0 + 5.0 * k as f64, 800.0, 40.0));
+                let id = name.trim_end_matches(".jpg").trim_end_matches(".png").to_owned();
+                let info = PanoramaInfo { id, time: k as f64, pose, position_sigma: 0.2, owned: true };
+                Placed { url: path.to_str().unwrap().to_owned(), info }
+            })
+            .collect();
+        let rig = Arc::new(PanoramaRig {
+            camera: Equirectangular::new(256, 128).unwrap(),
+            mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
+            vehicle_mask: None,
+            camera_height: 2.5,
+        });
+        let mut config = PipelineConfig::default();
+        config.mm.half_extent = 3.0;
+        let out = prepare(&Files::default(), &placed, &rig, &config, (256, 128), 2).await.unwrap();
+        let ids: Vec<&str> = out.panoramas.iter().map(PreparedPanorama::id).collect();
+        assert_eq!(ids, ["p1", "p3", "p5"]);
+        assert!(out.panoramas.iter().all(PreparedPanorama::is_prepared));
+        let skipped: Vec<(&str, &str)> = out.skipped.iter().map(|s| (s.item.as_str(), s.reason.as_str())).collect();
+        assert_eq!(skipped, [(placed[1].url.as_str(), "size"), (placed[3].url.as_str(), "size")]);
+        for (s, claim) in out.skipped.iter().zip(["20000 × 20000 px", "12000 × 12000 px"]) {
+            assert_eq!(s.stage, STAGE);
+            assert!(s.detail.contains(&s.item) && s.detail.contains(claim), "{}", s.detail);
+            assert!(s.detail.contains("exceeds the pixel budget of 134.2 M px"), "{}", s.detail);
+        }
+    }
+}

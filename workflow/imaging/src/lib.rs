@@ -1,9 +1,11 @@
-//! Image primitives: ortho-projection, filters, KAZE/AKAZE, corners, NCC, least-squares matching, RANSAC.
+//! Image primitives: bounded decoding of PNG/JPEG bytes, ortho-projection, filters, KAZE/AKAZE, corners, NCC,
+//! least-squares matching, RANSAC.
 //!
 //! Synchronous and I/O-free; rayon parallelism inside. Pixel coordinates follow ARCHITECTURE.md.
 
 pub mod akaze;
 pub mod corners;
+pub mod decode;
 pub mod error;
 pub mod filter;
 pub mod image;
@@ -18,5 +20,5 @@ pub mod ransac;
 mod stencil;
 pub mod warp;
 
+pub use self::image::{GrayImage, Mask};
 pub use error::ImagingError;
-pub use image::{GrayImage, Mask};

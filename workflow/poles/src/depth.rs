@@ -6,6 +6,7 @@ use nalgebra::Vector3;
 use plumbline_campaign::manifest::DepthIntrinsics;
 use plumbline_geo::dg::CameraMount;
 use plumbline_geo::{Camera, MapFromBody, Vec3};
+use plumbline_imaging::decode::{Bounds, DEPTH_PIXELS, DecodeError, decode};
 use rayon::prelude::*;
 
 use crate::points::{FramePoint, FramePoints};
@@ -21,6 +22,26 @@ pub enum DepthError {
         /// The decoder's error.
         source: image::ImageError,
     },
+    /// The bytes are an image, but not a PNG.
+    #[error("depth image {image}: a {found} image, not a PNG")]
+    Format {
+        /// The image.
+        image: String,
+        /// The format found, by name.
+        found: String,
+    },
+    /// The header claims more pixels than [`DEPTH_PIXELS`]: refused before decoding.
+    #[error("depth image {image}: {width} × {height} px, beyond the pixel budget of {max_pixels} px")]
+    Budget {
+        /// The image.
+        image: String,
+        /// Width in the header.
+        width: u32,
+        /// Height in the header.
+        height: u32,
+        /// The budget.
+        max_pixels: u64,
+    },
     /// The PNG is not 16-bit grey.
     #[error("depth image {image}: pixel format {found} (expected 16-bit grey)")]
     PixelFormat {
@@ -29,7 +50,7 @@ pub enum DepthError {
         /// The format found.
         found: String,
     },
-    /// The size differs from the intrinsics.
+    /// The size differs from the intrinsics (checked on the header, before decoding).
     #[error("depth image {image}: {width} × {height} px, the intrinsics say {expected_width} × {expected_height}")]
     Size {
         /// The image.
@@ -69,23 +90,15 @@ pub struct DepthImage {
     pub depth_m: Vec<f32>,
 }
 
-/// Decode a 16-bit PNG depth image with the manifest's intrinsics (scale and range limits).
+/// Decode a 16-bit PNG depth image with the manifest's intrinsics (scale and range limits). The header is
+/// checked before any pixel is decoded: PNG, at most [`DEPTH_PIXELS`], and the intrinsics' size.
 pub fn decode_depth_png(image: &str, bytes: &[u8], k: &DepthIntrinsics) -> Result<DepthImage, DepthError> {
     check_intrinsics(image, k)?;
-    let decoded = image::load_from_memory_with_format(bytes, ImageFormat::Png)
-        .map_err(|source| DepthError::Decode { image: image.to_owned(), source })?;
+    let bounds = Bounds::budget(DEPTH_PIXELS).expecting(k.width_px, k.height_px).only(ImageFormat::Png);
+    let decoded = decode(image, bytes, &bounds).map_err(|e| refused(image, e, k))?;
     let DynamicImage::ImageLuma16(gray) = decoded else {
         return Err(DepthError::PixelFormat { image: image.to_owned(), found: format!("{:?}", decoded.color()) });
     };
-    if (gray.width(), gray.height()) != (k.width_px, k.height_px) {
-        return Err(DepthError::Size {
-            image: image.to_owned(),
-            width: gray.width(),
-            height: gray.height(),
-            expected_width: k.width_px,
-            expected_height: k.height_px,
-        });
-    }
     let depth_m = gray
         .as_raw()
         .par_iter()
@@ -95,6 +108,24 @@ pub fn decode_depth_png(image: &str, bytes: &[u8], k: &DepthIntrinsics) -> Resul
         })
         .collect();
     Ok(DepthImage { width: k.width_px, height: k.height_px, depth_m })
+}
+
+/// The depth error of an image the bounded decoder refused (`k`: the intrinsics it was checked against).
+fn refused(image: &str, e: DecodeError, k: &DepthIntrinsics) -> DepthError {
+    let image = image.to_owned();
+    match e {
+        DecodeError::Unreadable { source, .. } => DepthError::Decode { image, source },
+        DecodeError::Format { found, .. } => DepthError::Format { image, found },
+        DecodeError::Size { width, height, expected_width, expected_height, .. } => {
+            DepthError::Size { image, width, height, expected_width, expected_height }
+        }
+        DecodeError::OverBudget { width, height, max_pixels, .. } => {
+            DepthError::Budget { image, width, height, max_pixels }
+        }
+        DecodeError::Empty { width, height, .. } => {
+            DepthError::Size { image, width, height, expected_width: k.width_px, expected_height: k.height_px }
+        }
+    }
 }
 
 fn check_intrinsics(image: &str, k: &DepthIntrinsics) -> Result<(), DepthError> {
@@ -143,4 +174,55 @@ pub fn depth_points(
     // The range cut-off truncates a depth's error distribution within 3σ of max_range_m.
     let reliable_range_m = k.max_range_m / (1.0 + 3.0 * range_error_share);
     FramePoints { origin, angular_step: 1.0 / k.fx.max(k.fy), reliable_range_m, points }
+}
+
+#[cfg(test)]
+mod tests {
+    use plumbline_testkit::images::{png_bomb, png_claiming};
+
+    use super::*;
+
+    fn intrinsics(width_px: u32, height_px: u32) -> DepthIntrinsics {
+        let (w, h) = (f64::from(width_px), f64::from(height_px));
+        DepthIntrinsics {
+            fx: w,
+            fy: w,
+            cx: w / 2.0,
+            cy: h / 2.0,
+            width_px,
+            height_px,
+            depth_scale_m: 0.001,
+            min_range_m: 0.4,
+            max_range_m: 10.0,
+        }
+    }
+
+    /// Issue 18: a depth image whose header claims 20000² px, or a real 12000² bomb, is refused on its header
+    /// (before decoding) whatever the intrinsics say, naming the image and the size.
+    #[test]
+    fn a_depth_image_over_the_budget_is_refused_before_decoding() {
+        let forged = png_claiming(20_000, 20_000);
+        for k in [intrinsics(640, 480), intrinsics(16_384, 16_384)] {
+            let e = decode_depth_png("depth/d7.png", &forged, &k).unwrap_err();
+            assert!(matches!(e, DepthError::Budget { width: 20_000, height: 20_000, max_pixels: DEPTH_PIXELS, .. }));
+            assert_eq!(
+                e.to_string(),
+                "depth image depth/d7.png: 20000 × 20000 px, beyond the pixel budget of 16777216 px"
+            );
+        }
+        let e = decode_depth_png("d8", &png_bomb(12_000, 12_000), &intrinsics(12_000, 12_000)).unwrap_err();
+        assert!(matches!(e, DepthError::Budget { width: 12_000, height: 12_000, .. }), "{e}");
+    }
+
+    #[test]
+    fn a_depth_image_of_another_size_or_format_is_refused_on_its_header() {
+        // Within the budget but not the intrinsics' size: refused before decoding (the data is not there).
+        let e = decode_depth_png("d9", &png_claiming(1_280, 720), &intrinsics(640, 480)).unwrap_err();
+        assert!(matches!(e, DepthError::Size { width: 1_280, height: 720, expected_width: 640, .. }), "{e}");
+        let img = image::GrayImage::from_pixel(4, 3, image::Luma([9]));
+        let mut jpeg = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut jpeg, ImageFormat::Jpeg).unwrap();
+        let e = decode_depth_png("d10", jpeg.get_ref(), &intrinsics(4, 3)).unwrap_err();
+        assert_eq!(e.to_string(), "depth image d10: a JPEG image, not a PNG");
+    }
 }

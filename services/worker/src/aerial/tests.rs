@@ -83,3 +83,28 @@ fn a_frame_sees_the_ground_under_its_centre_and_not_far_away() {
     assert!(!sees(&cam, &f.truth, &[Point3::new(c.x(), c.y(), c.z() + 100.0)]));
     assert!(sees(&cam, &f.truth, &[off, below]));
 }
+
+#[test]
+fn a_frame_over_the_budget_or_of_another_size_than_the_interior_orientation_is_skipped() {
+    let camera = frame_camera(&manifest_interior(&small_format_distorted(1000, 750))).unwrap();
+    let pose = || Pose::new(plumbline_geo::Rotation::identity(), Point3::new(0.0, 0.0, 500.0));
+    let png = |w, h| {
+        let img = image::GrayImage::from_fn(w, h, |x, y| image::Luma([((x + y) % 256) as u8]));
+        let mut out = std::io::Cursor::new(Vec::new());
+        img.write_to(&mut out, image::ImageFormat::Png).unwrap();
+        bytes::Bytes::from(out.into_inner())
+    };
+    let frame = decode_frame("f1".into(), pose(), "frames/f1.png", png(1000, 750), camera).unwrap();
+    assert_eq!((frame.id.as_str(), frame.image.width(), frame.image.height()), ("f1", 1000, 750));
+    let small = decode_frame("f2".into(), pose(), "frames/f2.png", png(500, 375), camera).unwrap_err();
+    assert_eq!((small.item.as_str(), small.reason.as_str()), ("frames/f2.png", "size"));
+    assert_eq!(small.detail, "frames/f2.png: 500 × 375 px, expected 1000 × 750 px (the interior orientation's size)");
+    // A header claiming more than any aerial camera delivers (600 M px) is refused on the budget.
+    let forged = bytes::Bytes::from(plumbline_testkit::images::png_claiming(30_000, 20_000));
+    let bomb = decode_frame("f3".into(), pose(), "frames/f3.png", forged, camera).unwrap_err();
+    assert_eq!(bomb.reason, "size");
+    assert!(bomb.detail.starts_with("frames/f3.png: 30000 × 20000 px (600.0 M px) exceeds"), "{}", bomb.detail);
+    assert!(bomb.detail.contains("budget of 450.0 M px"), "{}", bomb.detail);
+    let garbage = decode_frame("f4".into(), pose(), "frames/f4.png", bytes::Bytes::from_static(b"no"), camera);
+    assert_eq!(garbage.unwrap_err().reason, "decode");
+}
