@@ -16,7 +16,8 @@
 use std::io::Cursor;
 
 use ::image::error::{ImageFormatHint, UnsupportedError, UnsupportedErrorKind};
-use ::image::{DynamicImage, ImageDecoder as _, ImageError, ImageFormat, ImageReader, Limits};
+pub use ::image::{ColorType, ImageFormat};
+use ::image::{DynamicImage, ImageDecoder as _, ImageError, ImageReader, Limits};
 
 use crate::image::{GrayImage, Mask};
 
@@ -156,6 +157,8 @@ pub struct Header {
     pub format: ImageFormat,
     /// Bytes of the decoder's output buffer.
     pub buffer_bytes: u64,
+    /// Channels and bits of the pixels (`L16` for a 16-bit gray depth image).
+    pub color: ColorType,
 }
 
 /// Read the header of `bytes` (named `image` in errors) and check it against `bounds`; no pixel is decoded.
@@ -177,9 +180,9 @@ pub fn header(image: &str, bytes: &[u8], bounds: &Bounds) -> Result<Header, Deco
     // allocates no pixel buffer.
     let decoder = reader.into_decoder().map_err(unreadable)?;
     let (width, height) = decoder.dimensions();
-    let buffer_bytes = decoder.total_bytes();
+    let (buffer_bytes, color) = (decoder.total_bytes(), decoder.color_type());
     check(image, width, height, bounds)?;
-    Ok(Header { width, height, format, buffer_bytes })
+    Ok(Header { width, height, format, buffer_bytes, color })
 }
 
 /// Refuse `width` × `height` when it is empty, over budget or not the expected size.

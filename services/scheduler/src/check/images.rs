@@ -3,6 +3,9 @@
 
 use plumbline_campaign::Location;
 use plumbline_campaign::tables::{RowProblem, read_index};
+use plumbline_imaging::decode::{
+    AERIAL_FRAME_PIXELS, Bounds, ColorType, DEPTH_PIXELS, ImageFormat, PANORAMA_PIXELS, header,
+};
 
 use super::Checker;
 
@@ -89,7 +92,8 @@ pub(crate) async fn index(c: &mut Checker<'_>, input: &str, index: &Location, im
     }
 }
 
-/// The header of one image named by an index row: decodable, and of the expected size and pixel type.
+/// The header of one image named by an index row: within its pixel budget, and of the expected size and pixel
+/// type — read through the same bounded decoder the run uses, so what passes here decodes there.
 pub(crate) async fn first_image(c: &mut Checker<'_>, field: &str, images: &Location, file: &str, expect: Expect) {
     let Some(dir) = c.url(field, images) else { return };
     let dir = if dir.ends_with('/') { dir } else { format!("{dir}/") };
@@ -98,32 +102,26 @@ pub(crate) async fn first_image(c: &mut Checker<'_>, field: &str, images: &Locat
         Err(e) => return c.problem(field, format!("row file `{file}`: {e}")),
     };
     let Some(bytes) = c.read(field, &url).await else { return };
-    let header = match header(&bytes) {
-        Ok(h) => h,
-        Err(e) => return c.problem(field, format!("first image `{url}` is not a readable image: {e}")),
-    };
-    let size = (header.0, header.1);
-    let wrong = |what: &str, expected: (u32, u32)| {
-        format!(
-            "first image `{url}` is {} × {} px; {what} says {} × {} px (every image of this size would be skipped)",
-            size.0, size.1, expected.0, expected.1
-        )
-    };
-    match expect {
-        Expect::Panorama(Some(expected)) if size != expected => {
-            c.problem(field, wrong("panoramas.width_px/height_px", expected));
+    let (bounds, what) = match expect {
+        Expect::Panorama(size) => {
+            let bounds = Bounds::budget(PANORAMA_PIXELS);
+            (size.map_or(bounds, |(w, h)| bounds.expecting(w, h)), "panoramas.width_px/height_px")
         }
-        Expect::Panorama(_) => {}
         Expect::Depth(w, h) => {
-            if size != (w, h) {
-                c.problem(field, wrong("the depth intrinsics", (w, h)));
-            }
-            if header.2 != image::ColorType::L16 {
-                c.problem(field, format!("first image `{url}` is {:?}; depth images are 16-bit gray PNGs", header.2));
-            }
+            (Bounds::budget(DEPTH_PIXELS).expecting(w, h).only(ImageFormat::Png), "depth intrinsics")
         }
-        Expect::Aerial(w, h) if size != (w, h) => c.problem(field, wrong("aerial.frames.interior", (w, h))),
-        Expect::Aerial(..) => {}
+        Expect::Aerial(w, h) => (Bounds::budget(AERIAL_FRAME_PIXELS).expecting(w, h), "aerial.frames.interior"),
+    };
+    match header(&url, &bytes, &bounds) {
+        Ok(h) if matches!(expect, Expect::Depth(..)) && h.color != ColorType::L16 => {
+            c.problem(field, format!("first image `{url}` is {:?}; depth images are 16-bit gray PNGs", h.color));
+        }
+        Ok(_) => {}
+        Err(e) => {
+            let hint =
+                if e.is_size() { format!(" ({what}; every such image would be skipped)") } else { String::new() };
+            c.problem(field, format!("first image: {e}{hint}"));
+        }
     }
 }
 
@@ -132,29 +130,11 @@ pub(crate) async fn vehicle_mask(c: &mut Checker<'_>, mask: &Location, expected:
     let field = "panoramas.vehicle_mask";
     let Some(url) = c.url(field, mask) else { return };
     let Some(bytes) = c.read(field, &url).await else { return };
-    match header(&bytes) {
-        Ok((w, h, _)) => {
-            if let Some(expected) = expected.filter(|e| *e != (w, h)) {
-                c.problem(
-                    field,
-                    format!("`{url}` is {w} × {h} px; the panoramas are {} × {} px", expected.0, expected.1),
-                );
-            }
-        }
-        Err(e) => c.problem(field, format!("`{url}` is not a readable image: {e}")),
+    let bounds = Bounds::budget(PANORAMA_PIXELS);
+    let bounds = expected.map_or(bounds, |(w, h)| bounds.expecting(w, h));
+    if let Err(e) = header(&url, &bytes, &bounds) {
+        c.problem(field, format!("{e} (the panoramas' size)"));
     }
-}
-
-/// Width, height and colour type from an image's header (no pixels decoded).
-fn header(bytes: &[u8]) -> Result<(u32, u32, image::ColorType), String> {
-    use image::ImageDecoder as _;
-    let decoder = image::ImageReader::new(std::io::Cursor::new(bytes))
-        .with_guessed_format()
-        .map_err(|e| e.to_string())?
-        .into_decoder()
-        .map_err(|e| e.to_string())?;
-    let (w, h) = decoder.dimensions();
-    Ok((w, h, decoder.color_type()))
 }
 
 #[cfg(test)]
