@@ -41,6 +41,8 @@ pub(crate) struct PoleResults {
 /// One depth image ready for the pipeline.
 struct Frame {
     id: String,
+    /// Where the image was read from, for messages.
+    url: String,
     png: Bytes,
     dg: TrajectoryRecord,
 }
@@ -71,6 +73,8 @@ pub(crate) async fn process(
     let readable: usize = frames.values().map(Vec::len).sum();
     progress.skip(POLES, depth.len().saturating_sub(readable) as u64);
     let t1 = Instant::now();
+    let urls: std::collections::HashMap<String, String> =
+        frames.values().flatten().map(|f| (f.id.clone(), f.url.clone())).collect();
     for (camera, frames) in frames {
         let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
             progress.skip(POLES, frames.len() as u64);
@@ -91,7 +95,8 @@ pub(crate) async fn process(
     out.process_s = t1.elapsed().as_secs_f64();
     out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {
         let problem = r.problem.as_ref()?;
-        Some(skipped("poles", &r.frame, SkipReason::Frame, format!("depth frame {}: {problem}", r.frame)))
+        let item = urls.get(&r.frame).unwrap_or(&r.frame);
+        Some(skipped("poles", item, SkipReason::Frame, format!("depth frame {} ({item}): {problem}", r.frame)))
     }));
     Ok(out)
 }
@@ -123,7 +128,7 @@ async fn depth_frames(
         let frame = png.and_then(|png| {
             let dg = dg_at(campaign, image.time)
                 .map_err(|e| skipped("poles", &url, SkipReason::Time, format!("{url}: {e}")))?;
-            Ok(Frame { id: image.image_id.clone(), png, dg })
+            Ok(Frame { id: image.image_id.clone(), url: url.clone(), png, dg })
         });
         match frame {
             Ok(f) => by_camera.entry(image.camera).or_default().push(f),
