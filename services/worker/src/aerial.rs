@@ -180,7 +180,7 @@ async fn orthophoto(
 ) -> anyhow::Result<(Option<AerialReference>, Vec<SkippedInput>)> {
     let (image_url, terrain_url) = (campaign.url(&spec.image)?, campaign.url(&spec.terrain)?);
     let mut problems = Vec::new();
-    let image = match read_window(files, &image_url, area).await {
+    let image = match read_window(files, &image_url, area, campaign.epsg()).await {
         Ok(Some(w)) => match gray(&w) {
             Ok(g) => (g, w.geotransform),
             Err(e) => {
@@ -198,7 +198,7 @@ async fn orthophoto(
             return Ok((None, problems));
         }
     };
-    let terrain = match read_window(files, &terrain_url, area).await {
+    let terrain = match read_window(files, &terrain_url, area, campaign.epsg()).await {
         Ok(Some(w)) => terrain(&w).map_err(|e| (SkipReason::Decode, format!("{terrain_url}: {e:#}"))),
         Ok(None) => Err((SkipReason::Outside, format!("{terrain_url}: the terrain model does not cover the tile"))),
         Err(e) => Err((e.reason(), format!("{terrain_url}: {e}"))),

@@ -157,7 +157,7 @@ pub(crate) async fn camera_height(
     let record = dg_at(campaign, first.time).map_err(invalid)?;
     let centre = mount(spec).camera_pose(&record.pose()).translation;
     let (e, n) = (centre.x(), centre.y());
-    let ground = match read_window(files, &url, around(e, n, 5.0)).await {
+    let ground = match read_window(files, &url, around(e, n, 5.0), campaign.epsg()).await {
         Ok(Some(w)) => terrain(&w).ok().and_then(|t| height_at(&t, e, n)).ok_or_else(|| "no data there".to_owned()),
         Ok(None) => Err("the position lies outside it".to_owned()),
         Err(e) if e.reason().retryable() => return Err(anyhow::anyhow!("{url}: {e}")),

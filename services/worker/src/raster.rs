@@ -46,7 +46,12 @@ impl WindowError {
 }
 
 /// Read the window of the raster at `url` covering `area` (`None`: the area lies outside the raster).
-pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> Result<Option<Raster>, WindowError> {
+pub(crate) async fn read_window(
+    files: &Files,
+    url: &str,
+    area: MapBox,
+    crs: u32,
+) -> Result<Option<Raster>, WindowError> {
     let local = local_path(url);
     if let Some(path) = local.as_ref().filter(|p| !p.exists()) {
         return Err(WindowError::Store(invalid(format!("{}: no such file", path.display()))));
@@ -66,6 +71,10 @@ pub(crate) async fn read_window(files: &Files, url: &str, area: MapBox) -> Resul
             (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, bytes.unwrap_or_default(), tiles)?,
             (None, bytes, None) => RasterSource::open_bytes(&url, bytes.unwrap_or_default())?,
         };
+        // A raster in another CRS would only "miss" every tile: say what is wrong instead.
+        if let Some(epsg) = source.epsg().filter(|&e| e != crs) {
+            anyhow::bail!("{url}: the raster is in EPSG:{epsg}, the campaign in EPSG:{crs}; reproject it");
+        }
         Ok(source.window(&area)?)
     })
     .await
@@ -206,22 +215,22 @@ mod tests {
 
         // Across the border between the two tiles: both are fetched.
         let area = MapBox { min_e: 500_002.5, min_n: 5_000_000.5, max_e: 500_005.5, max_n: 5_000_001.5 };
-        let window = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap().unwrap();
+        let window = read_window(&files, &format!("{base}/terrain.vrt"), area, 25832).await.unwrap().unwrap();
         let t = terrain(&window).unwrap();
         assert_eq!(height_at(&t, 500_003.5, 5_000_001.0), Some(10.0));
         assert_eq!(height_at(&t, 500_004.5, 5_000_001.0), Some(20.0));
         // Within the first tile only: the second is not needed, so a missing second tile does not matter.
         files.write(&format!("{base}/terrain/1_0.tif"), b"not a tiff".to_vec()).await.unwrap();
         let area = MapBox { min_e: 500_000.5, min_n: 5_000_000.5, max_e: 500_002.5, max_n: 5_000_001.5 };
-        let window = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap().unwrap();
+        let window = read_window(&files, &format!("{base}/terrain.vrt"), area, 25832).await.unwrap().unwrap();
         assert_eq!(height_at(&terrain(&window).unwrap(), 500_001.5, 5_000_001.0), Some(10.0));
         // Across the border again: the broken tile is undecodable, a deleted one missing — neither retried.
         let area = MapBox { min_e: 500_002.5, min_n: 5_000_000.5, max_e: 500_005.5, max_n: 5_000_001.5 };
-        let broken = read_window(&files, &format!("{base}/terrain.vrt"), area).await.unwrap_err();
+        let broken = read_window(&files, &format!("{base}/terrain.vrt"), area, 25832).await.unwrap_err();
         assert_eq!(broken.reason(), SkipReason::Decode, "{broken}");
         let lonely = "s3://rasters/campaign/no-tiles/terrain.vrt";
         files.write(lonely, vrt(&mosaic).unwrap()).await.unwrap();
-        let missing = read_window(&files, lonely, area).await.unwrap_err();
+        let missing = read_window(&files, lonely, area, 25832).await.unwrap_err();
         assert_eq!(missing.reason(), SkipReason::Missing, "{missing}");
         assert!(missing.to_string().contains("no-tiles/terrain/0_0.tif"), "{missing}");
     }
@@ -236,12 +245,35 @@ mod tests {
         let files = Files::new(plumbline_runtime::S3Options::default());
         let area = around(500_000.0, 5_000_000.0, 1.0);
         let absent = dir.path().join("absent.tif").display().to_string();
-        let e = read_window(&files, &absent, area).await.unwrap_err();
+        let e = read_window(&files, &absent, area, 25832).await.unwrap_err();
         assert_eq!(e.reason(), SkipReason::Missing, "{e}");
         assert!(e.to_string().contains("absent.tif"), "{e}");
         let junk = dir.path().join("junk.tif");
         std::fs::write(&junk, b"not a tiff").unwrap();
-        let e = read_window(&files, &junk.display().to_string(), area).await.unwrap_err();
+        let e = read_window(&files, &junk.display().to_string(), area, 25832).await.unwrap_err();
         assert_eq!(e.reason(), SkipReason::Decode, "{e}");
+    }
+
+    /// A raster in another CRS than the campaign's is named as such, not as one that misses every tile.
+    #[tokio::test]
+    async fn a_raster_in_another_crs_is_refused_naming_both() {
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("ortho.tif");
+        let data = RasterData::F32(vec![vec![1.0; 6]]);
+        let raster = Raster {
+            width: 3,
+            height: 2,
+            geotransform: [100.0, 2.0, 0.0, 50.0, 0.0, -2.0],
+            epsg: 25832,
+            data,
+            nodata: None,
+        };
+        std::fs::write(&path, plumbline_runtime::gdal_write::geotiff(&raster).unwrap()).unwrap();
+        let files = Files::new(plumbline_runtime::S3Options::default());
+        let url = path.display().to_string();
+        assert!(read_window(&files, &url, around(102.0, 48.0, 1.0), 25832).await.unwrap().is_some());
+        let e = read_window(&files, &url, around(102.0, 48.0, 1.0), 25833).await.unwrap_err();
+        assert_eq!(e.reason(), SkipReason::Decode);
+        assert!(e.to_string().contains("the raster is in EPSG:25832, the campaign in EPSG:25833"), "{e}");
     }
 }

@@ -30,13 +30,16 @@ pub(crate) fn read_records<const N: usize>(
     Ok(chunks.map(decode).collect())
 }
 
-/// The first field of any record that fails its check: `checks[i]` = (field name, test, what a failure means)
-/// for field `i`; fields without a check are not looked at.
+/// A check of one field of a binary record: its index, its name, the test, and what a failure means.
+pub(crate) type FieldCheck = (usize, &'static str, fn(f64) -> bool, &'static str);
+
+/// An empty file, or the first field of any record that fails its check, as an error naming record and field;
+/// fields without a check are not looked at.
 pub(crate) fn check_records<const N: usize>(
     records: &[[f64; N]],
     input: &str,
     format: &'static str,
-    checks: &[(usize, &'static str, fn(f64) -> bool, &'static str)],
+    checks: &[FieldCheck],
 ) -> Result<(), FormatError> {
     if records.is_empty() {
         return Err(FormatError::Empty { input: input.to_owned(), format });
