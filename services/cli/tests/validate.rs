@@ -70,5 +70,11 @@ fn inputs_are_looked_up_next_to_the_manifest() {
 
     std::fs::create_dir_all(dir.path().join("cadastre")).unwrap();
     std::fs::write(dir.path().join("cadastre/poles.gpkg"), b"").unwrap();
-    plumbline(&["validate", &path]).run().success();
+    // Now both exist, and are opened: an empty trajectory and a 0-byte GeoPackage are named for what they are.
+    let r = plumbline(&["validate", &path]).run();
+    r.failure_with(2);
+    assert!(r.stderr.contains("trajectory[0]: dg.csv: trajectory is empty"), "{}", r.stderr);
+    assert!(r.stderr.contains("cadastres[0]") && r.stderr.contains("empty (0 bytes"), "{}", r.stderr);
+    // --offline checks the manifest alone, without looking at the files.
+    plumbline(&["validate", &path, "--offline"]).run().success();
 }

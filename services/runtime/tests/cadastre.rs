@@ -504,8 +504,11 @@ fn files_that_are_no_vector_geopackage_are_named_for_what_they_are() {
         let mut ds = driver.create_vector_only(&sqlite).unwrap();
         ds.create_layer(LayerOptions { name: "t", ..Default::default() }).unwrap();
     }
+    let no_layer = dir.path().join("no_layer.gpkg");
+    DriverManager::get_driver_by_name("GPKG").unwrap().create_vector_only(&no_layer).unwrap().close().unwrap();
     let empty_bytes: &[u8] = &[];
-    let cases: [(CadastreSource<'_>, &str); 5] = [
+    let cases: [(CadastreSource<'_>, &str); 6] = [
+        (CadastreSource::Path(&no_layer), "no vector layer"),
         (CadastreSource::Path(&empty), "the file is empty (0 bytes"),
         (CadastreSource::Bytes { name: "s3://b/upload.gpkg", bytes: empty_bytes }, "the file is empty (0 bytes"),
         (CadastreSource::Path(&text), "no SQLite header (the file's 21 bytes start with `layer,x,y.lights`)"),
