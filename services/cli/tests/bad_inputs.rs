@@ -561,16 +561,29 @@ fn item_level_defects_are_skipped_and_the_run_goes_on() {
         ],
     );
 
+    // A point cloud is named but not read as control: the run warns, and with --strict exits 4.
+    clouds(&o, &[("a.las", las(1, drive_start(&o), 10))]);
+
     let v = run(&validate(&o));
     assert_eq!(v.code, Some(0), "item-level defects leave the campaign valid:\n{}", v.text);
     for needle in ["warning: panoramas.index", "line 2", "BadGeometry", "UnknownClass"] {
         assert!(v.text.contains(needle), "{needle}: {}", v.text);
     }
 
-    let r = run(&["run".to_owned(), o.manifest(), "--quiet".to_owned()]);
-    assert_eq!(r.code, Some(0), "{}", r.text);
+    // Rows naming another agency's object or a worker-local file (which `validate` refuses) are skipped by the
+    // run, never read.
+    let time = panoramas.lines().nth(3).unwrap().split(',').nth(1).unwrap().to_owned();
+    let escaping = format!("evil1,{time},file:///etc/hostname\nevil2,{time},s3://agency-b/panoramas/p.jpg\n");
+    o.write("panoramas/index.csv", first_row(&panoramas, 1, "soon") + &escaping);
+    let r = run(&["run".to_owned(), o.manifest(), "--quiet".to_owned(), "--strict".to_owned()]);
+    assert_eq!(r.code, Some(4), "--strict and a named input without control: {}", r.text);
+    assert!(r.text.contains("WARNING no control from point_clouds[0]"), "in the summary: {}", r.text);
+    assert!(r.text.contains("warning: 1 named input(s) gave no control"), "in the exit message: {}", r.text);
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(o.path("results/report.json")).unwrap()).unwrap();
+    let warnings = report["warnings"].as_array().unwrap();
+    assert_eq!(warnings.len(), 1, "only the point cloud: {warnings:#?}");
+    assert_eq!(warnings[0]["input"], "point_clouds[0]");
     let skipped = report["skipped"].as_array().unwrap();
     let find = |needle: &str, reason: &str| {
         skipped
@@ -580,6 +593,7 @@ fn item_level_defects_are_skipped_and_the_run_goes_on() {
     assert!(find(&broken, "decode"), "the broken panorama: {skipped:#?}");
     assert!(find(&small, "frame") && find("64 × 64 px", "frame"), "the depth image of another size: {skipped:#?}");
     assert!(find("index.csv line 2", "time"), "the bad index row: {skipped:#?}");
+    assert!(find("file:///etc/hostname", "url") && find("s3://agency-b/", "url"), "escaping rows: {skipped:#?}");
     assert!(find("poles.gpkg", "unknown_class") && find("\"ufo\"", "unknown_class"), "the unknown class: {skipped:#?}");
     assert!(report["summary"]["images_matched"].as_u64().unwrap() > 0, "the rest was registered");
     assert!(report["summary"]["pole_updates"].as_u64().unwrap() > 0, "and matched to the cadastre");

@@ -66,13 +66,15 @@ impl Campaign {
         plumbline_campaign::resolve(&self.base, location.as_str()).or_invalid(location.as_str())
     }
 
-    /// The URL of a file named by an index row, under the manifest's `images` prefix.
+    /// The URL of a file named by an index row, under the manifest's `images` prefix: a row naming an absolute
+    /// URL or path, or climbing above the prefix with `..`, is refused (another agency's objects, worker-local
+    /// files).
     pub fn file_url(&self, prefix: &Location, file: &str) -> anyhow::Result<String> {
         let mut dir = self.url(prefix)?;
         if !dir.ends_with('/') {
             dir.push('/');
         }
-        plumbline_campaign::resolve(&dir, file).or_invalid(file)
+        plumbline_campaign::resolve_below(&dir, file).or_invalid(file)
     }
 
     /// The campaign CRS.

@@ -41,7 +41,7 @@ pub use cadastre_features::{
 };
 pub use epsg::{EPSG_CRS_RANGE, Epsg, EpsgKind};
 pub use id::{CampaignId, CampaignIdError, MAX_CAMPAIGN_ID_LEN};
-pub use location::{Location, ResolveError, SCHEMES, resolve};
+pub use location::{Location, ResolveError, SCHEMES, resolve, resolve_below};
 pub use manifest::{Manifest, ManifestV1};
 pub use parse::{Format, ParseError, Position, SUPPORTED_VERSIONS};
 pub use problem::{FieldPath, Problem, Problems};

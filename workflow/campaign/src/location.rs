@@ -31,6 +31,8 @@ pub enum ResolveError {
     EmptySegment(String),
     /// The reference climbs above the base's directory with `..`.
     EscapesBase(String),
+    /// A file named by an index row is an absolute URL: rows name files below the manifest's images prefix.
+    NotBelowPrefix(String),
 }
 
 impl ResolveError {
@@ -43,6 +45,7 @@ impl ResolveError {
             Self::AbsolutePath(path) => format!("{path:?} is an absolute path"),
             Self::EmptySegment(path) => format!("{path:?} has an empty path segment (\"//\")"),
             Self::EscapesBase(path) => format!("{path:?} leaves the manifest's directory through \"..\""),
+            Self::NotBelowPrefix(url) => format!("{url:?} is an absolute URL"),
         }
     }
 
@@ -54,6 +57,7 @@ impl ResolveError {
             Self::Empty | Self::AbsolutePath(_) | Self::EmptySegment(_) | Self::EscapesBase(_) => {
                 "a path below the manifest's directory (a/b.csv), or an absolute URL (file:///…, s3://…)".to_owned()
             }
+            Self::NotBelowPrefix(_) => "a file name relative to the images prefix (day1/p0001.jpg)".to_owned(),
         }
     }
 }
@@ -134,6 +138,16 @@ fn scheme_of(s: &str) -> Option<&str> {
     (first_ok && rest_ok).then_some(scheme)
 }
 
+/// Joins a file named by an index row to its images prefix `dir` (an absolute URL ending in `/`), and refuses
+/// any way out of it: an absolute URL or path, or `..` above the prefix. Index rows are data an agency
+/// uploads, so unlike a manifest location they may only name files below the prefix the manifest gives.
+pub fn resolve_below(dir: &str, reference: &str) -> Result<String, ResolveError> {
+    if scheme_of(reference).is_some() {
+        return Err(ResolveError::NotBelowPrefix(reference.to_owned()));
+    }
+    resolve(dir, reference)
+}
+
 /// `base` cut after its last `/`, or with a `/` added when it names only an authority.
 fn base_directory(base: &str) -> Result<String, ResolveError> {
     let not_absolute = || ResolveError::BaseNotAbsolute(base.to_owned());
@@ -212,5 +226,17 @@ mod tests {
     fn extension_is_lowercase() {
         assert_eq!(Location::from("s3://b/cloud.LAZ").extension().as_deref(), Some("laz"));
         assert_eq!(Location::from("s3://b.x/cloud").extension(), None);
+    }
+
+    #[test]
+    fn index_rows_only_reach_files_below_their_prefix() {
+        let dir = "s3://agency-a/campaign/panoramas/";
+        assert_eq!(resolve_below(dir, "day1/p1.jpg").unwrap(), "s3://agency-a/campaign/panoramas/day1/p1.jpg");
+        assert_eq!(resolve_below(dir, "day1/../p1.jpg").unwrap(), "s3://agency-a/campaign/panoramas/p1.jpg");
+        for escape in ["s3://agency-b/panoramas/p1.jpg", "file:///etc/hostname", "/etc/hostname", "../depth/d1.png"] {
+            assert!(resolve_below(dir, escape).is_err(), "{escape}");
+        }
+        let e = resolve_below(dir, "s3://agency-b/p1.jpg").unwrap_err();
+        assert!(e.to_string().contains("relative to the images prefix"), "{e}");
     }
 }
