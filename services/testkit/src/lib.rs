@@ -6,12 +6,14 @@
 //!   whose state must survive it (moto's objects live in memory);
 //! - [`schemas`]: the checked-in JSON Schemas kept equal to the generated ones;
 //! - [`images`]: PNGs whose header claims more pixels than their bytes hold (a forged header, a real
-//!   decompression bomb), for the decoders' pixel budgets.
+//!   decompression bomb), for the decoders' pixel budgets;
+//! - [`mutation`]: random edits of valid files, for the parsers' property tests.
 //!
 //! Missing binaries fail the test with an install hint; `.ci/run` installs both.
 
 pub mod images;
 mod moto;
+pub mod mutation;
 mod nats;
 mod proxy;
 pub mod schemas;

@@ -186,7 +186,7 @@ mod tests {
     use proptest::prelude::*;
 
     use super::*;
-    use crate::mutation::{edits, mutate};
+    use plumbline_testkit::mutation::{edits, mutate};
 
     const FULL_TOML: &str = include_str!("../../../schemas/examples/manifest.v1.full.toml");
     const FULL_JSON: &str = include_str!("../../../schemas/examples/manifest.v1.full.json");

@@ -301,10 +301,10 @@ mod tests {
         }
 
         #[test]
-        fn mutated_tables_read_or_name_the_file(edits in crate::mutation::edits()) {
-            let index = crate::mutation::mutate(INDEX.as_bytes().to_vec(), &edits);
+        fn mutated_tables_read_or_name_the_file(edits in plumbline_testkit::mutation::edits()) {
+            let index = plumbline_testkit::mutation::mutate(INDEX.as_bytes().to_vec(), &edits);
             check(&index, read_index("in.csv", &index))?;
-            let exterior = crate::mutation::mutate(EXTERIOR.as_bytes().to_vec(), &edits);
+            let exterior = plumbline_testkit::mutation::mutate(EXTERIOR.as_bytes().to_vec(), &edits);
             check(&exterior, read_exterior("in.csv", &exterior))?;
         }
     }

@@ -862,26 +862,7 @@ mod tests {
         assert!(matches!(err, LasHeaderError::Truncated { count: u64::MAX, .. }), "{err}");
     }
 
-    /// Edits of a byte string: `(kind, where, byte)`, kind 0 flips a bit, 1 overwrites, 2 inserts, 3 deletes,
-    /// 4 truncates.
-    fn edits() -> impl Strategy<Value = Vec<(u8, prop::sample::Index, u8)>> {
-        prop::collection::vec((0u8..5, any::<prop::sample::Index>(), any::<u8>()), 1..8)
-    }
-
-    fn mutate(mut bytes: Vec<u8>, edits: &[(u8, prop::sample::Index, u8)]) -> Vec<u8> {
-        for (kind, at, byte) in edits {
-            let i = at.index(bytes.len() + 1);
-            match kind {
-                0 if i < bytes.len() => bytes[i] ^= 1 << (byte % 8),
-                1 if i < bytes.len() => bytes[i] = *byte,
-                2 => bytes.insert(i, *byte),
-                3 if i < bytes.len() => drop(bytes.remove(i)),
-                4 => bytes.truncate(i),
-                _ => {}
-            }
-        }
-        bytes
-    }
+    use plumbline_testkit::mutation::{edits, mutate};
 
     /// Valid files of several kinds to mutate.
     fn valid_files() -> Vec<Vec<u8>> {

@@ -196,24 +196,7 @@ fn a_laz_decoder_panic_is_an_error_naming_the_records() {
     }
 }
 
-/// Edits of a byte string: `(kind, where, byte)`; kind 0 flips a bit, 1 overwrites, 2 inserts, 3 deletes,
-/// 4 truncates.
-type Edit = (u8, prop::sample::Index, u8);
-
-fn mutate(mut bytes: Vec<u8>, edits: &[Edit]) -> Vec<u8> {
-    for (kind, at, byte) in edits {
-        let i = at.index(bytes.len() + 1);
-        match kind {
-            0 if i < bytes.len() => bytes[i] ^= 1 << (byte % 8),
-            1 if i < bytes.len() => bytes[i] = *byte,
-            2 => bytes.insert(i, *byte),
-            3 if i < bytes.len() => drop(bytes.remove(i)),
-            4 => bytes.truncate(i),
-            _ => {}
-        }
-    }
-    bytes
-}
+use plumbline_testkit::mutation::{edits, mutate};
 
 static VALID: std::sync::LazyLock<[Vec<u8>; 3]> =
     std::sync::LazyLock::new(|| [write(1, false, 200), write(1, true, 200), write_1_4_with_evlr(true, 200)]);
@@ -246,7 +229,7 @@ proptest! {
     }
 
     #[test]
-    fn mutated_clouds_read_or_name_the_file(which in 0usize..3, edits in prop::collection::vec((0u8..5, any::<prop::sample::Index>(), any::<u8>()), 1..8)) {
+    fn mutated_clouds_read_or_name_the_file(which in 0usize..3, edits in edits()) {
         check_read(mutate(VALID[which].clone(), &edits))?;
     }
 }

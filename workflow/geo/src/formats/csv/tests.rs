@@ -8,7 +8,7 @@ use proptest::prelude::*;
 
 use super::*;
 use crate::attitude::NovatelAttitude;
-use crate::formats::mutation::{edits, mutate};
+use plumbline_testkit::mutation::{edits, mutate};
 
 const APPLANIX: AttitudeConvention = AttitudeConvention::Applanix;
 

@@ -5,8 +5,8 @@
 use proptest::prelude::*;
 
 use super::*;
-use crate::formats::mutation::{edits, mutate};
 use crate::formats::{raw_to_smrmsg, write_smrmsg};
+use plumbline_testkit::mutation::{edits, mutate};
 
 /// Distinct, plausible values in the documented field order.
 const FIELD_VALUES: [f64; 17] = [
