@@ -170,15 +170,11 @@ async fn trajectory(c: &mut Checker<'_>, field: &str, source: &TrajectorySource)
         Err(e) => Err(e),
     };
     match loaded {
-        Ok(t) if enough_records(&t).is_err() => {
-            let why = enough_records(&t).err().unwrap_or_default();
-            c.problem(field, why);
-        }
-        Ok(t) => {
-            if c.drive.is_none() {
-                c.drive = Some(Drive::of(&t.trajectory));
-            }
-        }
+        Ok(t) => match enough_records(&t) {
+            Err(why) => c.problem(field, why),
+            Ok(()) if c.drive.is_none() => c.drive = Some(Drive::of(&t.trajectory)),
+            Ok(()) => {}
+        },
         Err(e) => c.problem(field, format!("{e:#}")),
     }
     if let Some(reference) = source.reference() {

@@ -31,7 +31,7 @@ pub(crate) async fn raster(c: &mut Checker<'_>, field: &str, location: &Location
     let Some(url) = c.url(field, location) else { return };
     let opened = if let Some(path) = url.strip_prefix("file://") {
         let path = std::path::PathBuf::from(path);
-        tokio::task::spawn_blocking(move || RasterSource::open_path(&path).map(|s| metadata(&s))).await
+        tokio::task::spawn_blocking(move || RasterSource::open_path(&path).and_then(|s| metadata(&s))).await
     } else {
         let Some(bytes) = c.read(field, &url).await else { return };
         let name = url.clone();
@@ -41,7 +41,7 @@ pub(crate) async fn raster(c: &mut Checker<'_>, field: &str, location: &Location
             } else {
                 RasterSource::open_bytes(&name, bytes.to_vec())
             };
-            source.map(|s| metadata(&s))
+            source.and_then(|s| metadata(&s))
         })
         .await
     };
@@ -49,10 +49,6 @@ pub(crate) async fn raster(c: &mut Checker<'_>, field: &str, location: &Location
         Ok(Ok(m)) => m,
         Ok(Err(e)) => return c.problem(field, e),
         Err(e) => return c.problem(field, format!("`{url}`: the reading task failed: {e}")),
-    };
-    let m = match m {
-        Ok(m) => m,
-        Err(e) => return c.problem(field, e),
     };
     match m.epsg {
         Some(epsg) if epsg == c.epsg => {}
