@@ -1,22 +1,25 @@
 //! The pole side of a tile (paper 002): its depth images read with their DG records, the cadastre objects
-//! around it, and `plumbline_poles::process_depth_frames` per depth camera.
+//! around it, and a `plumbline_poles::PoleStream` per depth camera fed batch by batch.
 
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
 use std::time::Instant;
 
 use bytes::Bytes;
 use plumbline_adjustment::PoleUpdate;
-use plumbline_campaign::manifest::Cadastre;
+use plumbline_campaign::manifest::{Cadastre, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::tiling::{BBox, TileId};
-use plumbline_poles::{DepthFrame, FrameReport, PoleConfig, process_depth_frames};
+use plumbline_poles::{DepthFrame, FrameReport, PoleConfig, PoleStream};
 use plumbline_runtime::Files;
 use plumbline_runtime::cadastre::{CadastreSource, read_cadastre};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{SkipReason, blocking, read_all, skipped};
+use futures::StreamExt as _;
+
+use crate::fetch::{SkipReason, blocking, skipped};
 use crate::panoramas::dg_at;
 use crate::tile::POLES;
 
@@ -38,17 +41,24 @@ pub(crate) struct PoleResults {
     pub process_s: f64,
 }
 
-/// One depth image ready for the pipeline.
-struct Frame {
+/// A depth image the tile wants, with its DG record.
+#[derive(Clone)]
+struct Wanted {
     id: String,
-    /// Where the image was read from, for messages.
+    /// Where the image is read from, also for messages.
     url: String,
-    png: Bytes,
     dg: TrajectoryRecord,
 }
 
+/// Depth images read and decoded per batch: a batch is read while the one before is decoded, and a
+/// [`PoleStream`] drops each frame's points once detected, so a tile holds two batches of images and a few
+/// frames of points whatever the number of its depth images.
+fn batch_size() -> usize {
+    (4 * rayon::current_num_threads()).max(8)
+}
+
 /// Detect and match the poles of a tile's depth images; stage `poles` of `progress` advances by one per depth
-/// image (per camera as its batch finishes; skipped when it could not be read).
+/// image (per batch as it is decoded; skipped when it could not be read).
 pub(crate) async fn process(
     files: &Files,
     campaign: &Campaign,
@@ -68,31 +78,25 @@ pub(crate) async fn process(
     let range =
         campaign.manifest.depth.iter().map(|c| c.intrinsics.max_range_m).fold(config.detect.max_range_m, f64::max);
     let features = cadastre_features(files, campaign, fetch, range + CADASTRE_MARGIN_M, &mut out.skipped).await?;
-    let frames = depth_frames(files, campaign, depth, concurrency, &mut out.skipped).await;
     out.read_s = t0.elapsed().as_secs_f64();
-    let readable: usize = frames.values().map(Vec::len).sum();
-    progress.skip(POLES, depth.len().saturating_sub(readable) as u64);
-    let t1 = Instant::now();
-    let urls: std::collections::HashMap<String, String> =
-        frames.values().flatten().map(|f| (f.id.clone(), f.url.clone())).collect();
-    for (camera, frames) in frames {
+    let wanted = wanted_frames(campaign, depth, &mut out.skipped);
+    let listed: usize = wanted.values().map(Vec::len).sum();
+    progress.skip(POLES, depth.len().saturating_sub(listed) as u64);
+    let urls: HashMap<String, String> = wanted.values().flatten().map(|w| (w.id.clone(), w.url.clone())).collect();
+    let features = Arc::new(features);
+    for (camera, frames) in wanted {
         let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
             progress.skip(POLES, frames.len() as u64);
             continue;
         };
-        let count = frames.len() as u64;
-        let (features, config) = (features.clone(), *config);
-        let output = blocking(move || {
-            let refs: Vec<DepthFrame<'_>> =
-                frames.iter().map(|f| DepthFrame { id: &f.id, png: &f.png, dg: &f.dg }).collect();
-            process_depth_frames(&spec, &refs, &features, &config)
-        })
-        .await?;
+        let stream = stream_camera(files, spec, &frames, config, concurrency, progress, &mut out).await?;
+        let t1 = Instant::now();
+        let features = Arc::clone(&features);
+        let output = blocking(move || stream.finish(&features)).await?;
+        out.process_s += t1.elapsed().as_secs_f64();
         out.updates.extend(output.updates);
         out.reports.extend(output.reports);
-        progress.advance(POLES, count);
     }
-    out.process_s = t1.elapsed().as_secs_f64();
     out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {
         let problem = r.problem.as_ref()?;
         let item = urls.get(&r.frame).unwrap_or(&r.frame);
@@ -101,38 +105,97 @@ pub(crate) async fn process(
     Ok(out)
 }
 
-/// The tile's depth images by camera, in time order; missing files and times off the trajectory are skipped.
-async fn depth_frames(
+/// One camera's depth images (in time order) through a [`PoleStream`], batch by batch; an image that cannot
+/// be read is skipped.
+async fn stream_camera(
     files: &Files,
+    spec: DepthCamera,
+    frames: &[Wanted],
+    config: &PoleConfig,
+    concurrency: usize,
+    progress: &dyn Progress,
+    out: &mut PoleResults,
+) -> anyhow::Result<PoleStream> {
+    let spec = Arc::new(spec);
+    let mut stream = PoleStream::new(config);
+    let mut batches = frames.chunks(batch_size());
+    let mut reading = batches.next().map(|b| read_batch(files, b, concurrency));
+    while let Some(batch) = reading.take() {
+        let (read, read_s) = batch.await.map_err(|e| anyhow::anyhow!("worker task failed: {e}"))?;
+        // The next batch is read while this one is decoded.
+        reading = batches.next().map(|b| read_batch(files, b, concurrency));
+        out.read_s += read_s;
+        let mut readable = Vec::with_capacity(read.len());
+        for (wanted, png) in read {
+            match png {
+                Ok(png) => readable.push((wanted, png)),
+                Err(s) => {
+                    progress.skip(POLES, 1);
+                    out.skipped.push(s);
+                }
+            }
+        }
+        let count = readable.len() as u64;
+        let (spec, t1) = (Arc::clone(&spec), Instant::now());
+        stream = blocking(move || {
+            let refs: Vec<DepthFrame<'_>> =
+                readable.iter().map(|(w, png)| DepthFrame { id: &w.id, png, dg: &w.dg }).collect();
+            stream.push_depth(&spec, &refs);
+            stream
+        })
+        .await?;
+        out.process_s += t1.elapsed().as_secs_f64();
+        progress.advance(POLES, count);
+    }
+    Ok(stream)
+}
+
+/// A batch of depth images and the seconds reading them took.
+type ReadBatch = (Vec<(Wanted, Result<Bytes, SkippedInput>)>, f64);
+
+/// Read a batch of depth images on a task of its own, so that it proceeds while the batch before is decoded.
+fn read_batch(files: &Files, batch: &[Wanted], concurrency: usize) -> tokio::task::JoinHandle<ReadBatch> {
+    let (files, batch) = (files.clone(), batch.to_vec());
+    tokio::spawn(async move {
+        let t0 = Instant::now();
+        let read = futures::stream::iter(batch.into_iter().map(move |w| {
+            let files = files.clone();
+            async move {
+                let png = crate::fetch::read_one(&files, &w.url, "poles").await;
+                (w, png)
+            }
+        }))
+        .buffered(concurrency.max(1))
+        .collect()
+        .await;
+        (read, t0.elapsed().as_secs_f64())
+    })
+}
+
+/// The tile's depth images by camera, in time order; images of an unknown camera, outside their images
+/// prefix or at times off the trajectory are skipped.
+fn wanted_frames(
     campaign: &Campaign,
     depth: &[usize],
-    concurrency: usize,
     skipped_items: &mut Vec<SkippedInput>,
-) -> BTreeMap<usize, Vec<Frame>> {
-    let mut wanted = Vec::new();
+) -> BTreeMap<usize, Vec<Wanted>> {
+    let mut by_camera: BTreeMap<usize, Vec<Wanted>> = BTreeMap::new();
     for image in depth.iter().filter_map(|&k| campaign.plan.depth.get(k)) {
         let Some(camera) = campaign.manifest.depth.get(image.camera) else {
             let detail = format!("depth image {}: camera {} is not in the manifest", image.image_id, image.camera);
             skipped_items.push(skipped("poles", &image.file, SkipReason::Camera, detail));
             continue;
         };
-        match campaign.file_url(&camera.images, &image.file) {
-            Ok(url) => wanted.push((image, url)),
-            Err(e) => skipped_items.push(skipped("poles", &image.file, SkipReason::Url, format!("{e:#}"))),
-        }
-    }
-    let urls: Vec<String> = wanted.iter().map(|(_, url)| url.clone()).collect();
-    let bytes = read_all(files, &urls, concurrency, "poles").await;
-    let mut by_camera: BTreeMap<usize, Vec<Frame>> = BTreeMap::new();
-    for ((image, url), png) in wanted.into_iter().zip(bytes) {
-        let frame = png.and_then(|png| {
-            let dg = dg_at(campaign, image.time)
-                .map_err(|e| skipped("poles", &url, SkipReason::Time, format!("{url}: {e}")))?;
-            Ok(Frame { id: image.image_id.clone(), url: url.clone(), png, dg })
-        });
-        match frame {
-            Ok(f) => by_camera.entry(image.camera).or_default().push(f),
-            Err(s) => skipped_items.push(s),
+        let url = match campaign.file_url(&camera.images, &image.file) {
+            Ok(url) => url,
+            Err(e) => {
+                skipped_items.push(skipped("poles", &image.file, SkipReason::Url, format!("{e:#}")));
+                continue;
+            }
+        };
+        match dg_at(campaign, image.time) {
+            Ok(dg) => by_camera.entry(image.camera).or_default().push(Wanted { id: image.image_id.clone(), url, dg }),
+            Err(e) => skipped_items.push(skipped("poles", &url, SkipReason::Time, format!("{url}: {e}"))),
         }
     }
     by_camera.values_mut().for_each(|frames| frames.sort_by(|a, b| a.dg.time.total_cmp(&b.dg.time)));

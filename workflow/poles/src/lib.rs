@@ -10,7 +10,9 @@
 //! 4. [`cupt::coordinate_updates`] turns the matches into `plumbline_adjustment::PoleUpdate`s and
 //!    [`report::frame_reports`] into the versioned per-frame diagnostics.
 //!
-//! [`pipeline::process_depth_frames`] runs all of it for a drive's depth images (the CLI's entry point).
+//! [`pipeline::process_depth_frames`] runs all of it for a drive's depth images; [`pipeline::PoleStream`] does
+//! the same fed a batch of frames at a time, holding the points of a bounded number of frames (the worker's
+//! way through a tile of any length).
 //! [`las_header::parse_las_header`] checks a point cloud's header from its first bytes, without the points.
 
 pub mod cupt;
@@ -26,12 +28,14 @@ pub mod report;
 pub use cupt::{CuptConfig, coordinate_updates};
 pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
 pub use detect::{
-    DetectConfig, DetectError, Detection, FrameDetections, ViewSector, detect, detect_on_ground, estimate_ground,
-    ground_from_neighbours,
+    DetectConfig, DetectError, Detection, FrameDetections, GROUND_WINDOW, ViewSector, detect, detect_on_ground,
+    estimate_ground, ground_among_neighbours, ground_from_neighbours,
 };
 pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las};
 pub use las_header::{LAS_PREFIX_BYTES, LasCrs, LasHeader, LasHeaderError, parse_las_header};
 pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};
-pub use pipeline::{DepthFrame, PointFrame, PoleConfig, PoleOutput, process_depth_frames, process_point_frames};
+pub use pipeline::{
+    DepthFrame, PointFrame, PoleConfig, PoleOutput, PoleStream, process_depth_frames, process_point_frames,
+};
 pub use points::{FramePoint, FramePoints};
 pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};

@@ -10,7 +10,7 @@ use common::eval::chi2_bounds;
 use plumbline_campaign::Location;
 use plumbline_campaign::manifest::{CameraMount as ManifestMount, DepthCamera};
 use plumbline_poles::pipeline::DepthFrame;
-use plumbline_poles::{PoleConfig, PoleOutput, process_depth_frames};
+use plumbline_poles::{GROUND_WINDOW, PoleConfig, PoleOutput, PoleStream, process_depth_frames};
 use plumbline_synth::sensors::Mount;
 use plumbline_synth::world::Preset;
 
@@ -91,5 +91,30 @@ fn issue_targets_recall_and_precision() {
         let s = scored(seed);
         assert!(s.recall() >= 0.90, "seed {seed}: recall {:.3}", s.recall());
         assert!(s.precision() >= 0.99, "seed {seed}: precision {:.4}", s.precision());
+    }
+}
+
+/// Issue 25: fed in batches of any size, the stream gives exactly the output of the whole drive at once, and it
+/// holds the points of no more than the ground window's frames between pushes (a push adds its batch), however
+/// long the drive.
+#[test]
+fn streamed_batches_give_the_whole_drive_output_and_hold_a_bounded_number_of_frames() {
+    let sc = Scenario::new(Preset::Tiny, 3, 400.0, (320, 180), 1.0);
+    let pngs: Vec<Vec<u8>> = (0..sc.shots.len()).map(|i| sc.png(i)).collect();
+    let frames: Vec<DepthFrame<'_>> =
+        sc.shots.iter().zip(&pngs).map(|(shot, png)| DepthFrame { id: &shot.id, png, dg: &shot.dg }).collect();
+    assert!(frames.len() > 4 * GROUND_WINDOW, "{} frames: too short a drive to show the bound", frames.len());
+    let (features, config, cam) = (sc.features(), PoleConfig::default(), camera(&sc));
+    let whole = process_depth_frames(&cam, &frames, &features, &config);
+    assert!(!whole.updates.is_empty());
+    for batch in [1, 3, 7, 16] {
+        let mut stream = PoleStream::new(&config);
+        let mut most = 0;
+        for chunk in frames.chunks(batch) {
+            stream.push_depth(&cam, chunk);
+            most = most.max(stream.held());
+        }
+        assert!(most <= GROUND_WINDOW, "batch {batch}: held {most} frames of points");
+        assert_eq!(stream.finish(&features), whole, "batch {batch}");
     }
 }

@@ -184,7 +184,7 @@ pub fn detect_on_ground(
 }
 
 /// Frames on each side whose sensor heights above ground vote on a frame's ground.
-const GROUND_WINDOW: usize = 10;
+pub const GROUND_WINDOW: usize = 10;
 /// A frame's own ground is kept when its sensor height is within this of the neighbours' median, metres.
 const GROUND_TOLERANCE_M: f64 = 0.3;
 
@@ -193,21 +193,23 @@ const GROUND_TOLERANCE_M: f64 = 0.3;
 /// ground, or no ground visible); then the sensor height minus that median. `None` only when no frame of
 /// the window has a ground.
 pub fn ground_from_neighbours(origins_z: &[f64], own: &[Option<f64>]) -> Vec<Option<f64>> {
-    let heights: Vec<Option<f64>> = origins_z.iter().zip(own).map(|(z, g)| g.map(|g| z - g)).collect();
-    (0..own.len())
-        .map(|k| {
-            let lo = k.saturating_sub(GROUND_WINDOW);
-            let hi = (k + GROUND_WINDOW + 1).min(own.len());
-            let mut window: Vec<f64> = heights[lo..hi].iter().flatten().copied().collect();
-            window.sort_by(f64::total_cmp);
-            let median = window.get(window.len() / 2).copied();
-            match (heights[k], median) {
-                (Some(h), Some(m)) if (h - m).abs() <= GROUND_TOLERANCE_M => own[k],
-                (_, Some(m)) => Some(origins_z[k] - m),
-                (_, None) => None,
-            }
-        })
-        .collect()
+    (0..own.len()).map(|k| ground_among_neighbours(k, origins_z, own)).collect()
+}
+
+/// Frame `k`'s entry of [`ground_from_neighbours`]: it reads frames `k - 10 ..= k + 10` only, so a stream of
+/// frames can settle frame `k` once frame `k + 10` has arrived (or the stream ended).
+pub fn ground_among_neighbours(k: usize, origins_z: &[f64], own: &[Option<f64>]) -> Option<f64> {
+    let height = |j: usize| own.get(j).copied().flatten().map(|g| origins_z[j] - g);
+    let lo = k.saturating_sub(GROUND_WINDOW);
+    let hi = (k + GROUND_WINDOW + 1).min(own.len());
+    let mut window: Vec<f64> = (lo..hi).filter_map(height).collect();
+    window.sort_by(f64::total_cmp);
+    let median = window.get(window.len() / 2).copied();
+    match (height(k), median) {
+        (Some(h), Some(m)) if (h - m).abs() <= GROUND_TOLERANCE_M => own[k],
+        (_, Some(m)) => Some(origins_z[k] - m),
+        (_, None) => None,
+    }
 }
 
 /// Closest two detections of one frame may be, metres (the synthetic and real minimum spacing is 1.5 m).
