@@ -99,11 +99,14 @@ pub fn process_point_frames(frames: Vec<PointFrame>, cadastre: &[CadastreFeature
 }
 
 /// The pole pipeline of one drive fed a batch of frames at a time, in time order, so that a drive of any
-/// length holds the points of a bounded number of frames: a frame's points are dropped once it is detected,
-/// which happens as soon as the [`GROUND_WINDOW`] frames after it have arrived (their ground heights vote on
-/// its own, [`ground_among_neighbours`]). Only the detections (a few per frame) are kept until
-/// [`PoleStream::finish`] matches them against the cadastre. The result is the same however the frames are
-/// batched.
+/// length holds a bounded number of frames: a frame is settled once the [`GROUND_WINDOW`] frames after it
+/// have arrived (their ground heights vote on its own, [`ground_among_neighbours`]); until then a depth frame
+/// is held as its PNG bytes, not as its points (a 1280 × 720 depth image is about 1 MB of PNG and 50 MB of
+/// points). Each frame is detected on its own ground estimate as it arrives; when the window keeps that
+/// ground (most frames), those detections stand, and otherwise (a car roof or a wall taken for the ground,
+/// no ground seen) the frame is decoded again and detected on the window's ground. Only the detections are
+/// kept until [`PoleStream::finish`] matches them against the cadastre. The result is the same however the
+/// frames are batched, and the same as detecting every frame with all its neighbours' grounds known.
 #[derive(Debug)]
 pub struct PoleStream {
     config: PoleConfig,
@@ -111,11 +114,32 @@ pub struct PoleStream {
     origins_z: Vec<f64>,
     /// Own ground estimates of every frame received.
     own: Vec<Option<f64>>,
-    /// Frames received and not yet detected: frames `detected..`.
-    waiting: VecDeque<PointFrame>,
-    detected: usize,
+    /// Frames received and not yet settled: frames `settled..`.
+    waiting: VecDeque<Waiting>,
+    settled: usize,
     inputs: Vec<MatchInput>,
     failed: Vec<FrameReport>,
+}
+
+/// A frame received and not yet settled.
+#[derive(Debug)]
+struct Waiting {
+    id: String,
+    time: f64,
+    dg_sigma_m: f64,
+    /// Detections on the frame's own ground (`None`: it has none).
+    speculative: Option<Result<FrameDetections, String>>,
+    /// How to get the points again (or why there are none).
+    source: Result<Source, String>,
+}
+
+/// Where a waiting frame's points come from when they are needed again.
+#[derive(Debug)]
+enum Source {
+    /// A depth image: decoded again with its camera and DG record.
+    Depth { camera: Box<DepthCamera>, png: Vec<u8>, dg: Box<TrajectoryRecord> },
+    /// A point-cloud slice, kept as it is.
+    Points(FramePoints),
 }
 
 impl PoleStream {
@@ -126,7 +150,7 @@ impl PoleStream {
             origins_z: Vec::new(),
             own: Vec::new(),
             waiting: VecDeque::new(),
-            detected: 0,
+            settled: 0,
             inputs: Vec::new(),
             failed: Vec::new(),
         }
@@ -135,79 +159,89 @@ impl PoleStream {
     /// Decode the next depth images of `camera` (in time order, after every frame pushed before), in parallel.
     pub fn push_depth(&mut self, camera: &DepthCamera, frames: &[DepthFrame<'_>]) {
         let mount = depth_mount(camera);
-        let point_frames = frames
+        let config = &self.config.detect;
+        let received: Vec<(Waiting, f64, Option<f64>)> = frames
             .par_iter()
-            .map(|f| PointFrame {
-                id: f.id.to_owned(),
-                time: f.dg.time,
-                dg_sigma_m: f.dg.std.map_or(DEFAULT_DG_SIGMA_M, |s| s.east.max(s.north)),
-                points: decode_depth_png(f.id, f.png, &camera.intrinsics)
-                    .map(|d| depth_points(&d, &camera.intrinsics, camera.range_error_share, &mount, &f.dg.pose()))
-                    .map_err(|e| e.to_string()),
+            .map(|f| {
+                let points = depth_frame_points(camera, &mount, f.id, f.png, f.dg);
+                let (origin_z, own, speculative) = speculate(&points, config, f.id);
+                let source = points.map(|_| Source::Depth {
+                    camera: Box::new(camera.clone()),
+                    png: f.png.to_vec(),
+                    dg: Box::new(*f.dg),
+                });
+                let dg_sigma_m = f.dg.std.map_or(DEFAULT_DG_SIGMA_M, |s| s.east.max(s.north));
+                (Waiting { id: f.id.to_owned(), time: f.dg.time, dg_sigma_m, speculative, source }, origin_z, own)
             })
             .collect();
-        self.push_points(point_frames);
+        self.receive(received);
     }
 
-    /// Add the next frames of points (in time order, after every frame pushed before) and detect every frame
-    /// whose ground window is now complete.
+    /// Add the next frames of points (in time order, after every frame pushed before); their points are kept
+    /// until the frame is settled.
     pub fn push_points(&mut self, frames: Vec<PointFrame>) {
-        let detect = &self.config.detect;
-        let own: Vec<Option<f64>> =
-            frames.par_iter().map(|f| f.points.as_ref().ok().and_then(|p| estimate_ground(p, detect).ok())).collect();
-        for (f, g) in frames.into_iter().zip(own) {
-            self.origins_z.push(f.points.as_ref().map_or(f64::NAN, |p| p.origin.z));
-            self.own.push(g);
-            self.waiting.push_back(f);
-        }
-        self.detect_up_to(self.own.len().saturating_sub(GROUND_WINDOW));
+        let config = &self.config.detect;
+        let received: Vec<(Waiting, f64, Option<f64>)> = frames
+            .into_par_iter()
+            .map(|f| {
+                let (origin_z, own, speculative) = speculate(&f.points, config, &f.id);
+                let source = f.points.map(Source::Points);
+                (Waiting { id: f.id, time: f.time, dg_sigma_m: f.dg_sigma_m, speculative, source }, origin_z, own)
+            })
+            .collect();
+        self.receive(received);
     }
 
-    /// Frames whose points the stream holds now.
+    fn receive(&mut self, received: Vec<(Waiting, f64, Option<f64>)>) {
+        for (w, origin_z, own) in received {
+            self.origins_z.push(origin_z);
+            self.own.push(own);
+            self.waiting.push_back(w);
+        }
+        self.settle_up_to(self.own.len().saturating_sub(GROUND_WINDOW));
+    }
+
+    /// Frames received and not yet settled (held as PNG bytes or points).
     pub fn held(&self) -> usize {
         self.waiting.len()
     }
 
-    /// Detect the waiting frames before index `end`.
-    fn detect_up_to(&mut self, end: usize) {
-        let count = end.saturating_sub(self.detected).min(self.waiting.len());
+    /// Settle the waiting frames before index `end`: keep their speculative detections where the window
+    /// keeps their own ground, else detect them again on the window's ground.
+    fn settle_up_to(&mut self, end: usize) {
+        let count = end.saturating_sub(self.settled).min(self.waiting.len());
         if count == 0 {
             return;
         }
-        let grounds: Vec<Option<f64>> = (self.detected..self.detected + count)
-            .map(|k| ground_among_neighbours(k, &self.origins_z, &self.own))
+        let grounds: Vec<(Option<f64>, Option<f64>)> = (self.settled..self.settled + count)
+            .map(|k| (ground_among_neighbours(k, &self.origins_z, &self.own), self.own[k]))
             .collect();
-        let batch: Vec<PointFrame> = self.waiting.drain(..count).collect();
+        let batch: Vec<Waiting> = self.waiting.drain(..count).collect();
         let config = &self.config.detect;
-        let detected: Vec<(PointFrame, Result<FrameDetections, String>)> = batch
+        let settled: Vec<(String, f64, f64, Result<FrameDetections, String>)> = batch
             .into_par_iter()
             .zip(grounds)
-            .map(|(f, ground)| {
-                let d = match (&f.points, ground) {
-                    (Ok(points), Some(g)) => {
-                        detect_on_ground(points, config, g).map_err(|e| format!("frame {}: {e}", f.id))
-                    }
-                    (Ok(points), None) => detect(points, config).map_err(|e| format!("frame {}: {e}", f.id)),
-                    (Err(problem), _) => Err(problem.clone()),
+            .map(|(w, (ground, own))| {
+                let d = match (w.speculative, ground) {
+                    (Some(spec), Some(g)) if own == Some(g) => spec,
+                    _ => redetect(&w.id, w.source, ground, config),
                 };
-                (f, d)
+                (w.id, w.time, w.dg_sigma_m, d)
             })
             .collect();
-        for (f, d) in detected {
+        for (frame, time, dg_sigma_m, d) in settled {
             match d {
-                Ok(detections) => {
-                    self.inputs.push(MatchInput { frame: f.id, time: f.time, dg_sigma_m: f.dg_sigma_m, detections })
-                }
-                Err(problem) => self.failed.push(failed_frame(&f.id, f.time, problem)),
+                Ok(detections) => self.inputs.push(MatchInput { frame, time, dg_sigma_m, detections }),
+                Err(problem) => self.failed.push(failed_frame(&frame, time, problem)),
             }
         }
-        self.detected += count;
+        self.settled += count;
     }
 
-    /// Detect the frames still waiting, then match every detection against `cadastre`, compute the updates and
+    /// Settle the frames still waiting, then match every detection against `cadastre`, compute the updates and
     /// report per frame.
     pub fn finish(mut self, cadastre: &[CadastreFeature]) -> PoleOutput {
-        self.detect_up_to(self.own.len());
+        self.settle_up_to(self.own.len());
         let matched = match_frames(&self.inputs, cadastre, &self.config.matching);
         let updates = coordinate_updates(&self.inputs, &matched, cadastre, &self.config.cupt);
         let mut reports = frame_reports(&self.inputs, &matched, cadastre, &self.config.cupt);
@@ -215,6 +249,49 @@ impl PoleStream {
         reports.sort_by(|a, b| time(a).total_cmp(&time(b)));
         PoleOutput { updates, reports }
     }
+}
+
+/// A depth image's points in the mapping frame, or why there are none.
+fn depth_frame_points(
+    camera: &DepthCamera,
+    mount: &CameraMount,
+    id: &str,
+    png: &[u8],
+    dg: &TrajectoryRecord,
+) -> Result<FramePoints, String> {
+    decode_depth_png(id, png, &camera.intrinsics)
+        .map(|d| depth_points(&d, &camera.intrinsics, camera.range_error_share, mount, &dg.pose()))
+        .map_err(|e| e.to_string())
+}
+
+/// A frame's sensor height (NaN without points), own ground estimate, and detections on that ground.
+fn speculate(
+    points: &Result<FramePoints, String>,
+    config: &DetectConfig,
+    id: &str,
+) -> (f64, Option<f64>, Option<Result<FrameDetections, String>>) {
+    let Ok(p) = points else { return (f64::NAN, None, None) };
+    let own = estimate_ground(p, config).ok();
+    let speculative = own.map(|g| detect_on_ground(p, config, g).map_err(|e| format!("frame {id}: {e}")));
+    (p.origin.z, own, speculative)
+}
+
+/// Detect a frame on the window's ground (`None`: on its own estimate, which then fails as it did before).
+fn redetect(
+    id: &str,
+    source: Result<Source, String>,
+    ground: Option<f64>,
+    config: &DetectConfig,
+) -> Result<FrameDetections, String> {
+    let points = match source? {
+        Source::Depth { camera, png, dg } => depth_frame_points(&camera, &depth_mount(&camera), id, &png, &dg)?,
+        Source::Points(points) => points,
+    };
+    match ground {
+        Some(g) => detect_on_ground(&points, config, g),
+        None => detect(&points, config),
+    }
+    .map_err(|e| format!("frame {id}: {e}"))
 }
 
 fn time(r: &FrameReport) -> f64 {

@@ -107,6 +107,7 @@ fn streamed_batches_give_the_whole_drive_output_and_hold_a_bounded_number_of_fra
     let (features, config, cam) = (sc.features(), PoleConfig::default(), camera(&sc));
     let whole = process_depth_frames(&cam, &frames, &features, &config);
     assert!(!whole.updates.is_empty());
+    assert_eq!(whole, every_ground_known(&sc, &frames, &features, &config), "speculative detection changed the output");
     for batch in [1, 3, 7, 16] {
         let mut stream = PoleStream::new(&config);
         let mut most = 0;
@@ -117,4 +118,57 @@ fn streamed_batches_give_the_whole_drive_output_and_hold_a_bounded_number_of_fra
         assert!(most <= GROUND_WINDOW, "batch {batch}: held {most} frames of points");
         assert_eq!(stream.finish(&features), whole, "batch {batch}");
     }
+}
+
+/// The pipeline as it ran before streaming: every frame's points at once, every ground from all neighbours,
+/// then detection on it.
+fn every_ground_known(
+    sc: &Scenario,
+    frames: &[DepthFrame<'_>],
+    features: &[plumbline_campaign::CadastreFeature],
+    config: &PoleConfig,
+) -> PoleOutput {
+    use plumbline_poles::matching::MatchInput;
+    use plumbline_poles::{
+        coordinate_updates, decode_depth_png, depth_points, detect, detect_on_ground, estimate_ground, failed_frame,
+        frame_reports, ground_from_neighbours, match_frames, pipeline::depth_mount,
+    };
+    let cam = camera(sc);
+    let mount = depth_mount(&cam);
+    let points: Vec<_> = frames
+        .iter()
+        .map(|f| {
+            decode_depth_png(f.id, f.png, &cam.intrinsics)
+                .map(|d| depth_points(&d, &cam.intrinsics, cam.range_error_share, &mount, &f.dg.pose()))
+                .map_err(|e| e.to_string())
+        })
+        .collect();
+    let own: Vec<Option<f64>> =
+        points.iter().map(|p| p.as_ref().ok().and_then(|p| estimate_ground(p, &config.detect).ok())).collect();
+    let origins: Vec<f64> = points.iter().map(|p| p.as_ref().map_or(f64::NAN, |p| p.origin.z)).collect();
+    let grounds = ground_from_neighbours(&origins, &own);
+    let (mut inputs, mut failed) = (Vec::new(), Vec::new());
+    for ((f, p), g) in frames.iter().zip(&points).zip(grounds) {
+        let d = match (p, g) {
+            (Ok(p), Some(g)) => detect_on_ground(p, &config.detect, g).map_err(|e| format!("frame {}: {e}", f.id)),
+            (Ok(p), None) => detect(p, &config.detect).map_err(|e| format!("frame {}: {e}", f.id)),
+            (Err(e), _) => Err(e.clone()),
+        };
+        let sigma = f.dg.std.map_or(plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M, |s| s.east.max(s.north));
+        match d {
+            Ok(detections) => {
+                inputs.push(MatchInput { frame: f.id.to_owned(), time: f.dg.time, dg_sigma_m: sigma, detections })
+            }
+            Err(problem) => failed.push(failed_frame(f.id, f.dg.time, problem)),
+        }
+    }
+    let matched = match_frames(&inputs, features, &config.matching);
+    let updates = coordinate_updates(&inputs, &matched, features, &config.cupt);
+    let mut reports = frame_reports(&inputs, &matched, features, &config.cupt);
+    reports.extend(failed);
+    let time = |r: &plumbline_poles::FrameReport| match r {
+        plumbline_poles::FrameReport::V1(v) => v.time,
+    };
+    reports.sort_by(|a, b| time(a).total_cmp(&time(b)));
+    PoleOutput { updates, reports }
 }
