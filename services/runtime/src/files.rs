@@ -4,7 +4,9 @@ use anyhow::Context as _;
 use bytes::Bytes;
 
 use crate::errors::invalid;
-use crate::store::{S3Options, StoreErrorKind, head_url, read_url, read_url_prefix, write_url};
+use crate::store::{
+    GdalRemote, S3Options, StoreErrorKind, gdal_remote, head_url, read_url, read_url_prefix, write_url,
+};
 
 /// Reads and writes files by path or URL (`file://`, `s3://`, plain paths).
 #[derive(Clone, Debug, Default)]
@@ -36,6 +38,12 @@ impl Files {
         read_url_prefix(url, &self.s3, max).await.map_err(|e| {
             if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
         })
+    }
+
+    /// How GDAL reads an `s3://` file in place, fetching only the byte ranges a window needs (`/vsis3/` with
+    /// the runtime config's endpoint and credentials); `None` for other schemes.
+    pub fn remote_raster(&self, url: &str) -> anyhow::Result<Option<GdalRemote>> {
+        Ok(gdal_remote(url, &self.s3)?)
     }
 
     /// Whether the file exists.

@@ -13,6 +13,7 @@ use gdal::raster::{GdalDataType, GdalType};
 
 use crate::gdal_messages::route_gdal_messages;
 use crate::gdal_write::{Raster, RasterData};
+use crate::store::GdalRemote;
 
 /// Why a raster could not be read, naming the raster and the step.
 #[derive(Debug, thiserror::Error)]
@@ -51,20 +52,21 @@ pub struct MapBox {
     pub max_n: f64,
 }
 
-/// An open raster: its size, georeferencing and bands, ready to serve windows.
+/// An open raster of any kind, georeferenced or not (aerial frames are placed by their own orientation, not
+/// by a geotransform): its size, bands and pixel windows. Opened from a local path, from bytes, or from a
+/// remote GDAL path (`/vsicurl/…` of a signed URL, see `Files::remote_raster`) whose windows GDAL reads with
+/// HTTP range requests, so that only the tiles a window touches are transferred.
 #[derive(Debug)]
-pub struct RasterSource {
+pub struct PixelSource {
     name: String,
     dataset: Dataset,
     /// In-memory files to remove on drop, when opened from bytes.
     vsimem: Vec<PathBuf>,
-    width: usize,
-    height: usize,
-    geotransform: [f64; 6],
-    epsg: Option<u32>,
+    /// Thread-local GDAL options to clear on drop, when opened over the network.
+    thread_options: Vec<String>,
 }
 
-impl RasterSource {
+impl PixelSource {
     /// Open a raster file on the local file system.
     pub fn open_path(path: &Path) -> Result<Self, GdalReadError> {
         route_gdal_messages();
@@ -73,26 +75,43 @@ impl RasterSource {
             return Err(GdalReadError::Unusable { name, problem: "is empty (0 bytes)".into() });
         }
         let dataset = Dataset::open(path).map_err(failed(&name, "open the raster"))?;
-        Self::from_dataset(name, dataset, Vec::new())
+        Self::checked(name, dataset, Vec::new())
     }
 
-    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors. A VRT mosaic
-    /// is refused: its tiles are named relative to it and cannot be reached from memory (use
-    /// [`mosaic_tiles`] and [`RasterSource::open_mosaic_bytes`]).
+    /// Open a raster from its bytes; `name` is used in errors.
     pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
-        if is_vrt(&bytes) {
-            let problem = "is a VRT mosaic: its tiles are named relative to it and are not in memory; fetch the \
-                           tiles the window needs (`mosaic_tiles`) and open it with `open_mosaic_bytes`"
-                .to_owned();
-            return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
-        }
         Self::open_in_memory(name, "raster.tif", bytes, Vec::new())
     }
 
-    /// Open a VRT mosaic from its bytes and those of its tiles (paths relative to the VRT, as
-    /// [`mosaic_tiles`] lists them); windows over tiles not given fail naming the tile.
-    pub fn open_mosaic_bytes(name: &str, vrt: Vec<u8>, tiles: Vec<(String, Vec<u8>)>) -> Result<Self, GdalReadError> {
-        Self::open_in_memory(name, "mosaic.vrt", vrt, tiles)
+    /// Open a raster GDAL reads itself over the network with range requests (`remote.path`, e.g. `/vsis3/…`,
+    /// with `remote.options` carrying endpoint and credentials); `name` (the URL the campaign gave) is used in
+    /// errors. The options are set for this thread while the source is open (a source never leaves its
+    /// thread) and cleared when it is dropped. GDAL fetches the header and then, per window, the byte ranges
+    /// of the tiles the window touches.
+    pub fn open_remote(name: &str, remote: &GdalRemote) -> Result<Self, GdalReadError> {
+        route_gdal_messages();
+        let mut options = remote.options.clone();
+        // Never list the "directory" of an object to look for side-car files.
+        options.push(("GDAL_DISABLE_READDIR_ON_OPEN".to_owned(), "EMPTY_DIR".to_owned()));
+        options.push(("GDAL_HTTP_MAX_RETRY".to_owned(), "3".to_owned()));
+        options.push(("GDAL_HTTP_RETRY_DELAY".to_owned(), "1".to_owned()));
+        for (key, value) in &options {
+            gdal::config::set_thread_local_config_option(key, value)
+                .map_err(failed(name, format!("set the GDAL option {key}")))?;
+        }
+        let keys: Vec<String> = options.into_iter().map(|(k, _)| k).collect();
+        let opened = Dataset::open(Path::new(&remote.path)).map_err(failed(name, "open the raster over the network"));
+        match opened {
+            Ok(dataset) => {
+                let mut source = Self::checked(name.to_owned(), dataset, Vec::new())?;
+                source.thread_options = keys;
+                Ok(source)
+            }
+            Err(e) => {
+                clear_thread_options(&keys);
+                Err(e)
+            }
+        }
     }
 
     /// Hold `bytes` as `{dir}/{file}` and the `others` beside it in GDAL's in-memory file system, and open it.
@@ -122,7 +141,7 @@ impl RasterSource {
             Dataset::open(held.last().map_or(Path::new(""), PathBuf::as_path)).map_err(failed(name, "open the raster"))
         });
         match opened {
-            Ok(dataset) => Self::from_dataset(name.to_owned(), dataset, held),
+            Ok(dataset) => Self::checked(name.to_owned(), dataset, held),
             Err(e) => {
                 for path in &held {
                     let _ = gdal::vsi::unlink_mem_file(path);
@@ -132,19 +151,143 @@ impl RasterSource {
         }
     }
 
-    fn from_dataset(name: String, dataset: Dataset, vsimem: Vec<PathBuf>) -> Result<Self, GdalReadError> {
-        let unusable = |problem: String| GdalReadError::Unusable { name: name.clone(), problem };
+    fn checked(name: String, dataset: Dataset, vsimem: Vec<PathBuf>) -> Result<Self, GdalReadError> {
         let (width, height) = dataset.raster_size();
-        if dataset.raster_count() == 0 || width == 0 || height == 0 {
-            return Err(unusable(format!("{width}×{height} px with {} bands holds no pixels", dataset.raster_count())));
+        let source = Self { name, dataset, vsimem, thread_options: Vec::new() };
+        if source.dataset.raster_count() == 0 || width == 0 || height == 0 {
+            let bands = source.dataset.raster_count();
+            let problem = format!("{width}×{height} px with {bands} bands holds no pixels");
+            return Err(GdalReadError::Unusable { name: source.name.clone(), problem });
         }
+        Ok(source)
+    }
+
+    /// The name used in errors.
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Width and height in pixels.
+    pub fn size(&self) -> (usize, usize) {
+        self.dataset.raster_size()
+    }
+
+    /// Number of bands.
+    pub fn band_count(&self) -> usize {
+        self.dataset.raster_count()
+    }
+
+    /// The pixel type of band 1 as GDAL names it (`Byte`, `UInt16`, `Float32`, …).
+    pub fn pixel_type(&self) -> Result<String, GdalReadError> {
+        let band = self.dataset.rasterband(1).map_err(failed(&self.name, "open band 1"))?;
+        Ok(band.band_type().name())
+    }
+
+    /// True when band 1 holds 8-bit pixels.
+    pub fn is_eight_bit(&self) -> Result<bool, GdalReadError> {
+        let band = self.dataset.rasterband(1).map_err(failed(&self.name, "open band 1"))?;
+        Ok(band.band_type() == GdalDataType::UInt8)
+    }
+
+    /// The pixels of bands `1..=bands.min(band_count)` in the window at column `col`, row `row` of `w` × `h`
+    /// pixels (which must lie inside the raster), as `f32` whatever their type; one row-major `Vec` per band.
+    pub fn read_f32(
+        &self,
+        (col, row, w, h): (usize, usize, usize, usize),
+        bands: usize,
+    ) -> Result<Vec<Vec<f32>>, GdalReadError> {
+        self.bands::<f32>(col, row, w, h, bands)
+    }
+
+    fn bands<T: GdalType + Copy>(
+        &self,
+        col: usize,
+        row: usize,
+        w: usize,
+        h: usize,
+        bands: usize,
+    ) -> Result<Vec<Vec<T>>, GdalReadError> {
+        let (width, height) = self.size();
+        if col.saturating_add(w) > width || row.saturating_add(h) > height || w == 0 || h == 0 {
+            let problem = format!("window at column {col}, row {row}, {w}×{h} px lies outside its {width}×{height} px");
+            return Err(GdalReadError::Unusable { name: self.name.clone(), problem });
+        }
+        (1..=self.dataset.raster_count().min(bands))
+            .map(|b| {
+                let band = self.dataset.rasterband(b).map_err(failed(&self.name, format!("open band {b}")))?;
+                let buffer = band
+                    .read_as::<T>((col as isize, row as isize), (w, h), (w, h), None)
+                    .map_err(failed(&self.name, format!("read band {b} at column {col}, row {row}, {w}×{h} px")))?;
+                Ok(buffer.into_shape_and_vec().1)
+            })
+            .collect()
+    }
+}
+
+impl Drop for PixelSource {
+    fn drop(&mut self) {
+        for path in self.vsimem.drain(..) {
+            // The dataset still holds the file open; GDAL frees the memory once both are gone.
+            let _ = gdal::vsi::unlink_mem_file(&path);
+        }
+        clear_thread_options(&self.thread_options);
+    }
+}
+
+/// Clear thread-local GDAL options set for a network read.
+fn clear_thread_options(keys: &[String]) {
+    for key in keys {
+        let _ = gdal::config::clear_thread_local_config_option(key);
+    }
+}
+
+/// An open georeferenced raster: its size, georeferencing and bands, ready to serve windows given in mapping
+/// coordinates.
+#[derive(Debug)]
+pub struct RasterSource {
+    pixels: PixelSource,
+    width: usize,
+    height: usize,
+    geotransform: [f64; 6],
+    epsg: Option<u32>,
+}
+
+impl RasterSource {
+    /// Open a raster file on the local file system.
+    pub fn open_path(path: &Path) -> Result<Self, GdalReadError> {
+        Self::georeferenced(PixelSource::open_path(path)?)
+    }
+
+    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors. A VRT mosaic
+    /// is refused: its tiles are named relative to it and cannot be reached from memory (use
+    /// [`mosaic_tiles`] and [`RasterSource::open_mosaic_bytes`]).
+    pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
+        if is_vrt(&bytes) {
+            let problem = "is a VRT mosaic: its tiles are named relative to it and are not in memory; fetch the \
+                           tiles the window needs (`mosaic_tiles`) and open it with `open_mosaic_bytes`"
+                .to_owned();
+            return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
+        }
+        Self::georeferenced(PixelSource::open_bytes(name, bytes)?)
+    }
+
+    /// Open a VRT mosaic from its bytes and those of its tiles (paths relative to the VRT, as
+    /// [`mosaic_tiles`] lists them); windows over tiles not given fail naming the tile.
+    pub fn open_mosaic_bytes(name: &str, vrt: Vec<u8>, tiles: Vec<(String, Vec<u8>)>) -> Result<Self, GdalReadError> {
+        Self::georeferenced(PixelSource::open_in_memory(name, "mosaic.vrt", vrt, tiles)?)
+    }
+
+    fn georeferenced(pixels: PixelSource) -> Result<Self, GdalReadError> {
+        let unusable = |problem: String| GdalReadError::Unusable { name: pixels.name.clone(), problem };
+        let (width, height) = pixels.size();
         let geotransform =
-            dataset.geo_transform().map_err(|_| unusable("has no geotransform (not georeferenced)".into()))?;
+            pixels.dataset.geo_transform().map_err(|_| unusable("has no geotransform (not georeferenced)".into()))?;
         if geotransform[2] != 0.0 || geotransform[4] != 0.0 || geotransform[1] <= 0.0 || geotransform[5] >= 0.0 {
             return Err(unusable(format!("geotransform {geotransform:?} is rotated or not north-up")));
         }
-        let epsg = dataset.spatial_ref().ok().and_then(|s| s.auth_code().ok()).and_then(|c| u32::try_from(c).ok());
-        Ok(Self { name, dataset, vsimem, width, height, geotransform, epsg })
+        let epsg =
+            pixels.dataset.spatial_ref().ok().and_then(|s| s.auth_code().ok()).and_then(|c| u32::try_from(c).ok());
+        Ok(Self { pixels, width, height, geotransform, epsg })
     }
 
     /// Width and height in pixels.
@@ -159,13 +302,12 @@ impl RasterSource {
 
     /// Number of bands.
     pub fn band_count(&self) -> usize {
-        self.dataset.raster_count()
+        self.pixels.band_count()
     }
 
     /// The pixel type of band 1 as GDAL names it (`Byte`, `UInt16`, `Float32`, …).
     pub fn pixel_type(&self) -> Result<String, GdalReadError> {
-        let band = self.dataset.rasterband(1).map_err(failed(&self.name, "open band 1"))?;
-        Ok(band.band_type().name())
+        self.pixels.pixel_type()
     }
 
     /// The raster's extent in its own CRS.
@@ -200,42 +342,17 @@ impl RasterSource {
         let Some((col, row, w, h)) = self.pixel_window(area) else {
             return Ok(None);
         };
-        let band1 = self.dataset.rasterband(1).map_err(failed(&self.name, "open band 1"))?;
+        let p = &self.pixels;
+        let band1 = p.dataset.rasterband(1).map_err(failed(&p.name, "open band 1"))?;
         let nodata = band1.no_data_value();
+        let all = p.band_count();
         let data = match band1.band_type() {
-            GdalDataType::UInt8 => RasterData::U8(self.bands::<u8>(col, row, w, h)?),
-            _ => RasterData::F32(self.bands::<f32>(col, row, w, h)?),
+            GdalDataType::UInt8 => RasterData::U8(p.bands::<u8>(col, row, w, h, all)?),
+            _ => RasterData::F32(p.bands::<f32>(col, row, w, h, all)?),
         };
         let g = self.geotransform;
         let geotransform = [g[0] + col as f64 * g[1], g[1], 0.0, g[3] + row as f64 * g[5], 0.0, g[5]];
         Ok(Some(Raster { width: w, height: h, geotransform, epsg: self.epsg.unwrap_or(0), data, nodata }))
-    }
-
-    fn bands<T: GdalType + Copy>(
-        &self,
-        col: usize,
-        row: usize,
-        w: usize,
-        h: usize,
-    ) -> Result<Vec<Vec<T>>, GdalReadError> {
-        (1..=self.dataset.raster_count())
-            .map(|b| {
-                let band = self.dataset.rasterband(b).map_err(failed(&self.name, format!("open band {b}")))?;
-                let buffer = band
-                    .read_as::<T>((col as isize, row as isize), (w, h), (w, h), None)
-                    .map_err(failed(&self.name, format!("read band {b} at column {col}, row {row}, {w}×{h} px")))?;
-                Ok(buffer.into_shape_and_vec().1)
-            })
-            .collect()
-    }
-}
-
-impl Drop for RasterSource {
-    fn drop(&mut self) {
-        for path in self.vsimem.drain(..) {
-            // The dataset still holds the file open; GDAL frees the memory once both are gone.
-            let _ = gdal::vsi::unlink_mem_file(&path);
-        }
     }
 }
 

@@ -86,6 +86,8 @@ pub struct PointLayer {
 pub enum RasterData {
     /// 8-bit bands (e.g. RGB).
     U8(Vec<Vec<u8>>),
+    /// 16-bit bands (e.g. the RGB + NIR of a large-format aerial camera).
+    U16(Vec<Vec<u16>>),
     /// 32-bit float bands (e.g. heights).
     F32(Vec<Vec<f32>>),
 }
@@ -207,6 +209,7 @@ pub fn geotiff(raster: &Raster) -> Result<Vec<u8>, GdalWriteError> {
     route_gdal_messages();
     match &raster.data {
         RasterData::U8(bands) => geotiff_typed(raster, bands),
+        RasterData::U16(bands) => geotiff_typed(raster, bands),
         RasterData::F32(bands) => geotiff_typed(raster, bands),
     }
 }

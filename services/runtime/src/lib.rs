@@ -37,7 +37,7 @@ pub use files::{Files, file_name};
 pub use logging::{TracingError, TracingGuard, init_tracing};
 pub use secret::Secret;
 pub use store::{
-    PART_SIZE, S3Options, StoreError, StoreErrorKind, StoreRoot, StreamingUpload, get_bytes, head_url, open_store,
-    put_bytes, read_url, write_url,
+    GdalRemote, PART_SIZE, S3Options, StoreError, StoreErrorKind, StoreRoot, StreamingUpload, gdal_remote, get_bytes,
+    head_url, open_store, put_bytes, read_url, write_url,
 };
 pub use telemetry::{OtlpExport, Telemetry, TelemetryError};

@@ -21,6 +21,8 @@ struct Shared {
     refused: AtomicU64,
     cut: AtomicU64,
     forwarded: AtomicU64,
+    /// Bytes sent from the upstream server to clients.
+    downstream_bytes: AtomicU64,
 }
 
 /// A running proxy; dropping it stops accepting and cuts every connection.
@@ -82,6 +84,11 @@ impl FlakyProxy {
     pub fn forwarded(&self) -> u64 {
         self.shared.forwarded.load(Ordering::SeqCst)
     }
+
+    /// Bytes the upstream server sent to clients so far (responses: what a reader transferred).
+    pub fn downstream_bytes(&self) -> u64 {
+        self.shared.downstream_bytes.load(Ordering::SeqCst)
+    }
 }
 
 impl Drop for FlakyProxy {
@@ -125,12 +132,13 @@ fn forward(client: TcpStream, shared: &Arc<Shared>, upstream: &str) {
     };
     shared.forwarded.fetch_add(1, Ordering::SeqCst);
     shared.open.lock().unwrap_or_else(PoisonError::into_inner).extend([client3, server3]);
-    std::thread::spawn(move || pump(client, server));
-    std::thread::spawn(move || pump(server2, client2));
+    let counted = Arc::clone(shared);
+    std::thread::spawn(move || pump(client, server, None));
+    std::thread::spawn(move || pump(server2, client2, Some(&counted.downstream_bytes)));
 }
 
-/// Copy `from` to `to` until either side closes, then close both.
-fn pump(mut from: TcpStream, mut to: TcpStream) {
+/// Copy `from` to `to` until either side closes, then close both; count the bytes in `count` if given.
+fn pump(mut from: TcpStream, mut to: TcpStream, count: Option<&AtomicU64>) {
     let mut buf = [0u8; 16 * 1024];
     loop {
         match from.read(&mut buf) {
@@ -138,6 +146,9 @@ fn pump(mut from: TcpStream, mut to: TcpStream) {
             Ok(n) => {
                 if to.write_all(&buf[..n]).is_err() {
                     break;
+                }
+                if let Some(count) = count {
+                    count.fetch_add(n as u64, Ordering::SeqCst);
                 }
             }
         }

@@ -16,6 +16,7 @@ pub mod models;
 pub mod ncc;
 mod nearest;
 pub mod ortho;
+pub mod radiometry;
 pub mod ransac;
 mod stencil;
 pub mod warp;

@@ -36,7 +36,7 @@ mod view;
 #[cfg(test)]
 mod tests;
 
-pub use config::{AerialConfig, Plausibility, edge_roundness};
+pub use config::{AerialConfig, FrameReach, Plausibility, edge_roundness};
 pub use diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
 pub use initial::{PlausibilityCheck, check_plausibility};
 pub use register::register_patch;
@@ -53,8 +53,11 @@ use plumbline_imaging::{GrayImage, Mask};
 pub struct AerialFrame {
     /// Image id, reported in diagnostics and observations.
     pub id: String,
-    /// The gray image (its size must match `camera`).
+    /// The gray pixels: the whole frame, or the window of it that a tile needs (see `origin`). They must lie
+    /// within the camera's `width` × `height`.
     pub image: GrayImage,
+    /// Full-frame column and row of `image`'s pixel (0, 0): zero for a whole frame.
+    pub origin: [usize; 2],
     /// Interior orientation.
     pub camera: Pinhole,
     /// Exterior orientation: camera (computer-vision axes) to map.

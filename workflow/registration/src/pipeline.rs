@@ -21,7 +21,10 @@ use crate::output::{CrossCheck, Disagreement, DiscardReason, ImageDiagnostic, Ti
 use crosscheck::{Comparison, CrossCheckConfig, Link, Offset, Verdict};
 
 pub use pair::neighbour;
-pub use prepared::{PanoramaInfo, PreparedPanorama, panoramas_to_prepare, prepare_panorama, prepare_panoramas};
+pub use prepared::{
+    PanoramaInfo, PreparedPanorama, panoramas_to_prepare, panoramas_to_prepare_for, prepare_panorama,
+    prepare_panoramas, time_order,
+};
 
 #[cfg(test)]
 mod context_tests;
@@ -126,37 +129,123 @@ pub fn register_tile_reporting(
     config: &PipelineConfig,
     done: &(dyn Fn(&ImageDiagnostic) + Sync),
 ) -> TileRun {
-    let start = Instant::now();
-    let order: Vec<&PreparedPanorama> = prepared::time_order(panoramas, |p| (p.pano.time, p.pano.id.as_str()))
-        .into_iter()
-        .map(|k| &panoramas[k])
-        .collect();
-    let poses: Vec<_> = order.iter().map(|p| &p.pano.pose).collect();
-    let inputs = pair::TileInputs { order: &order, poses: &poses, rig, reference, config };
-    let owned: Vec<usize> = (0..order.len()).filter(|&i| order[i].owned).collect();
-    let mut outcomes: Vec<pair::PairOutcome> = owned
-        .par_iter()
-        .map(|&i| {
-            let outcome = pair::process(i, &inputs);
-            done(&outcome.diagnostic);
-            outcome
-        })
-        .collect();
-    if config.cross_check.enabled {
-        cross_check(&order, &owned, &mut outcomes, config);
+    let mut registration = TileRegistration::new(tile);
+    let owned: Vec<&str> = panoramas.iter().filter(|p| p.owned).map(PreparedPanorama::id).collect();
+    let inputs = TileInputs { rig, reference, config };
+    registration.register(panoramas, &owned, &inputs, done);
+    registration.finish(panoramas, config)
+}
+
+/// What steps 2–8 read besides the panoramas: the rig, the aerial reference and the settings.
+#[derive(Clone, Copy, Debug)]
+pub struct TileInputs<'a> {
+    /// The panoramic camera on the vehicle.
+    pub rig: &'a PanoramaRig,
+    /// Aerial frames or an orthophoto window over the tile.
+    pub reference: &'a AerialReference,
+    /// The pipeline's settings.
+    pub config: &'a PipelineConfig,
+}
+
+/// A tile's registration done a few owned panoramas at a time, so that a caller can prepare the panoramas of
+/// one stretch of the drive, register the owned ones, release their patches ([`PreparedPanorama::release`])
+/// and go on: a pair only reads its panorama's patch and its neighbour's (the next or the previous in time,
+/// [`neighbour`]). [`TileRegistration::finish`] runs the cross-panorama check over every outcome. Fed the
+/// whole tile at once it is [`register_tile`].
+pub struct TileRegistration {
+    tile: TileId,
+    start: Instant,
+    outcomes: Vec<pair::PairOutcome>,
+}
+
+impl std::fmt::Debug for TileRegistration {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TileRegistration")
+            .field("tile", &self.tile)
+            .field("registered", &self.outcomes.len())
+            .finish_non_exhaustive()
     }
-    let mut timings = StageTimings::default();
-    order.iter().for_each(|p| timings.add(&p.timings));
-    let (mut images, mut all_ties, mut traces) = (Vec::with_capacity(outcomes.len()), Vec::new(), Vec::new());
-    for o in outcomes {
-        timings.add(&o.timings);
-        images.push(o.diagnostic);
-        all_ties.extend(o.ties);
-        traces.push(o.trace);
+}
+
+impl TileRegistration {
+    /// Nothing registered yet.
+    pub fn new(tile: TileId) -> Self {
+        Self { tile, start: Instant::now(), outcomes: Vec::new() }
     }
-    let summary = TileSummary::of(&images, &all_ties);
-    timings.total = start.elapsed();
-    TileRun { result: TileResult::V1(TileResultV1 { tile, ties: all_ties, images, summary }), timings, traces }
+
+    /// Steps 2–8 for the owned panoramas named in `ids`, in parallel. `panoramas` are the tile's panoramas
+    /// that can be read (owned and context, in any order): the named ones and their neighbours must be
+    /// prepared; the others may be unprepared or released. `done` is called as in [`register_tile_reporting`].
+    pub fn register(
+        &mut self,
+        panoramas: &[PreparedPanorama],
+        ids: &[&str],
+        inputs: &TileInputs<'_>,
+        done: &(dyn Fn(&ImageDiagnostic) + Sync),
+    ) {
+        let order: Vec<&PreparedPanorama> =
+            time_order(panoramas, |p| (p.pano.time, p.pano.id.as_str())).into_iter().map(|k| &panoramas[k]).collect();
+        let poses: Vec<_> = order.iter().map(|p| &p.pano.pose).collect();
+        let pairs = pair::TileInputs {
+            order: &order,
+            poses: &poses,
+            rig: inputs.rig,
+            reference: inputs.reference,
+            config: inputs.config,
+        };
+        let wanted: std::collections::HashSet<&str> = ids.iter().copied().collect();
+        let owned: Vec<usize> =
+            (0..order.len()).filter(|&i| order[i].owned && wanted.contains(order[i].pano.id.as_str())).collect();
+        let outcomes: Vec<pair::PairOutcome> = owned
+            .par_iter()
+            .map(|&i| {
+                let outcome = pair::process(i, &pairs);
+                done(&outcome.diagnostic);
+                outcome
+            })
+            .collect();
+        self.outcomes.extend(outcomes);
+    }
+
+    /// Owned panoramas registered so far.
+    pub fn registered(&self) -> usize {
+        self.outcomes.len()
+    }
+
+    /// The cross-panorama check over everything registered (paper 000 §3.9) and the tile's result;
+    /// `panoramas` are the tile's readable panoramas as in the last [`TileRegistration::register`] (their
+    /// patches may be released).
+    pub fn finish(self, panoramas: &[PreparedPanorama], config: &PipelineConfig) -> TileRun {
+        let order: Vec<&PreparedPanorama> =
+            time_order(panoramas, |p| (p.pano.time, p.pano.id.as_str())).into_iter().map(|k| &panoramas[k]).collect();
+        let position: std::collections::HashMap<&str, usize> =
+            order.iter().enumerate().map(|(i, p)| (p.pano.id.as_str(), i)).collect();
+        // Outcomes in time order, each with its place in `order` (a registered panorama is readable, so it
+        // is there).
+        let mut placed: Vec<(usize, pair::PairOutcome)> = self
+            .outcomes
+            .into_iter()
+            .filter_map(|o| position.get(o.diagnostic.image.as_str()).map(|&i| (i, o)))
+            .collect();
+        placed.sort_by_key(|(i, _)| *i);
+        let (owned, mut outcomes): (Vec<usize>, Vec<pair::PairOutcome>) = placed.into_iter().unzip();
+        if config.cross_check.enabled {
+            cross_check(&order, &owned, &mut outcomes, config);
+        }
+        let mut timings = StageTimings::default();
+        order.iter().for_each(|p| timings.add(&p.timings));
+        let (mut images, mut all_ties, mut traces) = (Vec::with_capacity(outcomes.len()), Vec::new(), Vec::new());
+        for o in outcomes {
+            timings.add(&o.timings);
+            images.push(o.diagnostic);
+            all_ties.extend(o.ties);
+            traces.push(o.trace);
+        }
+        let summary = TileSummary::of(&images, &all_ties);
+        timings.total = self.start.elapsed();
+        let result = TileResult::V1(TileResultV1 { tile: self.tile, ties: all_ties, images, summary });
+        TileRun { result, timings, traces }
+    }
 }
 
 /// The cross-panorama check over the tile (paper 000 §3.9): the matched panoramas' aerial offsets compared

@@ -128,6 +128,51 @@ pub async fn read_url_prefix(url: &str, s3: &S3Options, max: u64) -> Result<(Byt
     Ok((bytes, meta.size))
 }
 
+/// How GDAL reads an object in place with its own range requests: a GDAL path and the GDAL options (set per
+/// thread while the file is open) that carry the store's endpoint and credentials.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GdalRemote {
+    /// `/vsis3/{bucket}/{key}`.
+    pub path: String,
+    /// `AWS_*` configuration options for GDAL's `/vsis3/` handler.
+    pub options: Vec<(String, String)>,
+}
+
+/// The [`GdalRemote`] of an `s3://` object URL with these S3 settings; `None` for the other schemes (local
+/// files are opened in place, in-memory objects read whole). Nothing is read from the environment: without
+/// credentials, requests are unsigned.
+pub fn gdal_remote(url: &str, s3: &S3Options) -> Result<Option<GdalRemote>, StoreError> {
+    let StoreLocation::S3 { bucket, prefix } = StoreLocation::parse(url)? else {
+        return Ok(None);
+    };
+    if prefix.parts_count() == 0 {
+        return Err(location::invalid(url, "names no object (the key is empty)"));
+    }
+    s3.validate().map_err(|reason| location::invalid(url, &reason))?;
+    let mut options = vec![
+        ("AWS_REGION".to_owned(), s3.region.clone().unwrap_or_else(|| DEFAULT_REGION.to_owned())),
+        ("AWS_VIRTUAL_HOSTING".to_owned(), if s3.virtual_hosted_style { "TRUE" } else { "FALSE" }.to_owned()),
+    ];
+    if let Some(endpoint) = &s3.endpoint {
+        let parsed = url::Url::parse(endpoint).map_err(|e| location::invalid(url, &e.to_string()))?;
+        let host = parsed.host_str().unwrap_or_default();
+        let host = match parsed.port() {
+            Some(port) => format!("{host}:{port}"),
+            None => host.to_owned(),
+        };
+        options.push(("AWS_S3_ENDPOINT".to_owned(), host));
+        options.push(("AWS_HTTPS".to_owned(), if parsed.scheme() == "https" { "YES" } else { "NO" }.to_owned()));
+    }
+    match (&s3.access_key_id, &s3.secret_access_key) {
+        (Some(key), Some(secret)) => {
+            options.push(("AWS_ACCESS_KEY_ID".to_owned(), key.clone()));
+            options.push(("AWS_SECRET_ACCESS_KEY".to_owned(), secret.expose().to_owned()));
+        }
+        _ => options.push(("AWS_NO_SIGN_REQUEST".to_owned(), "YES".to_owned())),
+    }
+    Ok(Some(GdalRemote { path: format!("/vsis3/{bucket}/{prefix}"), options }))
+}
+
 /// Writes `bytes` as the object an object URL names, replacing it; local parent directories are created.
 pub async fn write_url(url: &str, s3: &S3Options, bytes: Bytes) -> Result<(), StoreError> {
     let (store, key) = open_object(url, s3)?;

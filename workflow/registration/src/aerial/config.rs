@@ -177,3 +177,24 @@ pub fn edge_roundness(pixel_sigma: f64, radius_px: f64) -> f64 {
     let r = (pixel_sigma / radius_px).powi(2);
     4.0 * r / (1.0 + r).powi(2)
 }
+
+/// How far around its MM patches the registration may look into an aerial frame: a reader that holds only a
+/// window of a large frame ([`super::AerialFrame::origin`]) registers exactly as with the whole frame when the
+/// window covers every patch's ground area grown by `metres` and then by `pixels`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FrameReach {
+    /// Ground distance beyond the patch centres, metres: the patch's half-diagonal plus the plausibility bound.
+    pub metres: f64,
+    /// Frame pixels beyond that: the correlation's search radius and template, and the frame margin.
+    pub pixels: f64,
+}
+
+impl AerialConfig {
+    /// The [`FrameReach`] of patches with half-side `patch_half_m` (the MM ortho patch's `half_extent`) whose DG
+    /// position σ is at most `max_position_sigma`.
+    pub fn frame_reach(&self, patch_half_m: f64, max_position_sigma: f64) -> FrameReach {
+        let metres = patch_half_m * std::f64::consts::SQRT_2 + self.plausibility.bound_m(max_position_sigma);
+        let pixels = ((self.search_radius + self.template_half) as f64).max(self.frame_margin_px) + 2.0;
+        FrameReach { metres, pixels }
+    }
+}

@@ -121,7 +121,7 @@ mod tests {
         let camera = Pinhole::new(600, 450, 12_500.0, 12_500.0, 300.0, 225.0, 0.0, 0.0).unwrap();
         let pose =
             MapFromCamera::new(OmegaPhiKappa::from_degrees(0.2, -0.1, 0.0).to_rotation(), Point3::new(e, n, 1508.0));
-        AerialFrame { id: id.into(), image: GrayImage::from_fn(600, 450, |_, _| 0.0), camera, pose }
+        AerialFrame { id: id.into(), image: GrayImage::from_fn(600, 450, |_, _| 0.0), origin: [0, 0], camera, pose }
     }
 
     fn pixel(f: &AerialFrame, x: [f64; 3]) -> [f64; 2] {

@@ -95,7 +95,7 @@ fn aerial_frames(world: &World, centre: [f64; 2]) -> (Vec<AerialFrame>, Vec<MapF
         })
         .map(|(i, f)| {
             let image = render_frame(world, &cam, &f.truth, 100 + i as u64);
-            (AerialFrame { id: f.id.clone(), image, camera: cam, pose: f.reported }, f.truth)
+            (AerialFrame { id: f.id.clone(), image, origin: [0, 0], camera: cam, pose: f.reported }, f.truth)
         })
         .unzip()
 }
@@ -365,7 +365,7 @@ fn masked_cells_give_no_points_and_a_broken_frame_does_not_sink_the_others() {
     let mut frames = f.frames.clone();
     let mut broken = frames[0].clone();
     broken.id = "broken".into();
-    broken.image = GrayImage::filled(599, 450, 100.0);
+    broken.image = GrayImage::filled(601, 450, 100.0);
     frames.push(broken);
     let patch = MmPatch { valid: &valid, ..f.patch() };
     let outcome = register_patch(&patch, &AerialReference::Frames(frames), &AerialConfig::default());
@@ -374,7 +374,7 @@ fn masked_cells_give_no_points_and_a_broken_frame_does_not_sink_the_others() {
     // The template (6 px at 12 cm = 24 MM px) and the blur must stay clear of the masked cells too.
     assert!(outcome.points.iter().all(|p| f.points[p.index].pixel[0] > 220.0));
     let broken = outcome.images.iter().find(|d| d.frame == "broken").expect("a diagnostic for the broken frame");
-    assert!(matches!(broken.rejection, Some(ImageRejection::InvalidImage { ref reason }) if reason.contains("599")));
+    assert!(matches!(broken.rejection, Some(ImageRejection::InvalidImage { ref reason }) if reason.contains("601")));
 }
 
 #[test]
@@ -422,4 +422,30 @@ fn without_an_initial_transformation_the_dg_bounded_search_finds_the_offset_and_
         let Some(ImageRejection::Implausible { offset_m, bound_m, .. }) = d.rejection else { panic!("{d:?}") };
         assert!((offset_m - 0.8).abs() < 0.15 && (bound_m - 0.65).abs() < 1e-12, "{d:?}");
     }
+}
+
+/// Issue 25: a frame held as the window around the patch (as the worker reads large frames) registers exactly
+/// as the whole frame does: positions, observations and diagnostics in full-frame pixels.
+#[test]
+fn frame_windows_register_exactly_as_whole_frames() {
+    let f = fixture();
+    let whole = register_patch(&f.patch(), &AerialReference::Frames(f.frames.clone()), &AerialConfig::default());
+    let windows: Vec<AerialFrame> = f
+        .frames
+        .iter()
+        .map(|frame| {
+            let p = Point3::new(f.grid.centre[0], f.grid.centre[1], f.world.config.ground_height);
+            let c = frame.pose.inverse().transform_point(&p) - Point3::origin();
+            let px = frame.camera.project(&c).expect("the patch projects into the frame");
+            // 220 px around the patch centre: the 21 m patch (~175 aerial px) plus the search margins.
+            let (c0, r0) = ((px.u - 220.0).max(0.0) as usize, (px.v - 220.0).max(0.0) as usize);
+            let (c1, r1) = (((px.u + 220.0) as usize).min(600), ((px.v + 220.0) as usize).min(450));
+            let image = GrayImage::from_fn(c1 - c0, r1 - r0, |c, r| frame.image.get(c0 + c, r0 + r));
+            AerialFrame { image, origin: [c0, r0], ..frame.clone() }
+        })
+        .collect();
+    assert!(windows.iter().any(|w| w.origin != [0, 0] && w.image.width() < 600));
+    let windowed = register_patch(&f.patch(), &AerialReference::Frames(windows), &AerialConfig::default());
+    assert!(!whole.points.is_empty());
+    assert_eq!(format!("{windowed:?}"), format!("{whole:?}"));
 }

@@ -48,11 +48,19 @@ impl<'a> View<'a> {
         }
     }
 
-    /// The full image.
+    /// The pixels held: the whole image, or the window of a frame that starts at [`View::origin`].
     pub fn image(&self) -> &'a GrayImage {
         match self {
             View::Frame(f) => &f.image,
             View::Ortho(o) => &o.image,
+        }
+    }
+
+    /// Full-image column and row of the held pixels' (0, 0).
+    pub fn origin(&self) -> [f64; 2] {
+        match self {
+            View::Frame(f) => [f.origin[0] as f64, f.origin[1] as f64],
+            View::Ortho(_) => [0.0, 0.0],
         }
     }
 
@@ -73,19 +81,31 @@ impl<'a> View<'a> {
         }
     }
 
-    /// What makes the image unusable, if anything (a frame whose image size differs from its camera's).
+    /// What makes the image unusable, if anything: a frame whose pixels reach beyond its camera's image.
     pub fn problem(&self) -> Option<String> {
         let View::Frame(f) = self else { return None };
         let (w, h) = (f.image.width(), f.image.height());
+        let [c, r] = f.origin;
         let (cw, ch) = (f.camera.width as usize, f.camera.height as usize);
-        (w != cw || h != ch).then(|| format!("image {w}×{h} does not match its camera {cw}×{ch}"))
+        let beyond = c.saturating_add(w) > cw || r.saturating_add(h) > ch;
+        beyond.then(|| match f.origin {
+            [0, 0] => format!("image {w}×{h} does not fit its camera {cw}×{ch}"),
+            _ => format!("window {w}×{h} at column {c}, row {r} reaches beyond its camera {cw}×{ch}"),
+        })
     }
 
-    /// True when `pixel` lies inside the image with `margin` pixels to spare.
+    /// True when full-image `pixel` lies inside the held pixels with `margin` pixels to spare.
     pub fn contains(&self, pixel: [f64; 2], margin: f64) -> bool {
         let img = self.image();
+        let [u, v] = self.held(pixel);
         let (w, h) = (img.width() as f64, img.height() as f64);
-        pixel[0] >= margin && pixel[1] >= margin && pixel[0] <= w - margin && pixel[1] <= h - margin
+        u >= margin && v >= margin && u <= w - margin && v <= h - margin
+    }
+
+    /// A full-image pixel in the held pixels' coordinates.
+    fn held(&self, pixel: [f64; 2]) -> [f64; 2] {
+        let o = self.origin();
+        [pixel[0] - o[0], pixel[1] - o[1]]
     }
 
     /// Local orientation and scale at a ground point, from the projections of 1 m steps east and north
@@ -102,12 +122,13 @@ impl<'a> View<'a> {
         (gsd.is_finite() && gsd > 0.0).then(|| LocalGeometry { pixel: p0, up_heading: up.x.atan2(up.y), gsd })
     }
 
-    /// The window of half-size `half` pixels around `centre` (clipped to the image); `None` when less
-    /// than a quarter of it lies inside.
+    /// The window of half-size `half` pixels around full-image `centre` (clipped to the held pixels); `None`
+    /// when less than a quarter of it lies inside.
     pub fn window(&self, centre: [f64; 2], half: usize) -> Option<Window> {
         let img = self.image();
         let (w, h) = (img.width() as i64, img.height() as i64);
-        let (cc, cr) = (centre[0].floor() as i64, centre[1].floor() as i64);
+        let [u, v] = self.held(centre);
+        let (cc, cr) = (u.floor() as i64, v.floor() as i64);
         let half = half as i64;
         let (c0, r0) = ((cc - half).max(0), (cr - half).max(0));
         let (c1, r1) = ((cc + half + 1).min(w), (cr + half + 1).min(h));
@@ -117,7 +138,8 @@ impl<'a> View<'a> {
         }
         let (ww, wh, c0u, r0u) = (ww as usize, wh as usize, c0 as usize, r0 as usize);
         let image = GrayImage::from_fn(ww, wh, |c, r| img.get(c0u + c, r0u + r));
-        Some(Window { image, origin: [c0 as f64, r0 as f64] })
+        let o = self.origin();
+        Some(Window { image, origin: [o[0] + c0 as f64, o[1] + r0 as f64] })
     }
 
     /// The mapping-frame ray (origin, unit direction) through a full-image pixel of a frame; orthophotos

@@ -96,6 +96,15 @@ impl PreparedPanorama {
     pub fn timings(&self) -> StageTimings {
         self.timings
     }
+
+    /// Drop the ortho patch and features once no pair still to be registered needs them (a failed
+    /// preparation keeps its error); the panorama keeps its place, pose and timings, and
+    /// [`PreparedPanorama::is_prepared`] becomes false.
+    pub fn release(&mut self) {
+        if matches!(self.patch, Some(Ok(_))) {
+            self.patch = None;
+        }
+    }
 }
 
 /// Step 1 and the KAZE features of one panorama (paper 000 §3.2–§3.3). The result holds no pixels of the
@@ -122,8 +131,8 @@ pub fn prepare_panoramas(panoramas: &[Panorama], rig: &PanoramaRig, config: &MmC
     panoramas.par_iter().map(|p| prepare_panorama(p, true, rig, config)).collect()
 }
 
-/// The indices of `items` in the order the tile processes them: by time, then id.
-pub(crate) fn time_order<T>(items: &[T], key: impl Fn(&T) -> (f64, &str)) -> Vec<usize> {
+/// The indices of `items` in the order the tile processes them: by time, then id (`key` gives both).
+pub fn time_order<T>(items: &[T], key: impl Fn(&T) -> (f64, &str)) -> Vec<usize> {
     let mut order: Vec<usize> = (0..items.len()).collect();
     order.sort_by(|&a, &b| {
         let (ka, kb) = (key(&items[a]), key(&items[b]));
@@ -137,11 +146,25 @@ pub(crate) fn time_order<T>(items: &[T], key: impl Fn(&T) -> (f64, &str)) -> Vec
 /// per panorama, in the given order. Pairing depends on the DG poses only, so this needs no pixels; a
 /// panorama that later cannot be read must be left out and the question asked again.
 pub fn panoramas_to_prepare(panoramas: &[PanoramaInfo], rig: &PanoramaRig, config: &PipelineConfig) -> Vec<bool> {
+    let owned: Vec<&str> = panoramas.iter().filter(|p| p.owned).map(|p| p.id.as_str()).collect();
+    panoramas_to_prepare_for(panoramas, &owned, rig, config)
+}
+
+/// [`panoramas_to_prepare`] for registering only the owned panoramas named in `ids`: those and their
+/// neighbours.
+pub fn panoramas_to_prepare_for(
+    panoramas: &[PanoramaInfo],
+    ids: &[&str],
+    rig: &PanoramaRig,
+    config: &PipelineConfig,
+) -> Vec<bool> {
+    let wanted: std::collections::HashSet<&str> = ids.iter().copied().collect();
+    let registering = |p: &PanoramaInfo| p.owned && wanted.contains(p.id.as_str());
     let order = time_order(panoramas, |p| (p.time, p.id.as_str()));
     let poses: Vec<&MapFromBody> = order.iter().map(|&k| &panoramas[k].pose).collect();
-    let mut needed: Vec<bool> = panoramas.iter().map(|p| p.owned).collect();
+    let mut needed: Vec<bool> = panoramas.iter().map(registering).collect();
     for (i, &k) in order.iter().enumerate() {
-        if panoramas[k].owned
+        if registering(&panoramas[k])
             && let Ok(j) = pair::neighbour(i, &poses, rig, config)
         {
             needed[order[j]] = true;

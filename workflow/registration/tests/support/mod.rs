@@ -281,7 +281,7 @@ fn aerial_frames(world: &World, seed: u64, shots: &[Shot]) -> AerialReference {
             let (w, h) = (FRAME_PX.0 as usize, FRAME_PX.1 as usize);
             let raw = rgb.as_raw();
             let image = GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]));
-            AerialFrame { id: f.id.clone(), image, camera: cam, pose: f.reported }
+            AerialFrame { id: f.id.clone(), image, origin: [0, 0], camera: cam, pose: f.reported }
         })
         .collect();
     AerialReference::Frames(rendered)
