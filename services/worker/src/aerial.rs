@@ -3,19 +3,17 @@
 
 use std::time::Instant;
 
-use plumbline_campaign::manifest::{FrameBlock, InteriorOrientation, Orthophoto as OrthophotoSpec};
+use plumbline_campaign::manifest::{InteriorOrientation, Orthophoto as OrthophotoSpec};
 use plumbline_campaign::tables::ExteriorRow;
 use plumbline_geo::camera::{CameraModel, MetricInterior, Pinhole};
 use plumbline_geo::tiling::BBox;
 use plumbline_geo::{Map, MapFromCamera, OmegaPhiKappa, Point3, Pose};
-use plumbline_imaging::decode::{AERIAL_FRAME_PIXELS, Bounds, DecodeError, decode_gray};
-use plumbline_registration::aerial::{AerialFrame, AerialReference, Orthophoto};
+use plumbline_registration::aerial::{AerialReference, FrameReach, Orthophoto};
 use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, file_name, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
-use rayon::prelude::*;
 
-use crate::fetch::{SkipReason, blocking, read_all, refused, skipped};
+use crate::fetch::{SkipReason, skipped};
 use crate::raster::{gray, read_window, terrain};
 
 const STAGE: &str = "registration";
@@ -56,7 +54,7 @@ pub fn frame_pose(row: &ExteriorRow) -> MapFromCamera {
 }
 
 /// Whether any of `ground` projects inside the frame.
-fn sees(camera: &Pinhole, pose: &MapFromCamera, ground: &[Point3<Map>]) -> bool {
+pub(crate) fn sees(camera: &Pinhole, pose: &MapFromCamera, ground: &[Point3<Map>]) -> bool {
     let to_camera = pose.inverse();
     ground.iter().any(|p| {
         let d = to_camera.transform_point(p);
@@ -65,11 +63,13 @@ fn sees(camera: &Pinhole, pose: &MapFromCamera, ground: &[Point3<Map>]) -> bool 
 }
 
 /// The reference for a tile whose MM patches lie around `ground` (box centre and owned panoramas on the
-/// road) within `area`; `None` when the manifest names no aerial imagery.
+/// road) within `area`: the frames that see them, each read as the window that `reach` around the ground
+/// points needs, or else the orthophoto's window over `area`; `None` when the manifest names no aerial imagery.
 pub(crate) async fn load(
     files: &Files,
     campaign: &Campaign,
     ground: &[Point3<Map>],
+    reach: FrameReach,
     area: MapBox,
     concurrency: usize,
 ) -> anyhow::Result<Option<LoadedReference>> {
@@ -77,7 +77,7 @@ pub(crate) async fn load(
         return Ok(None);
     };
     let mut loaded = match &aerial.frames {
-        Some(block) => frames(files, campaign, block, ground, concurrency).await?,
+        Some(block) => frames::load(files, campaign, block, ground, reach, concurrency).await?,
         None => LoadedReference {
             reference: AerialReference::Frames(Vec::new()),
             skipped: Vec::new(),
@@ -96,77 +96,6 @@ pub(crate) async fn load(
         }
     }
     Ok(Some(loaded))
-}
-
-/// The block's frames that see the tile, decoded; a missing, broken or wrong-size frame is skipped.
-async fn frames(
-    files: &Files,
-    campaign: &Campaign,
-    block: &FrameBlock,
-    ground: &[Point3<Map>],
-    concurrency: usize,
-) -> anyhow::Result<LoadedReference> {
-    let camera = frame_camera(&block.interior)?;
-    let mut skipped_items = Vec::new();
-    let mut chosen = Vec::new();
-    for row in &campaign.aerial_frames {
-        let pose = frame_pose(row);
-        if !sees(&camera, &pose, ground) {
-            continue;
-        }
-        match campaign.file_url(&block.images, &row.file) {
-            Ok(url) => chosen.push((row.image_id.clone(), pose, url)),
-            Err(e) => skipped_items.push(skipped(
-                STAGE,
-                &row.file,
-                SkipReason::Url,
-                format!("aerial frame {}: {e:#}", row.image_id),
-            )),
-        }
-    }
-    let t0 = Instant::now();
-    let urls: Vec<String> = chosen.iter().map(|c| c.2.clone()).collect();
-    let bytes = read_all(files, &urls, concurrency, STAGE).await;
-    let read_s = t0.elapsed().as_secs_f64();
-    let t1 = Instant::now();
-    let decoded: Vec<Result<AerialFrame, SkippedInput>> = blocking(move || {
-        chosen
-            .into_par_iter()
-            .zip(bytes)
-            .map(|((id, pose, url), bytes)| decode_frame(id, pose, &url, bytes?, camera))
-            .collect()
-    })
-    .await?;
-    let mut out = Vec::new();
-    for frame in decoded {
-        match frame {
-            Ok(f) => out.push(f),
-            Err(s) => skipped_items.push(s),
-        }
-    }
-    let decode_s = t1.elapsed().as_secs_f64();
-    Ok(LoadedReference { reference: AerialReference::Frames(out), skipped: skipped_items, read_s, decode_s })
-}
-
-/// Decode a frame to gray within [`AERIAL_FRAME_PIXELS`] and the interior orientation's size (both checked
-/// on the header, before any pixel is decoded); a refused frame is skipped ([`SkipReason::Size`] or
-/// [`SkipReason::Decode`]).
-fn decode_frame(
-    id: String,
-    pose: MapFromCamera,
-    url: &str,
-    bytes: bytes::Bytes,
-    camera: Pinhole,
-) -> Result<AerialFrame, SkippedInput> {
-    let bounds = Bounds::budget(AERIAL_FRAME_PIXELS).expecting(camera.width, camera.height);
-    let image = decode_gray(url, &bytes, &bounds).map_err(|e| {
-        let mut s = refused(STAGE, url, &e);
-        if matches!(e, DecodeError::Size { .. }) {
-            s.detail.push_str(" (the interior orientation's size)");
-        }
-        s
-    })?;
-    Ok(AerialFrame { id, image, camera, pose })
 }
 
 /// Windows of the orthophoto and its terrain model over `area`. An unreadable orthophoto gives no reference
@@ -219,5 +148,6 @@ pub(crate) fn window_of(fetch: &BBox, margin: f64) -> MapBox {
     }
 }
 
+mod frames;
 #[cfg(test)]
 mod tests;

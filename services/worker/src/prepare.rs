@@ -1,33 +1,50 @@
-//! A tile's panoramas streamed through step 1 and the KAZE features (paper 000 §3.2–§3.3): read a few at a
-//! time, decoded and prepared as at most one rayon job per rayon thread, the full panorama dropped as soon
-//! as its ortho patch and features exist. Only owned panoramas and the context panoramas an owned one
-//! pairs with are read; a needed panorama that cannot be read is skipped and the pairing asked again.
+//! A tile's panoramas streamed through step 1, the KAZE features (paper 000 §3.2–§3.3) and the registration,
+//! one stretch of the drive at a time: the owned panoramas are taken in time order, [`SEGMENT`] at a
+//! time; the segment's panoramas and their neighbours are read a few at a time, decoded and prepared (at
+//! most one rayon job per rayon thread, the full panorama dropped as soon as its ortho patch and features
+//! exist), the segment's pairs are registered, and every patch no later pair needs is released. A tile
+//! holds the patches of about one segment, however many panoramas it owns (a drive looping through it).
+//! A needed panorama that cannot be read is skipped and the pairing asked again.
 
 use std::collections::HashSet;
 use std::sync::Arc;
+use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use bytes::Bytes;
 use futures::StreamExt as _;
-use plumbline_registration::PipelineConfig;
+use plumbline_campaign::progress::Progress;
+use plumbline_geo::tiling::TileId;
+use plumbline_registration::aerial::AerialReference;
 use plumbline_registration::mm::{MmConfig, PanoramaRig};
-use plumbline_registration::pipeline::{PreparedPanorama, panoramas_to_prepare, prepare_panorama};
+use plumbline_registration::output::ImageDiagnostic;
+use plumbline_registration::pipeline::{
+    PreparedPanorama, TileInputs, TileRegistration, panoramas_to_prepare_for, prepare_panorama, time_order,
+};
+use plumbline_registration::{PipelineConfig, TileRun};
 use plumbline_runtime::Files;
 use plumbline_scheduler::SkippedInput;
 
-use crate::fetch::{on_rayon, read_one};
+use crate::fetch::{counted, on_rayon, read_one};
 use crate::panoramas::{Placed, STAGE, decode};
+use crate::tile::REGISTRATION;
 
-/// A tile's panoramas after step 1.
-pub(crate) struct PreparedTile {
-    /// Every placed panorama that could be read (when needed), prepared or not, in the placed order.
-    pub panoramas: Vec<PreparedPanorama>,
+/// Owned panoramas registered together: their patches, their neighbours' and the segment before's last are
+/// what a tile holds (about 5 MB each at the default 3 cm over 28 m).
+pub(crate) const SEGMENT: usize = 16;
+
+/// A tile's registration and what preparing its panoramas cost.
+pub(crate) struct RegisteredTile {
+    /// The registration (`TileRegistration::finish`).
+    pub run: TileRun,
     /// Needed panoramas that could not be read or decoded.
     pub skipped: Vec<SkippedInput>,
     /// Seconds of the reads, summed (they overlap each other and the decoding).
     pub read_s: f64,
     /// Thread-seconds decoding.
     pub decode_s: f64,
+    /// Most prepared patches held at once.
+    pub most_held: usize,
 }
 
 /// What streaming one panorama gave.
@@ -38,60 +55,107 @@ struct Streamed {
     decode_s: f64,
 }
 
-/// Prepare what the tile's registration needs of `placed` (owned panoramas and their neighbours), every
-/// panorama of size `size`. At most `concurrency` reads and `rayon::current_num_threads()` decoded panoramas
-/// are in flight at once.
-pub(crate) async fn prepare(
-    files: &Files,
-    placed: &[Placed],
-    rig: &Arc<PanoramaRig>,
-    config: &PipelineConfig,
-    size: (u32, u32),
-    concurrency: usize,
-) -> anyhow::Result<PreparedTile> {
-    let mut out = PreparedTile { panoramas: Vec::new(), skipped: Vec::new(), read_s: 0.0, decode_s: 0.0 };
+/// Everything the segments share.
+pub(crate) struct Tile<'a> {
+    pub files: &'a Files,
+    pub id: TileId,
+    pub placed: &'a [Placed],
+    pub rig: &'a Arc<PanoramaRig>,
+    pub config: &'a PipelineConfig,
+    pub size: (u32, u32),
+    pub concurrency: usize,
+}
+
+/// Prepare and register the tile's owned panoramas segment by segment against `reference`; stage
+/// `registration` of `progress` advances by one per registered panorama.
+pub(crate) async fn register(
+    tile: &Tile<'_>,
+    reference: Arc<AerialReference>,
+    progress: &dyn Progress,
+) -> anyhow::Result<RegisteredTile> {
+    let placed = tile.placed;
     let mut done: Vec<Option<PreparedPanorama>> = vec![None; placed.len()];
+    // Through step 1 (successfully or not), whether its patch is still held or already released.
+    let mut ready = vec![false; placed.len()];
     let mut failed = HashSet::new();
-    loop {
-        let alive: Vec<usize> = (0..placed.len()).filter(|k| !failed.contains(k)).collect();
-        let infos: Vec<_> = alive.iter().map(|&k| placed[k].info.clone()).collect();
-        let needed = panoramas_to_prepare(&infos, rig, config);
-        let todo: Vec<usize> =
-            alive.iter().zip(needed).filter(|&(&k, need)| need && done[k].is_none()).map(|(&k, _)| k).collect();
-        if todo.is_empty() {
-            break;
+    let (mut skipped, mut read_s, mut decode_s, mut most_held) = (Vec::new(), 0.0, 0.0, 0);
+    let by_time = time_order(placed, |p| (p.info.time, p.info.id.as_str()));
+    let owned: Vec<usize> = by_time.iter().copied().filter(|&k| placed[k].info.owned).collect();
+    let mut registration = TileRegistration::new(tile.id);
+    let segments: Vec<&[usize]> = owned.chunks(SEGMENT).collect();
+    for (s, segment) in segments.iter().enumerate() {
+        let ids: Vec<String> = segment.iter().map(|&k| placed[k].info.id.clone()).collect();
+        // Prepare the segment's panoramas and their neighbours; a failure may change a neighbour: ask again.
+        loop {
+            let alive: Vec<usize> = (0..placed.len()).filter(|k| !failed.contains(k)).collect();
+            let infos: Vec<_> = alive.iter().map(|&k| placed[k].info.clone()).collect();
+            let id_refs: Vec<&str> = ids.iter().map(String::as_str).collect();
+            let needed = panoramas_to_prepare_for(&infos, &id_refs, tile.rig, tile.config);
+            let todo: Vec<usize> =
+                alive.iter().zip(needed).filter(|&(&k, need)| need && !ready[k]).map(|(&k, _)| k).collect();
+            if todo.is_empty() {
+                break;
+            }
+            for st in stream(tile, &todo).await? {
+                read_s += st.read_s;
+                decode_s += st.decode_s;
+                match st.prepared {
+                    Ok(p) => {
+                        done[st.index] = Some(p);
+                        ready[st.index] = true;
+                    }
+                    Err(skip) => {
+                        failed.insert(st.index);
+                        skipped.push(skip);
+                    }
+                }
+            }
         }
-        for s in stream(files, placed, &todo, rig, config, size, concurrency).await? {
-            out.read_s += s.read_s;
-            out.decode_s += s.decode_s;
-            match s.prepared {
-                Ok(p) => done[s.index] = Some(p),
-                Err(skip) => {
-                    failed.insert(s.index);
-                    out.skipped.push(skip);
+        most_held = most_held.max(done.iter().flatten().filter(|p| p.error().is_none() && p.is_prepared()).count());
+        let alive: Vec<usize> = (0..placed.len()).filter(|k| !failed.contains(k)).collect();
+        let panoramas: Vec<PreparedPanorama> = alive.iter().map(|&k| taken(&mut done, placed, k)).collect();
+        let (config, rig, reference_run) = (*tile.config, Arc::clone(tile.rig), Arc::clone(&reference));
+        let (back, panoramas) = counted(progress, REGISTRATION, move |count| {
+            let inputs = TileInputs { rig: &rig, reference: &reference_run, config: &config };
+            let id_refs: Vec<&str> = ids.iter().map(String::as_str).collect();
+            let counted = |_: &ImageDiagnostic| {
+                count.fetch_add(1, Ordering::Relaxed);
+            };
+            registration.register(&panoramas, &id_refs, &inputs, &counted);
+            (registration, panoramas)
+        })
+        .await?;
+        registration = back;
+        for (k, p) in alive.iter().zip(panoramas) {
+            done[*k] = Some(p);
+        }
+        // Release every patch before the next segment's first owned panorama's previous one.
+        if let Some(next) = segments.get(s + 1).and_then(|n| n.first()) {
+            let keep_from = by_time.iter().filter(|k| !failed.contains(k)).position(|k| k == next).unwrap_or(0);
+            let live: Vec<usize> = by_time.iter().copied().filter(|k| !failed.contains(k)).collect();
+            for &k in &live[..keep_from.saturating_sub(1)] {
+                if let Some(p) = done[k].as_mut() {
+                    p.release();
                 }
             }
         }
     }
-    out.panoramas = done
-        .into_iter()
-        .enumerate()
-        .filter(|(k, _)| !failed.contains(k))
-        .map(|(k, p)| p.unwrap_or_else(|| PreparedPanorama::unprepared(placed[k].info.clone())))
-        .collect();
-    Ok(out)
+    let panoramas: Vec<PreparedPanorama> =
+        (0..placed.len()).filter(|k| !failed.contains(k)).map(|k| taken(&mut done, placed, k)).collect();
+    let config = *tile.config;
+    let run = on_rayon(move || registration.finish(&panoramas, &config)).await?;
+    Ok(RegisteredTile { run, skipped, read_s, decode_s, most_held })
 }
 
-/// Read, decode and prepare `todo` (indices into `placed`), in order.
-async fn stream(
-    files: &Files,
-    placed: &[Placed],
-    todo: &[usize],
-    rig: &Arc<PanoramaRig>,
-    config: &PipelineConfig,
-    size: (u32, u32),
-    concurrency: usize,
-) -> anyhow::Result<Vec<Streamed>> {
+/// The panorama at `k`, prepared or a placeholder, taken out of `done`.
+fn taken(done: &mut [Option<PreparedPanorama>], placed: &[Placed], k: usize) -> PreparedPanorama {
+    done[k].take().unwrap_or_else(|| PreparedPanorama::unprepared(placed[k].info.clone()))
+}
+
+/// Read, decode and prepare `todo` (indices into the tile's placed panoramas), in order.
+async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>> {
+    let (files, placed, rig, config, size, concurrency) =
+        (tile.files, tile.placed, tile.rig, tile.config, tile.size, tile.concurrency);
     let threads = rayon::current_num_threads().max(1);
     futures::stream::iter(todo.iter().copied())
         .map(|k| {
@@ -192,10 +256,22 @@ mod tests {
         });
         let mut config = PipelineConfig::default();
         config.mm.half_extent = 3.0;
-        let out = prepare(&Files::default(), &placed, &rig, &config, (256, 128), 2).await.unwrap();
-        let ids: Vec<&str> = out.panoramas.iter().map(PreparedPanorama::id).collect();
+        let tile = Tile {
+            files: &Files::default(),
+            id: TileId { col: 0, row: 0 },
+            placed: &placed,
+            rig: &rig,
+            config: &config,
+            size: (256, 128),
+            concurrency: 2,
+        };
+        let reference = Arc::new(AerialReference::Frames(Vec::new()));
+        let out = register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap();
+        let plumbline_registration::TileResult::V1(result) = &out.run.result;
+        let ids: Vec<&str> = result.images.iter().map(|d| d.image.as_str()).collect();
         assert_eq!(ids, ["p1", "p3", "p5"]);
-        assert!(out.panoramas.iter().all(PreparedPanorama::is_prepared));
+        // Each was prepared: what stopped it came after step 1 (no aerial frame), not a missing patch.
+        assert!(result.images.iter().all(|d| !format!("{:?}", d.discarded).contains("not prepared")), "{result:?}");
         let skipped: Vec<(&str, &str)> = out.skipped.iter().map(|s| (s.item.as_str(), s.reason.as_str())).collect();
         assert_eq!(skipped, [(placed[1].url.as_str(), "size"), (placed[3].url.as_str(), "size")]);
         for (s, claim) in out.skipped.iter().zip(["20000 × 20000 px", "12000 × 12000 px"]) {
@@ -203,5 +279,60 @@ mod tests {
             assert!(s.detail.contains(&s.item) && s.detail.contains(claim), "{}", s.detail);
             assert!(s.detail.contains("exceeds the pixel budget of 134.2 M px"), "{}", s.detail);
         }
+    }
+
+    /// `n` owned panoramas 2 m apart along a street, as JPEG files under `dir`.
+    fn street(dir: &std::path::Path, n: usize) -> Vec<Placed> {
+        let bytes = jpeg();
+        (0..n)
+            .map(|k| {
+                let path = dir.join(format!("s{k:03}.jpg"));
+                std::fs::write(&path, &bytes).unwrap();
+                let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0 + 2.0 * k as f64, 800.0, 40.0));
+                let info =
+                    PanoramaInfo { id: format!("s{k:03}"), time: k as f64, pose, position_sigma: 0.2, owned: true };
+                Placed { url: path.to_str().unwrap().to_owned(), info }
+            })
+            .collect()
+    }
+
+    /// Issue 25: a tile holds the prepared patches of about one segment whether it owns 40 or 160 panoramas
+    /// (a drive looping through a tile), and every owned panorama is still registered.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn prepared_patches_held_do_not_grow_with_the_panoramas_of_a_tile() {
+        let dir = tempfile::tempdir().unwrap();
+        let rig = Arc::new(PanoramaRig {
+            camera: Equirectangular::new(256, 128).unwrap(),
+            mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
+            vehicle_mask: None,
+            camera_height: 2.5,
+        });
+        let mut config = PipelineConfig::default();
+        config.mm.half_extent = 3.0;
+        let mut held = Vec::new();
+        for n in [40, 160] {
+            let placed = street(dir.path(), n);
+            let tile = Tile {
+                files: &Files::default(),
+                id: TileId { col: 0, row: 0 },
+                placed: &placed,
+                rig: &rig,
+                config: &config,
+                size: (256, 128),
+                concurrency: 2,
+            };
+            let reference = Arc::new(AerialReference::Frames(Vec::new()));
+            let out = register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap();
+            let plumbline_registration::TileResult::V1(result) = &out.run.result;
+            assert_eq!(result.images.len(), n);
+            assert!(out.skipped.is_empty(), "{:?}", out.skipped);
+            // Every pair had both patches: nothing failed for a panorama that was not (or no longer) prepared.
+            let unprepared = result.images.iter().filter(|d| format!("{:?}", d.discarded).contains("ortho/features"));
+            assert_eq!(unprepared.count(), 0, "{:?}", result.images);
+            held.push(out.most_held);
+        }
+        // A segment, its next neighbour and the previous segment's last.
+        assert!(held.iter().all(|&h| h <= SEGMENT + 2), "{held:?}");
+        assert_eq!(held[0], held[1], "{held:?}");
     }
 }

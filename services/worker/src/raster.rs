@@ -6,6 +6,7 @@
 use std::path::PathBuf;
 
 use plumbline_imaging::GrayImage;
+use plumbline_imaging::radiometry::gray_from_bands;
 use plumbline_registration::aerial::Terrain;
 use plumbline_runtime::gdal_read::{MapBox, RasterSource, is_vrt, mosaic_tiles};
 use plumbline_runtime::gdal_write::{Raster, RasterData};
@@ -14,7 +15,7 @@ use plumbline_runtime::{Files, invalid, is_invalid};
 use crate::fetch::{SkipReason, blocking};
 
 /// The local file behind a `file://` URL or a plain path; `None` for other schemes.
-fn local_path(url: &str) -> Option<PathBuf> {
+pub(crate) fn local_path(url: &str) -> Option<PathBuf> {
     match url.split_once("://") {
         Some(("file", rest)) => Some(PathBuf::from(rest)),
         Some(_) => None,
@@ -99,22 +100,15 @@ async fn read_tiles(
     Ok(tiles)
 }
 
-/// The gray value of every pixel: band 1 for one band, the luma of bands 1–3 for colour (8-bit or float).
+/// The gray value of every pixel (`plumbline_imaging::radiometry`): band 1 for one band, the luma of bands 1–3
+/// for colour; 8-bit values as they are, deeper data stretched to 0–255.
 pub(crate) fn gray(raster: &Raster) -> anyhow::Result<GrayImage> {
-    let (w, h) = (raster.width, raster.height);
-    let bands: Vec<Vec<f32>> = match &raster.data {
-        RasterData::U8(b) => b.iter().map(|band| band.iter().map(|&v| f32::from(v)).collect()).collect(),
-        RasterData::F32(b) => b.clone(),
+    let (bands, eight_bit): (Vec<Vec<f32>>, bool) = match &raster.data {
+        RasterData::U8(b) => (b.iter().map(|v| v.iter().map(|&x| f32::from(x)).collect()).collect(), true),
+        RasterData::U16(b) => (b.iter().map(|v| v.iter().map(|&x| f32::from(x)).collect()).collect(), false),
+        RasterData::F32(b) => (b.clone(), false),
     };
-    let image = match bands.as_slice() {
-        [r, g, b, ..] => GrayImage::from_fn(w, h, |c, row| {
-            let k = row * w + c;
-            0.299 * r[k] + 0.587 * g[k] + 0.114 * b[k]
-        }),
-        [one, ..] => GrayImage::new(w, h, one.clone())?,
-        [] => anyhow::bail!("the raster window has no band"),
-    };
-    Ok(image)
+    Ok(gray_from_bands(raster.width, raster.height, &bands, eight_bit)?)
 }
 
 /// Band 1 as terrain heights, no-data values as NaN.
@@ -122,6 +116,7 @@ pub(crate) fn terrain(raster: &Raster) -> anyhow::Result<Terrain> {
     let heights: Vec<f32> = match &raster.data {
         RasterData::F32(b) => b.first().cloned().unwrap_or_default(),
         RasterData::U8(b) => b.first().map(|band| band.iter().map(|&v| f32::from(v)).collect()).unwrap_or_default(),
+        RasterData::U16(b) => b.first().map(|band| band.iter().map(|&v| f32::from(v)).collect()).unwrap_or_default(),
     };
     anyhow::ensure!(heights.len() == raster.width * raster.height, "the terrain window has no band");
     let nodata = raster.nodata;

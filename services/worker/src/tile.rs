@@ -2,7 +2,6 @@
 //! result already written and writes the new one. The `_reporting` variants report progress per stage.
 
 use std::sync::Arc;
-use std::sync::atomic::Ordering;
 use std::time::Instant;
 
 use plumbline_campaign::manifest::Panoramas;
@@ -12,13 +11,11 @@ use plumbline_geo::{Map, Point3};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::mm::PanoramaRig;
 use plumbline_registration::output::{ImageDiagnostic, TileSummary};
-use plumbline_registration::pipeline::{PreparedPanorama, register_tile_reporting};
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 use tracing::Instrument as _;
 
 use crate::config::WorkerConfig;
-use crate::fetch::counted;
 use crate::output::{TileOutput, TileOutputV1, tile_key};
 use crate::{aerial, panoramas, poles, prepare};
 
@@ -223,32 +220,37 @@ async fn register(
         }
     };
     let rig = Arc::new(panoramas::rig(files, campaign, spec, size, camera_height, &mut out.skipped).await?);
-    let t0 = Instant::now();
     let pipeline = config.registration;
-    let prepared = prepare::prepare(files, &placed, &rig, &pipeline, size, config.concurrency).await?;
-    let prepare_s = t0.elapsed().as_secs_f64();
-    out.skipped.extend(prepared.skipped);
-    let ground = ground_points(&prepared.panoramas, &rig, tile);
+    // The reference first: where the patches lie follows from the DG poses alone.
+    let ground = ground_points(&placed, &rig, tile);
     let area = aerial::window_of(&tile.fetch, pipeline.mm.half_extent);
-    let Some(reference) = aerial::load(files, campaign, &ground, area, config.concurrency).await? else {
+    let sigma = placed.iter().filter(|p| p.info.owned).map(|p| p.info.position_sigma).fold(0.0, f64::max);
+    let reach = pipeline.aerial.frame_reach(pipeline.mm.half_extent, sigma);
+    let Some(reference) = aerial::load(files, campaign, &ground, reach, area, config.concurrency).await? else {
         progress.skip(REGISTRATION, owned);
         return Ok(out);
     };
     out.skipped.extend(reference.skipped);
-    let (id, panoramas) = (tile.id, prepared.panoramas);
-    let run = counted(progress, REGISTRATION, move |count| {
-        let done = |_: &ImageDiagnostic| {
-            count.fetch_add(1, Ordering::Relaxed);
-        };
-        register_tile_reporting(id, &panoramas, &rig, &reference.reference, &pipeline, &done)
-    })
-    .await?;
-    let result = run.result.into_latest();
+    let t0 = Instant::now();
+    let streamed = prepare::Tile {
+        files,
+        id: tile.id,
+        placed: &placed,
+        rig: &rig,
+        config: &pipeline,
+        size,
+        concurrency: config.concurrency,
+    };
+    let registered = prepare::register(&streamed, Arc::new(reference.reference), progress).await?;
+    let prepare_s = t0.elapsed().as_secs_f64();
+    out.skipped.extend(registered.skipped);
+    let result = registered.run.result.into_latest();
     progress.skip(REGISTRATION, owned.saturating_sub(result.images.len() as u64));
-    let t = &run.timings;
+    let t = &registered.run.timings;
+    tracing::debug!(most_held = registered.most_held, "prepared patches held at once");
     out.seconds = vec![
-        Timed::Read.took(prepared.read_s + reference.read_s),
-        Timed::Decode.took(prepared.decode_s + reference.decode_s),
+        Timed::Read.took(registered.read_s + reference.read_s),
+        Timed::Decode.took(registered.decode_s + reference.decode_s),
         Timed::Ortho.took(t.ortho.as_secs_f64()),
         Timed::Features.took(t.features.as_secs_f64()),
         Timed::Prepare.took(prepare_s),
@@ -263,12 +265,12 @@ async fn register(
 
 /// Where the tile's MM patches lie on the road: the owned panoramas' DG camera centres lowered by the camera
 /// height, and the fetch box's centre at their mean height.
-fn ground_points(panoramas: &[PreparedPanorama], rig: &PanoramaRig, tile: &Tile) -> Vec<Point3<Map>> {
-    let mut ground: Vec<Point3<Map>> = panoramas
+fn ground_points(placed: &[panoramas::Placed], rig: &PanoramaRig, tile: &Tile) -> Vec<Point3<Map>> {
+    let mut ground: Vec<Point3<Map>> = placed
         .iter()
-        .filter(|p| p.owned())
+        .filter(|p| p.info.owned)
         .map(|p| {
-            let c = rig.mount.camera_pose(p.pose()).translation;
+            let c = rig.mount.camera_pose(&p.info.pose).translation;
             Point3::new(c.x(), c.y(), c.z() - rig.camera_height)
         })
         .collect();

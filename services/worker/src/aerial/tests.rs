@@ -94,17 +94,28 @@ fn a_frame_over_the_budget_or_of_another_size_than_the_interior_orientation_is_s
         img.write_to(&mut out, image::ImageFormat::Png).unwrap();
         bytes::Bytes::from(out.into_inner())
     };
-    let frame = decode_frame("f1".into(), pose(), "frames/f1.png", png(1000, 750), camera).unwrap();
+    let want = |id: &str, window| frames::Wanted {
+        id: id.into(),
+        pose: pose(),
+        url: format!("frames/{id}.png"),
+        camera,
+        window,
+    };
+    let frame = frames::decode_frame(&want("f1", None), &png(1000, 750)).unwrap();
     assert_eq!((frame.id.as_str(), frame.image.width(), frame.image.height()), ("f1", 1000, 750));
-    let small = decode_frame("f2".into(), pose(), "frames/f2.png", png(500, 375), camera).unwrap_err();
+    // A window of it: the same pixels, placed by its origin.
+    let window = frames::decode_frame(&want("f1", Some((100, 50, 30, 20))), &png(1000, 750)).unwrap();
+    assert_eq!((window.origin, window.image.width(), window.image.height()), ([100, 50], 30, 20));
+    assert_eq!(window.image.get(5, 7), frame.image.get(105, 57));
+    let small = frames::decode_frame(&want("f2", None), &png(500, 375)).unwrap_err();
     assert_eq!((small.item.as_str(), small.reason.as_str()), ("frames/f2.png", "size"));
     assert_eq!(small.detail, "frames/f2.png: 500 × 375 px, expected 1000 × 750 px (the interior orientation's size)");
     // A header claiming more than any aerial camera delivers (600 M px) is refused on the budget.
     let forged = bytes::Bytes::from(plumbline_testkit::images::png_claiming(30_000, 20_000));
-    let bomb = decode_frame("f3".into(), pose(), "frames/f3.png", forged, camera).unwrap_err();
+    let bomb = frames::decode_frame(&want("f3", None), &forged).unwrap_err();
     assert_eq!(bomb.reason, "size");
     assert!(bomb.detail.starts_with("frames/f3.png: 30000 × 20000 px (600.0 M px) exceeds"), "{}", bomb.detail);
     assert!(bomb.detail.contains("budget of 450.0 M px"), "{}", bomb.detail);
-    let garbage = decode_frame("f4".into(), pose(), "frames/f4.png", bytes::Bytes::from_static(b"no"), camera);
+    let garbage = frames::decode_frame(&want("f4", None), &bytes::Bytes::from_static(b"no"));
     assert_eq!(garbage.unwrap_err().reason, "decode");
 }
