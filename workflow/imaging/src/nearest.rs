@@ -196,7 +196,7 @@ impl<B, K> Search<'_, B, K> {
                 let (r0, valid_rows) = (g * ROWS, (out.len() - g * ROWS).min(ROWS));
                 for (k, block) in tile_of_b.iter().enumerate() {
                     let j0 = (t * self.tile_blocks + k) * LANES;
-                    let valid_lanes = (self.nb - j0).min(LANES);
+                    let valid_lanes = self.nb.saturating_sub(j0).min(LANES);
                     (self.tile)(rows_of_a, block, &mut dist);
                     for (r, (row, ds)) in out[r0..r0 + valid_rows].iter_mut().zip(&dist).enumerate() {
                         // Most tiles change nothing: test all lanes at once, without branches, first.
