@@ -1,6 +1,11 @@
 //! Per-primitive timings, and KAZE/AKAZE time, keypoints, repeatability and inliers on a 1 MP synthetic pair
-//! beside OpenCV's. Run: `cargo bench -p plumbline-imaging [-- features]` (medians of repeated runs);
+//! beside OpenCV's, and brute-force descriptor matching (AKAZE Hamming, KAZE L2) beside OpenCV's BFMatcher.
+//! Run: `cargo bench -p plumbline-imaging [-- features | matching]` (medians of repeated runs);
 //! `benches/compare_opencv.sh` runs OpenCV (opencv_akaze.py) and ours interleaved and fills the OpenCV columns.
+//!
+//! The matching rows use a real pair when `PLUMBLINE_GRAF_DIR` names a folder holding the Oxford affine
+//! "graf" images `img1.ppm` and `img2.ppm` (800 × 640, not in this repository; binary PPM, 8-bit), else the
+//! synthetic pair. `-- export-descriptors DIR` writes that pair's descriptors for opencv_akaze.py `--match DIR`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 #[path = "common/scene.rs"]
@@ -266,6 +271,167 @@ fn profile(which: &str, a: &GrayImage) {
     println!("{which}: {n} keypoints");
 }
 
+/// The pair of the matching rows: the "graf" images 1 and 2 from `PLUMBLINE_GRAF_DIR`, else the synthetic pair.
+fn matching_pair(a: &GrayImage, b: &GrayImage) -> (String, GrayImage, GrayImage) {
+    let Some(dir) = std::env::var_os("PLUMBLINE_GRAF_DIR") else {
+        return ("synthetic 1024² pair".to_string(), a.clone(), b.clone());
+    };
+    let dir = std::path::PathBuf::from(dir);
+    let read = |name: &str| {
+        let path = dir.join(name);
+        let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        read_ppm(&bytes).unwrap_or_else(|| panic!("{}: not an 8-bit binary PPM/PGM", path.display()))
+    };
+    ("graf 1 → 2 (800×640)".to_string(), read("img1.ppm"), read("img2.ppm"))
+}
+
+/// A binary PGM (P5) or PPM (P6) with maxval 255, as grey; colour by OpenCV's integer weights (BT.601 in
+/// 14-bit fixed point, rounded), so that both sides see the same grey image.
+fn read_ppm(bytes: &[u8]) -> Option<GrayImage> {
+    let mut fields = Vec::new();
+    let mut at = 0;
+    while fields.len() < 4 {
+        while bytes.get(at)?.is_ascii_whitespace() || *bytes.get(at)? == b'#' {
+            if bytes[at] == b'#' {
+                while *bytes.get(at)? != b'\n' {
+                    at += 1;
+                }
+            }
+            at += 1;
+        }
+        let start = at;
+        while !bytes.get(at)?.is_ascii_whitespace() {
+            at += 1;
+        }
+        fields.push(std::str::from_utf8(&bytes[start..at]).ok()?);
+    }
+    let channels = match fields[0] {
+        "P5" => 1,
+        "P6" => 3,
+        _ => return None,
+    };
+    let (w, h): (usize, usize) = (fields[1].parse().ok()?, fields[2].parse().ok()?);
+    let pixels = bytes.get(at + 1..at + 1 + w * h * channels)?;
+    if fields[3] != "255" {
+        return None;
+    }
+    let data = pixels
+        .chunks_exact(channels)
+        .map(|p| match p {
+            [g] => f32::from(*g),
+            [r, g, b] => ((u32::from(*r) * 4899 + u32::from(*g) * 9617 + u32::from(*b) * 1868 + 8192) >> 14) as f32,
+            _ => 0.0,
+        })
+        .collect();
+    GrayImage::new(w, h, data).ok()
+}
+
+/// AKAZE and KAZE features (default settings) of both images of the matching pair.
+fn matching_features(a: &GrayImage, b: &GrayImage) -> ([Features; 2], [KazeFeatures; 2]) {
+    let (ac, kc) = (AkazeConfig::default(), KazeConfig::default());
+    ([akaze(a, &ac).unwrap(), akaze(b, &ac).unwrap()], [kaze(a, &kc).unwrap(), kaze(b, &kc).unwrap()])
+}
+
+/// `imaging export-descriptors DIR`: the matching pair's descriptors as raw little-endian files for
+/// `opencv_akaze.py --match DIR`: akaze_{a,b}.u8 (64 bytes a descriptor: the 8 words' bytes) and
+/// kaze_{a,b}.f32 (64 floats a descriptor).
+fn export_descriptors(dir: &str, a: &GrayImage, b: &GrayImage) {
+    let (name, a, b) = matching_pair(a, b);
+    let ([fa, fb], [ka, kb]) = matching_features(&a, &b);
+    std::fs::create_dir_all(dir).unwrap();
+    let path = |f: &str| std::path::Path::new(dir).join(f);
+    for (file, f) in [("akaze_a.u8", &fa), ("akaze_b.u8", &fb)] {
+        let bytes: Vec<u8> = f.descriptors.iter().flatten().flat_map(|w| w.to_le_bytes()).collect();
+        std::fs::write(path(file), bytes).unwrap();
+    }
+    for (file, f) in [("kaze_a.f32", &ka), ("kaze_b.f32", &kb)] {
+        let bytes: Vec<u8> = f.descriptors.iter().flatten().flat_map(|x| x.to_le_bytes()).collect();
+        std::fs::write(path(file), bytes).unwrap();
+    }
+    println!(
+        "{name}: AKAZE {} × {}, KAZE {} × {} descriptors written to {dir}",
+        fa.descriptors.len(),
+        fb.descriptors.len(),
+        ka.descriptors.len(),
+        kb.descriptors.len()
+    );
+}
+
+/// OpenCV BFMatcher's figures on our exported descriptors (`opencv_akaze.py --match`): knnMatch k = 2 wall ms
+/// with 1 thread and with all, CPU ms 1 thread, knnMatch k = 2 plus the backward k = 1 match of a mutual
+/// check (1 thread), and its ratio-0.8 mutual matches.
+#[derive(Clone, Copy)]
+struct OpenCvMatch {
+    one: f64,
+    all: f64,
+    cpu: f64,
+    mutual: f64,
+    matches: usize,
+}
+
+/// OpenCV's matching row `match NAME` from the file `OPENCV_RESULTS` names, if its counts are `na` × `nb`.
+fn opencv_match_row(name: &str, na: usize, nb: usize) -> Option<OpenCvMatch> {
+    let text = std::fs::read_to_string(std::env::var("OPENCV_RESULTS").ok()?).ok()?;
+    let key = format!("match {name}");
+    let f: Vec<&str> = text.lines().find(|l| l.split('\t').next() == Some(key.as_str()))?.split('\t').collect();
+    let counts: (usize, usize) = (f.get(1)?.parse().ok()?, f.get(2)?.parse().ok()?);
+    if counts != (na, nb) {
+        eprintln!("OpenCV's {name} descriptors are {} × {}, ours {na} × {nb}: not shown", counts.0, counts.1);
+        return None;
+    }
+    Some(OpenCvMatch {
+        one: f.get(3)?.parse().ok()?,
+        all: f.get(4)?.parse().ok()?,
+        cpu: f.get(5)?.parse().ok()?,
+        mutual: f.get(6)?.parse().ok()?,
+        matches: f.get(7)?.parse().ok()?,
+    })
+}
+
+/// Matching rows: `match_descriptors` (AKAZE, Hamming) and `match_surf` (KAZE, L2), ratio 0.8, mutual, as the
+/// features rows use them; times per call and per descriptor pair (|A| · |B| distances), beside OpenCV.
+fn matching(a: &GrayImage, b: &GrayImage) {
+    let (name, a, b) = matching_pair(a, b);
+    let ([fa, fb], [ka, kb]) = matching_features(&a, &b);
+    println!(
+        "\n| matching, {name}, ratio 0.8, mutual | descriptors A × B | matches (ours / OpenCV) | ours ms (all threads) | ours ms (1 thread) | CPU ms 1 thread | ns per pair (1 thread) | OpenCV knnMatch ms (1 thread / all) | OpenCV CPU ms 1 thread | OpenCV ns per pair (1 thread) | OpenCV knn + back ms (1 thread) | ratio ours/OpenCV knn (1 thread) |\n|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    type Run<'a> = Box<dyn Fn() -> usize + Sync + 'a>;
+    let rows: [(&str, usize, usize, Run); 2] = [
+        (
+            "AKAZE",
+            fa.descriptors.len(),
+            fb.descriptors.len(),
+            Box::new(|| match_descriptors(&fa.descriptors, &fb.descriptors, 0.8, true).len()),
+        ),
+        (
+            "KAZE",
+            ka.descriptors.len(),
+            kb.descriptors.len(),
+            Box::new(|| match_surf(&ka.descriptors, &kb.descriptors, 0.8, true).len()),
+        ),
+    ];
+    for (det, na, nb, run) in rows {
+        let matches = run();
+        let all = time(5, &run);
+        let one = single(|| time(5, &run));
+        let cpu = single(|| cpu_time(5, &run));
+        let pairs = (na * nb).max(1) as f64;
+        let cv = opencv_match_row(det, na, nb);
+        let show = |f: &dyn Fn(OpenCvMatch) -> String| cv.map_or("–".to_string(), f);
+        println!(
+            "| {det} | {na} × {nb} | {matches} / {} | {all:.1} | {one:.1} | {cpu:.1} | {:.2} | {} | {} | {} | {} | {} |",
+            show(&|c| c.matches.to_string()),
+            one * 1e6 / pairs,
+            show(&|c| format!("{:.1} / {:.1}", c.one, c.all)),
+            show(&|c| format!("{:.1}", c.cpu)),
+            show(&|c| format!("{:.2}", c.one * 1e6 / pairs)),
+            show(&|c| format!("{:.1}", c.mutual)),
+            show(&|c| format!("{:.2}", one / c.one)),
+        );
+    }
+}
+
 fn main() {
     let blobs = scene::blobs(42, 3000, 1024.0);
     let truth = scene::truth(1024.0);
@@ -275,9 +441,20 @@ fn main() {
         return profile(args.get(i + 1).map_or("akaze", String::as_str), &a);
     }
     let b = scene::render(1024, &blobs, &truth, 0.8, 0.7, 0.7 * 128.0 + 25.0);
+    if let Some(i) = args.iter().position(|x| x == "export-descriptors") {
+        return export_descriptors(args.get(i + 1).map_or("descriptors", String::as_str), &a, &b);
+    }
     println!("threads: {}", rayon::current_num_threads());
-    if !args.iter().any(|x| x == "features") {
+    // Sections named on the command line (`features`, `matching`), or all of them.
+    let named = |what: &str| args.iter().any(|x| x == what);
+    let all = !named("features") && !named("matching");
+    if all {
         primitives(&a, &b);
     }
-    features(&a, &b, &truth);
+    if all || named("features") {
+        features(&a, &b, &truth);
+    }
+    if all || named("matching") {
+        matching(&a, &b);
+    }
 }

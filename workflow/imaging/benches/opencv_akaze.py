@@ -6,6 +6,12 @@ Run by hand: python3 -m venv /tmp/cv && /tmp/cv/bin/pip install "opencv-python-h
 With --tsv it also writes one line per detector (name, ms 1 thread, ms all threads, keypoints A, keypoints B,
 repeatability, matches, inliers, CPU ms 1 thread; tab-separated) for `OPENCV_RESULTS=PATH cargo bench -p plumbline-imaging`.
 benches/compare_opencv.sh runs both interleaved.
+
+With --match DIR it also times BFMatcher (NORM_HAMMING for AKAZE, NORM_L2 for KAZE; knnMatch k=2, and the
+backward knnMatch k=1 of a mutual check) on the descriptors that `cargo bench -p plumbline-imaging --bench
+imaging -- export-descriptors DIR` wrote, and adds a row per detector (match NAME, descriptors A, B, knnMatch
+ms 1 thread, ms all threads, CPU ms 1 thread, knn + back ms 1 thread, ratio-0.8 mutual matches).
+--no-detectors skips the detector rows.
 """
 import argparse
 import math
@@ -86,16 +92,50 @@ def quality(ka, da, kb, db, t, size):
     return hits / max(len(inside), 1), int(mask.sum()) if mask is not None else 0, len(good)
 
 
+def bf_matching(directory):
+    """BFMatcher on the exported descriptors: one TSV row per detector."""
+    rows = []
+    print("| BFMatcher | descriptors A × B | knnMatch ms (1 thread) | ms (all cores) | CPU ms (1 thread) | knn + back ms (1 thread) | matches |")
+    print("|---|---|---|---|---|---|---|")
+    for name, suffix, dtype, norm in [("AKAZE", "u8", np.uint8, cv2.NORM_HAMMING), ("KAZE", "f32", "<f4", cv2.NORM_L2)]:
+        da = np.fromfile(f"{directory}/{name.lower()}_a.{suffix}", dtype=dtype).reshape(-1, 64)
+        db = np.fromfile(f"{directory}/{name.lower()}_b.{suffix}", dtype=dtype).reshape(-1, 64)
+        if dtype != np.uint8:
+            da, db = da.astype(np.float32), db.astype(np.float32)
+        bf = cv2.BFMatcher(norm)
+        cv2.setNumThreads(1)
+        one = median_ms(lambda: bf.knnMatch(da, db, k=2))
+        cpu = median_ms(lambda: bf.knnMatch(da, db, k=2), clock=time.process_time)
+        both = median_ms(lambda: (bf.knnMatch(da, db, k=2), bf.knnMatch(db, da, k=1)))
+        cv2.setNumThreads(-1)
+        allc = median_ms(lambda: bf.knnMatch(da, db, k=2))
+        knn = bf.knnMatch(da, db, k=2)
+        back = {m[0].queryIdx: m[0].trainIdx for m in bf.knnMatch(db, da, k=1)}
+        good = [m[0] for m in knn if len(m) == 2 and m[0].distance < 0.8 * m[1].distance and back.get(m[0].trainIdx) == m[0].queryIdx]
+        print(f"| {name} | {len(da)} × {len(db)} | {one:.1f} | {allc:.1f} | {cpu:.1f} | {both:.1f} | {len(good)} |")
+        rows.append(f"match {name}\t{len(da)}\t{len(db)}\t{one:.2f}\t{allc:.2f}\t{cpu:.2f}\t{both:.2f}\t{len(good)}\n")
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--tsv", help="also write the rows, tab-separated, to this file")
+    parser.add_argument("--match", metavar="DIR", help="also time BFMatcher on the descriptors exported to DIR")
+    parser.add_argument("--no-detectors", action="store_true", help="skip the detector rows")
     args = parser.parse_args()
     rows = []
+    print(f"opencv {cv2.__version__}")
+    if args.match:
+        rows += bf_matching(args.match)
+    if args.no_detectors:
+        if args.tsv:
+            with open(args.tsv, "w") as out:
+                out.writelines(rows)
+        return
     size = 1024
     bl, t = blobs(42, 3000, size), truth(size)
     a = render(size, bl, np.eye(3), 1.0, 1.0, 128.0)
     b = render(size, bl, t, 0.8, 0.7, 0.7 * 128.0 + 25.0)
-    print(f"opencv {cv2.__version__}")
     print("| detector | ms (1 thread) | ms (all cores) | keypoints A / B | repeatability | matches | inliers |")
     print("|---|---|---|---|---|---|---|")
     for name, make in [("AKAZE", cv2.AKAZE_create), ("AKAZE upright", lambda: cv2.AKAZE_create(cv2.AKAZE_DESCRIPTOR_MLDB_UPRIGHT)), ("KAZE", cv2.KAZE_create)]:

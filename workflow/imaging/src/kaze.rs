@@ -114,12 +114,14 @@ pub fn kaze(img: &GrayImage, config: &KazeConfig) -> Result<KazeFeatures, Imagin
 }
 
 /// Nearest neighbours (Euclidean) of A's descriptors in B passing the ratio test (`ratio` on distances)
-/// and, if `mutual`, also nearest from B's side; returns (index in A, index in B, distance).
+/// and, if `mutual`, also nearest from B's side; returns (index in A, index in B, distance). Of equal
+/// distances the lowest index wins; squared distances are summed dimension by dimension, in order. Brute
+/// force in one pass over |A| · |B| distances (both directions), blocked for cache, in parallel over A.
 pub fn match_surf(a: &[SurfDescriptor], b: &[SurfDescriptor], ratio: f32, mutual: bool) -> Vec<(usize, usize, f32)> {
-    let dist = |x: &SurfDescriptor, y: &SurfDescriptor| x.iter().zip(y).map(|(p, q)| (p - q) * (p - q)).sum::<f32>();
     // Squared distances: compare with ratio².
     let passes = |best: f32, second: f32| best < ratio * ratio * second;
-    crate::nearest::match_nearest(a, b, dist, passes, mutual, f32::INFINITY)
+    let blocks = crate::nearest::pack_l2(b);
+    crate::nearest::match_blocked(a, &blocks, b.len(), crate::nearest::l2_tile, passes, mutual, f32::INFINITY)
         .into_iter()
         .map(|(i, j, d2)| (i, j, d2.sqrt()))
         .collect()

@@ -12,6 +12,7 @@ pub use descriptor::Descriptor;
 
 use crate::error::{ImagingError, require};
 use crate::image::GrayImage;
+use crate::nearest;
 
 /// AKAZE settings (defaults: the authors').
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -123,10 +124,12 @@ pub struct DescriptorMatch {
 }
 
 /// Nearest neighbours of A's descriptors in B that pass Lowe's ratio test (best < `ratio` · second best)
-/// and, if `mutual`, are also A's nearest from B's side.
+/// and, if `mutual`, are also A's nearest from B's side; of equal distances, the lowest index wins. Brute
+/// force in one pass over |A| · |B| distances (both directions), blocked for cache, in parallel over A.
 pub fn match_descriptors(a: &[Descriptor], b: &[Descriptor], ratio: f64, mutual: bool) -> Vec<DescriptorMatch> {
     let passes = |best: u32, second: u32| f64::from(best) < ratio * f64::from(second);
-    crate::nearest::match_nearest(a, b, hamming, passes, mutual, u32::MAX)
+    let blocks = nearest::pack_hamming(b);
+    nearest::match_blocked(a, &blocks, b.len(), nearest::hamming_tile, passes, mutual, u32::MAX)
         .into_iter()
         .map(|(a, b, distance)| DescriptorMatch { a, b, distance })
         .collect()
