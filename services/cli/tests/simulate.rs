@@ -81,6 +81,7 @@ fn canyon_campaigns_are_worse_than_open_sky_and_bad_arguments_exit_2() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().to_str().unwrap();
     plumbline(&["simulate", "--preset", "huge", "--out", out]).run().failure_with(2);
+    plumbline(&["simulate", "--aerial-frame-px", "14000", "--out", out]).run().failure_with(2);
 }
 
 /// Rows of a CSV file as maps from header to value.
@@ -102,9 +103,20 @@ fn sensor_data_is_complete_opens_through_gdal_and_validates() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("camp").to_str().unwrap().to_owned();
     let args = ["simulate", "--seed", "4", "--panorama-width", "1024", "--panorama-spacing", "12"];
-    plumbline(&[&args[..], &["--depth-rate", "1", "--aerial-gsd", "0.5", "--out", &out]].concat()).run().success();
+    let frames = ["--aerial-frame-px", "1200x900", "--aerial-format", "tiff16"];
+    let rest = ["--depth-rate", "1", "--aerial-gsd", "0.5", "--out", &out];
+    plumbline(&[&args[..], &frames[..], &rest[..]].concat()).run().success();
     plumbline(&["validate", &format!("{out}/campaign.toml")]).run().success();
     assert_eq!(&std::fs::read(format!("{out}/map.png")).unwrap()[1..4], b"PNG");
+    // Frames as large-format cameras deliver them: 16-bit R, G, B, NIR, tiled, of the interior's size.
+    let frame = csv_rows(&format!("{out}/aerial/exterior_orientation.csv"))[0]["file"].clone();
+    let json: serde_json::Value =
+        serde_json::from_str(&tool("gdalinfo", &["-json", &format!("{out}/aerial/frames/{frame}")])).unwrap();
+    assert_eq!(json["size"], serde_json::json!([1200, 900]), "{frame}");
+    let bands = json["bands"].as_array().unwrap();
+    assert_eq!(bands.len(), 4, "{frame}");
+    assert!(bands.iter().all(|b| b["type"] == "UInt16" && b["block"] == serde_json::json!([512, 512])), "{bands:?}");
+    assert!(std::fs::read_to_string(format!("{out}/campaign.toml")).unwrap().contains("width_px = 1200"));
     // Every index row names an existing file; the truth tables have one row per image.
     for (index, images) in [
         ("panoramas/index.csv", "panoramas"),

@@ -4,6 +4,8 @@ use anyhow::Context as _;
 use bytes::Bytes;
 
 use crate::errors::invalid;
+use crate::gdal_read::PixelInput;
+use crate::store::StoreLocation;
 use crate::store::{
     GdalRemote, S3Options, StoreErrorKind, gdal_remote, head_url, read_url, read_url_prefix, write_url,
 };
@@ -44,6 +46,19 @@ impl Files {
     /// the runtime config's endpoint and credentials); `None` for other schemes.
     pub fn remote_raster(&self, url: &str) -> anyhow::Result<Option<GdalRemote>> {
         Ok(gdal_remote(url, &self.s3)?)
+    }
+
+    /// How to open the raster at `url` with GDAL without fetching it whole when that can be avoided: a local
+    /// file in place, an `s3://` file by range requests ([`Files::remote_raster`]), anything else (e.g.
+    /// `memory://`) read whole.
+    pub async fn pixel_input(&self, url: &str) -> anyhow::Result<PixelInput> {
+        if let StoreLocation::Local(path) = StoreLocation::parse(url)? {
+            return Ok(PixelInput::Path(path));
+        }
+        if let Some(remote) = self.remote_raster(url)? {
+            return Ok(PixelInput::Remote(remote));
+        }
+        Ok(PixelInput::Bytes(self.read(url).await?.to_vec()))
     }
 
     /// Whether the file exists.

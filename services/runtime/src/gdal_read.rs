@@ -241,6 +241,39 @@ fn clear_thread_options(keys: &[String]) {
     }
 }
 
+/// Where a [`PixelSource`] is opened from: in place (a local file, or an object GDAL reads with range
+/// requests) or from bytes already fetched (`Files::pixel_input` decides).
+#[derive(Clone, Debug)]
+pub enum PixelInput {
+    /// A local file.
+    Path(PathBuf),
+    /// An object-store file GDAL reads itself.
+    Remote(GdalRemote),
+    /// The whole file's bytes.
+    Bytes(Vec<u8>),
+}
+
+impl PixelInput {
+    /// Open it; `name` (the URL) is used in errors.
+    pub fn open(self, name: &str) -> Result<PixelSource, GdalReadError> {
+        match self {
+            Self::Path(path) => PixelSource::open_path(&path),
+            Self::Remote(remote) => PixelSource::open_remote(name, &remote),
+            Self::Bytes(bytes) => PixelSource::open_bytes(name, bytes),
+        }
+    }
+}
+
+/// Bytes to read from a file's start to tell a tiled raster ([`is_tiled_raster`]) from a JPEG or PNG.
+pub const MAGIC_BYTES: u64 = 12;
+
+/// Whether a file's first bytes are a TIFF, BigTIFF or JPEG 2000 file: rasters GDAL reads a window at a time
+/// (a JPEG or PNG has to be decoded from its start).
+pub fn is_tiled_raster(head: &[u8]) -> bool {
+    const JP2: [u8; 12] = [0, 0, 0, 0x0C, b'j', b'P', b' ', b' ', 0x0D, 0x0A, 0x87, 0x0A];
+    matches!(head, [b'I', b'I', 42 | 43, 0, ..] | [b'M', b'M', 0, 42 | 43, ..]) || head.starts_with(&JP2)
+}
+
 /// An open georeferenced raster: its size, georeferencing and bands, ready to serve windows given in mapping
 /// coordinates.
 #[derive(Debug)]

@@ -238,6 +238,56 @@ fn geotiff_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Resul
     bytes
 }
 
+/// An image TIFF without georeferencing (aerial frames, which their orientation places): tiled 512 × 512,
+/// deflate with horizontal differencing, BigTIFF when it may pass 4 GB. `data` holds `width · height` pixels
+/// per band.
+pub fn image_tiff(width: usize, height: usize, data: &RasterData) -> Result<Vec<u8>, GdalWriteError> {
+    route_gdal_messages();
+    match data {
+        RasterData::U8(bands) => image_tiff_typed(width, height, bands),
+        RasterData::U16(bands) => image_tiff_typed(width, height, bands),
+        RasterData::F32(bands) => image_tiff_typed(width, height, bands),
+    }
+}
+
+fn image_tiff_typed<T: GdalType + Copy>(
+    width: usize,
+    height: usize,
+    bands: &[Vec<T>],
+) -> Result<Vec<u8>, GdalWriteError> {
+    let item = || format!("{width}×{height} image");
+    if bands.is_empty() {
+        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem: "has no band".into() });
+    }
+    if let Some((b, band)) = bands.iter().enumerate().find(|(_, b)| b.len() != width * height) {
+        let problem = format!("band {} holds {} pixels", b + 1, band.len());
+        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem });
+    }
+    let path = vsimem_path("tif");
+    let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
+    let options = gdal::raster::RasterCreationOptions::from_iter([
+        "TILED=YES",
+        "BLOCKXSIZE=512",
+        "BLOCKYSIZE=512",
+        "COMPRESS=DEFLATE",
+        "PREDICTOR=2",
+        "BIGTIFF=IF_SAFER",
+    ]);
+    let mut ds = driver
+        .create_with_band_type_with_options::<T, _>(&path, width, height, bands.len(), &options)
+        .map_err(failed("create a TIFF"))?;
+    let result = bands.iter().enumerate().try_for_each(|(b, data)| {
+        let mut band = ds.rasterband(b + 1).map_err(failed(format!("open band {}", b + 1)))?;
+        let mut buffer = Buffer::new((width, height), data.clone());
+        band.write((0, 0), (width, height), &mut buffer).map_err(failed(format!("write band {}", b + 1)))
+    });
+    let closed = ds.close().map_err(failed("close the TIFF"));
+    let bytes = take(&path);
+    result?;
+    closed?;
+    bytes
+}
+
 fn fill<T: GdalType + Copy>(
     ds: &mut Dataset,
     raster: &Raster,

@@ -15,7 +15,7 @@ use plumbline_runtime::{Files, invalid, is_invalid};
 use crate::fetch::{SkipReason, blocking};
 
 /// The local file behind a `file://` URL or a plain path; `None` for other schemes.
-pub(crate) fn local_path(url: &str) -> Option<PathBuf> {
+fn local_path(url: &str) -> Option<PathBuf> {
     match url.split_once("://") {
         Some(("file", rest)) => Some(PathBuf::from(rest)),
         Some(_) => None,

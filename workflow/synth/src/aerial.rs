@@ -59,6 +59,11 @@ pub fn block(
 
 /// The exterior-orientation CSV of `frames` (`reported` or true orientations), files `{id}.jpg`.
 pub fn exterior_orientation_csv(frames: &[Frame], reported: bool) -> Vec<u8> {
+    exterior_orientation_csv_as(frames, reported, "jpg")
+}
+
+/// [`exterior_orientation_csv`] with files `{id}.{extension}`.
+pub fn exterior_orientation_csv_as(frames: &[Frame], reported: bool, extension: &str) -> Vec<u8> {
     let mut s = String::from("image_id,file,x,y,z,omega_deg,phi_deg,kappa_deg\n");
     for f in frames {
         let pose = if reported { &f.reported } else { &f.truth };
@@ -66,7 +71,7 @@ pub fn exterior_orientation_csv(frames: &[Frame], reported: bool) -> Vec<u8> {
         let p = pose.translation;
         let _ = writeln!(
             s,
-            "{},{}.jpg,{:.4},{:.4},{:.4},{:.7},{:.7},{:.7}",
+            "{},{}.{extension},{:.4},{:.4},{:.4},{:.7},{:.7},{:.7}",
             f.id,
             f.id,
             p.x(),

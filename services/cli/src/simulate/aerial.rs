@@ -6,8 +6,8 @@
 
 use anyhow::Context as _;
 use plumbline_geo::camera::MetricInterior;
-use plumbline_runtime::gdal_write::{Raster, RasterData, geotiff};
-use plumbline_synth::aerial::{self, exterior_orientation_csv};
+use plumbline_runtime::gdal_write::{Raster, RasterData, geotiff, image_tiff};
+use plumbline_synth::aerial;
 use plumbline_synth::map::footprint;
 use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
 use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, encode_jpeg, render_aerial};
@@ -28,19 +28,79 @@ pub(crate) const TERRAIN_NODATA: f64 = -9999.0;
 /// Ground corners of each frame (for the campaign map).
 pub(crate) type Footprints = Vec<[[f64; 2]; 4]>;
 
+/// How the frames of `tiny` and `district` are made: GSD, size and file format.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct FrameOptions {
+    /// Ground sample distance, metres.
+    pub gsd: f64,
+    /// Width and height, pixels.
+    pub size: (u32, u32),
+    /// File format.
+    pub format: FrameFormat,
+}
+
+impl FrameOptions {
+    /// The options `simulate` was given.
+    pub(crate) fn of(args: &super::Args) -> Self {
+        Self { gsd: args.aerial_gsd, size: args.aerial_frame_px.unwrap_or(FRAME_PX), format: args.aerial_format }
+    }
+
+    /// The camera: the default small-format camera with its radial distortion, or at any other size a
+    /// distortion-free virtual image with the same pixel pitch and focal length.
+    fn interior(&self) -> MetricInterior {
+        if self.size == FRAME_PX {
+            aerial::small_format_distorted(FRAME_PX.0, FRAME_PX.1)
+        } else {
+            aerial::small_format(self.size.0, self.size.1)
+        }
+    }
+}
+
+/// File formats of the simulated frames.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum FrameFormat {
+    /// 8-bit RGB JPEG (quality 90).
+    Jpeg,
+    /// 16-bit 4-band (R, G, B, NIR) tiled GeoTIFF, deflate-compressed, 12-bit data, as large-format cameras
+    /// deliver (no georeferencing: the frame is placed by its orientation).
+    Tiff16,
+}
+
+impl FrameFormat {
+    /// The frames' file extension.
+    fn extension(self) -> &'static str {
+        match self {
+            Self::Jpeg => "jpg",
+            Self::Tiff16 => "tif",
+        }
+    }
+}
+
 /// Write frames, orientations, orthophoto and terrain; returns the manifest's `[aerial]` and the footprints.
-pub(crate) fn write(world: &World, gsd: f64, seed: u64, sink: &Sink) -> anyhow::Result<(String, Footprints)> {
+pub(crate) fn write(
+    world: &World,
+    options: &FrameOptions,
+    seed: u64,
+    sink: &Sink,
+) -> anyhow::Result<(String, Footprints)> {
+    let gsd = options.gsd;
     let spec = block_spec(gsd)?;
-    let interior = aerial::small_format_distorted(FRAME_PX.0, FRAME_PX.1);
+    let interior = options.interior();
     let (cam, frames) = aerial::block(world, &interior, &spec, &AtErrors::typical(), seed).context("aerial camera")?;
     let scene = Scene::aerial(world);
+    let extension = options.format.extension();
     for (i, frame) in frames.iter().enumerate() {
         let optics = AerialOptics::typical(seed.wrapping_mul(7_919).wrapping_add(i as u64));
         let image = render_aerial(&scene, &cam, &frame.truth, &optics);
-        sink.put(format!("aerial/frames/{}.jpg", frame.id), encode_jpeg(&image, JPEG_QUALITY)?)?;
+        let bytes = match options.format {
+            FrameFormat::Jpeg => encode_jpeg(&image, JPEG_QUALITY)?,
+            FrameFormat::Tiff16 => frame_tiff16(&image).with_context(|| format!("frame {} as GeoTIFF", frame.id))?,
+        };
+        drop(image);
+        sink.put(format!("aerial/frames/{}.{extension}", frame.id), bytes)?;
     }
-    sink.put("aerial/exterior_orientation.csv", exterior_orientation_csv(&frames, true))?;
-    sink.put("truth/aerial_orientation.csv", exterior_orientation_csv(&frames, false))?;
+    sink.put("aerial/exterior_orientation.csv", aerial::exterior_orientation_csv_as(&frames, true, extension))?;
+    sink.put("truth/aerial_orientation.csv", aerial::exterior_orientation_csv_as(&frames, false, extension))?;
     let epsg = world.config.epsg;
     let grid = OrthoGrid::covering(&scene, spec.gsd);
     let ortho = ortho_raster(&render_orthophoto(&scene, &grid), &grid, epsg);
@@ -50,6 +110,17 @@ pub(crate) fn write(world: &World, gsd: f64, seed: u64, sink: &Sink) -> anyhow::
     let footprints = frames.iter().map(|f| footprint(&f.truth, interior.width, interior.height, gsd)).collect();
     let section = section(&spec, &interior, "aerial/orthophoto.tif", "aerial/terrain.tif");
     Ok((section, footprints))
+}
+
+/// A rendered frame as a 16-bit 4-band tiled GeoTIFF: 8-bit values scaled to 12 bits above a dark level of
+/// 256 (R, G, B), and a near-infrared band from red and green (vegetation is not modelled; the band only has
+/// to be there and be ignored).
+fn frame_tiff16(image: &image::RgbImage) -> anyhow::Result<Vec<u8>> {
+    let deep = |v: u8| 256 + 16 * u16::from(v);
+    let mut bands: Vec<Vec<u16>> = (0..3).map(|k| image.pixels().map(|p| deep(p[k])).collect()).collect();
+    bands.push(image.pixels().map(|p| deep(((u16::from(p[0]) + u16::from(p[1])) / 2) as u8)).collect());
+    let (width, height) = (image.width() as usize, image.height() as usize);
+    Ok(image_tiff(width, height, &RasterData::U16(bands))?)
 }
 
 /// The block flown at `gsd` (`--aerial-gsd`, checked), with the standard overlaps.

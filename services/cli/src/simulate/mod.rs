@@ -102,6 +102,22 @@ pub struct Args {
     /// Depth images per second while the vehicle moves; default 1 for `tiny`, 5 for `district`.
     #[arg(long)]
     pub depth_rate: Option<f64>,
+    /// Size of the aerial frames, `WIDTHxHEIGHT` pixels (`tiny` and `district`): the default 1000x750 flies a
+    /// small-format camera with a little radial distortion; any other size a distortion-free virtual image, as
+    /// large-format cameras deliver (e.g. `14000x10000`; the GSD stays `--aerial-gsd`, the block flies higher).
+    #[arg(long, value_name = "WxH", value_parser = parse_frame_size)]
+    pub aerial_frame_px: Option<(u32, u32)>,
+    /// File format of the aerial frames (`tiny` and `district`).
+    #[arg(long, value_enum, default_value_t = aerial::FrameFormat::Jpeg)]
+    pub aerial_format: aerial::FrameFormat,
+}
+
+/// A frame size `WIDTHxHEIGHT`, each 100–40000 pixels.
+fn parse_frame_size(text: &str) -> Result<(u32, u32), String> {
+    let bad = || format!("`{text}`: expected WIDTHxHEIGHT in pixels, each 100–40000, e.g. 14000x10000");
+    let (w, h) = text.trim().split_once(['x', 'X']).ok_or_else(bad)?;
+    let (w, h): (u32, u32) = (w.trim().parse().map_err(|_| bad())?, h.trim().parse().map_err(|_| bad())?);
+    if (100..=40_000).contains(&w) && (100..=40_000).contains(&h) { Ok((w, h)) } else { Err(bad()) }
 }
 
 /// A length in metres: a number, or a number with `m` or `km`.
@@ -206,6 +222,9 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         return Err(invalid(format!("--length {length}: expected 50–100000 m")));
     }
     if preset == Preset::City {
+        if args.aerial_frame_px.is_some() || args.aerial_format != aerial::FrameFormat::Jpeg {
+            return Err(invalid("--aerial-frame-px and --aerial-format apply to the tiny and district presets"));
+        }
         return city::generate(args, length, sink);
     }
     let world_config = WorldConfig::new(world_preset, seed);
@@ -237,7 +256,8 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         sections.panoramas = Some(imagery::panoramas(&world, &drive, &drive_config, &dg, &sizes, sink)?);
         sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
         sections.cadastre = Some(cadastre::write(&world, crs, seed, sink)?);
-        let (section, footprints) = aerial::write(&world, args.aerial_gsd, seed, sink)?;
+        let frames = aerial::FrameOptions::of(args);
+        let (section, footprints) = aerial::write(&world, &frames, seed, sink)?;
         sections.aerial = Some(section);
         let map = campaign_map_png(&world, &drive, &dg, &footprints, OVERVIEW_WIDTH_PX).context("campaign map")?;
         sink.put("map.png", map)?;

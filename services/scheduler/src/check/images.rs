@@ -6,6 +6,7 @@ use plumbline_campaign::tables::{RowProblem, read_index};
 use plumbline_imaging::decode::{
     AERIAL_FRAME_PIXELS, Bounds, ColorType, DEPTH_PIXELS, ImageFormat, PANORAMA_PIXELS, header,
 };
+use plumbline_runtime::gdal_read::{MAGIC_BYTES, is_tiled_raster};
 
 use super::Checker;
 
@@ -97,6 +98,13 @@ pub(crate) async fn first_image(c: &mut Checker<'_>, field: &str, images: &Locat
         Ok(url) => url,
         Err(e) => return c.problem(field, format!("row file `{file}`: {e}")),
     };
+    if let Expect::Aerial(w, h) = expect {
+        match c.files.read_prefix(&url, MAGIC_BYTES).await {
+            Ok((head, _)) if is_tiled_raster(&head) => return tiled_frame(c, field, &url, (w, h)).await,
+            Ok(_) => {}
+            Err(e) => return c.problem(field, format!("`{url}`: {e:#}")),
+        }
+    }
     let Some(bytes) = c.read(field, &url).await else { return };
     let (bounds, what) = match expect {
         Expect::Panorama(size) => {
@@ -118,6 +126,39 @@ pub(crate) async fn first_image(c: &mut Checker<'_>, field: &str, images: &Locat
                 if e.is_size() { format!(" ({what}; every such image would be skipped)") } else { String::new() };
             c.problem(field, format!("first image: {e}{hint}"));
         }
+    }
+}
+
+/// A tiled raster frame (TIFF, JPEG 2000) opened as the run opens it, through GDAL without fetching it whole:
+/// the interior orientation's size, 1–4 bands.
+async fn tiled_frame(c: &mut Checker<'_>, field: &str, url: &str, (w, h): (u32, u32)) {
+    let input = match c.files.pixel_input(url).await {
+        Ok(input) => input,
+        Err(e) => return c.problem(field, format!("`{url}`: {e:#}")),
+    };
+    let name = url.to_owned();
+    let opened = tokio::task::spawn_blocking(move || {
+        let source = input.open(&name)?;
+        Ok::<_, plumbline_runtime::gdal_read::GdalReadError>((source.size(), source.band_count(), source.pixel_type()?))
+    })
+    .await;
+    match opened {
+        Ok(Ok(((width, height), bands, pixel))) => {
+            if (width, height) != (w as usize, h as usize) {
+                c.problem(
+                    field,
+                    format!(
+                        "first image `{url}` is {width} × {height} px, expected {w} × {h} px (aerial.frames.interior; \
+                         every such frame would be skipped)"
+                    ),
+                );
+            }
+            if !(1..=4).contains(&bands) {
+                c.warning(field, format!("first image `{url}` has {bands} bands; bands 1–3 are used ({pixel})"));
+            }
+        }
+        Ok(Err(e)) => c.problem(field, format!("first image: {e}")),
+        Err(e) => c.problem(field, format!("first image `{url}`: the check failed: {e}")),
     }
 }
 

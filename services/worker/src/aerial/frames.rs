@@ -21,19 +21,15 @@ use plumbline_imaging::decode::{AERIAL_FRAME_PIXELS, Bounds, DecodeError, decode
 use plumbline_imaging::radiometry::gray_from_bands;
 use plumbline_registration::aerial::{AerialFrame, AerialReference, FrameReach};
 use plumbline_runtime::Files;
-use plumbline_runtime::gdal_read::PixelSource;
+use plumbline_runtime::gdal_read::{MAGIC_BYTES, PixelSource, is_tiled_raster};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
 use super::{LoadedReference, STAGE, frame_camera, frame_pose, sees};
 use crate::fetch::{SkipReason, on_rayon, read_one, refused, skipped};
-use crate::raster::local_path;
 
 /// Most pixels of one frame window (a tile's reach is usually a few megapixels; a frame that sees the tile
 /// so obliquely that its window cannot be computed is read whole, up to this).
 pub(crate) const WINDOW_PIXELS: usize = 64 << 20;
-
-/// Bytes read to tell a tiled raster from a JPEG or PNG.
-const MAGIC_BYTES: u64 = 12;
 
 /// A frame's pixel window: column, row, width, height.
 pub(crate) type PixelWindow = (usize, usize, usize, usize);
@@ -169,12 +165,6 @@ pub(super) struct Wanted {
     pub window: Option<PixelWindow>,
 }
 
-/// Whether the first bytes are a TIFF, BigTIFF or JPEG 2000 file (read through GDAL a window at a time).
-fn is_tiled_raster(head: &[u8]) -> bool {
-    const JP2: [u8; 12] = [0, 0, 0, 0x0C, b'j', b'P', b' ', b' ', 0x0D, 0x0A, 0x87, 0x0A];
-    matches!(head, [b'I', b'I', 42 | 43, 0, ..] | [b'M', b'M', 0, 42 | 43, ..]) || head.starts_with(&JP2)
-}
-
 /// Read one frame's window; the seconds reading and decoding it.
 async fn read_frame(files: &Files, w: Wanted) -> (Result<AerialFrame, SkippedInput>, f64, f64) {
     let t0 = Instant::now();
@@ -227,34 +217,20 @@ pub(super) fn decode_frame(w: &Wanted, bytes: &Bytes) -> Result<AerialFrame, Ski
 /// A tiled raster frame's window through GDAL: opened in place (local), over the network with range requests
 /// (`s3://`), or from its fetched bytes (other stores).
 async fn read_tiled(files: &Files, w: Wanted, t0: Instant) -> (Result<AerialFrame, SkippedInput>, f64, f64) {
-    let local = local_path(&w.url);
-    let remote = match local {
-        Some(_) => None,
-        None => match files.remote_raster(&w.url) {
-            Ok(remote) => remote,
-            Err(e) => {
-                let detail = format!("{}: cannot be read in place: {e:#}", w.url);
-                return (Err(skipped(STAGE, &w.url, SkipReason::Read, detail)), t0.elapsed().as_secs_f64(), 0.0);
-            }
-        },
-    };
-    let bytes = match (&local, &remote) {
-        (None, None) => match read_one(files, &w.url, STAGE).await {
-            Ok(b) => Some(b.to_vec()),
-            Err(s) => return (Err(s), t0.elapsed().as_secs_f64(), 0.0),
-        },
-        _ => None,
+    let input = match files.pixel_input(&w.url).await {
+        Ok(input) => input,
+        Err(e) => {
+            let reason = if plumbline_runtime::is_invalid(&e) { SkipReason::Missing } else { SkipReason::Read };
+            let detail = format!("{}: cannot be read: {e:#}", w.url);
+            return (Err(skipped(STAGE, &w.url, reason, detail)), t0.elapsed().as_secs_f64(), 0.0);
+        }
     };
     let read_s = t0.elapsed().as_secs_f64();
     let url = w.url.clone();
     let decoded = tokio::task::spawn_blocking(move || {
         let t1 = Instant::now();
-        let source = match (local, remote, bytes) {
-            (Some(path), _, _) => PixelSource::open_path(&path),
-            (None, Some(remote), _) => PixelSource::open_remote(&w.url, &remote),
-            (None, None, bytes) => PixelSource::open_bytes(&w.url, bytes.unwrap_or_default()),
-        };
-        let frame = source
+        let frame = input
+            .open(&w.url)
             .map_err(|e| skipped(STAGE, &w.url, SkipReason::Decode, e.to_string()))
             .and_then(|s| window_of_source(&s, &w));
         (frame, t1.elapsed().as_secs_f64())
