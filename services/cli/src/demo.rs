@@ -52,6 +52,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         panorama_width: None,
         aerial_gsd: 0.12,
         depth_rate: None,
+        aerial_frame_px: None,
+        aerial_format: simulate::FrameFormat::Jpeg,
     };
     let manifest = simulate::write(ctx, sim).await?;
     progress.end("simulate");

@@ -273,7 +273,7 @@ fn image_tiff_typed<T: GdalType + Copy>(
         "PREDICTOR=2",
         "BIGTIFF=IF_SAFER",
     ]);
-    let mut ds = driver
+    let ds = driver
         .create_with_band_type_with_options::<T, _>(&path, width, height, bands.len(), &options)
         .map_err(failed("create a TIFF"))?;
     let result = bands.iter().enumerate().try_for_each(|(b, data)| {

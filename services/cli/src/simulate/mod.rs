@@ -31,6 +31,7 @@
 //! multipart uploads to object stores (module `writer`).
 
 mod aerial;
+pub use aerial::FrameFormat;
 mod cadastre;
 mod city;
 mod city_aerial;
@@ -108,8 +109,8 @@ pub struct Args {
     #[arg(long, value_name = "WxH", value_parser = parse_frame_size)]
     pub aerial_frame_px: Option<(u32, u32)>,
     /// File format of the aerial frames (`tiny` and `district`).
-    #[arg(long, value_enum, default_value_t = aerial::FrameFormat::Jpeg)]
-    pub aerial_format: aerial::FrameFormat,
+    #[arg(long, value_enum, default_value_t = FrameFormat::Jpeg)]
+    pub aerial_format: FrameFormat,
 }
 
 /// A frame size `WIDTHxHEIGHT`, each 100–40000 pixels.
@@ -222,7 +223,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         return Err(invalid(format!("--length {length}: expected 50–100000 m")));
     }
     if preset == Preset::City {
-        if args.aerial_frame_px.is_some() || args.aerial_format != aerial::FrameFormat::Jpeg {
+        if args.aerial_frame_px.is_some() || args.aerial_format != FrameFormat::Jpeg {
             return Err(invalid("--aerial-frame-px and --aerial-format apply to the tiny and district presets"));
         }
         return city::generate(args, length, sink);
