@@ -224,6 +224,30 @@ mod tests {
         out.into_inner()
     }
 
+    /// Register `placed` (256 × 128 panoramas, 3 m patches) with no aerial frame: every panorama is prepared
+    /// and paired, and discarded after step 4 for want of aerial images.
+    async fn register_without_reference(placed: &[Placed]) -> RegisteredTile {
+        let rig = Arc::new(PanoramaRig {
+            camera: Equirectangular::new(256, 128).unwrap(),
+            mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
+            vehicle_mask: None,
+            camera_height: 2.5,
+        });
+        let mut config = PipelineConfig::default();
+        config.mm.half_extent = 3.0;
+        let tile = Tile {
+            files: &Files::default(),
+            id: TileId { col: 0, row: 0 },
+            placed,
+            rig: &rig,
+            config: &config,
+            size: (256, 128),
+            concurrency: 2,
+        };
+        let reference = Arc::new(AerialReference::Frames(Vec::new()));
+        register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap()
+    }
+
     /// Issue 18: among a tile's panoramas, a forged 20000² header and a real 12000² decompression bomb are
     /// skipped for their size (nothing allocated for their pixels) while the others are decoded and prepared.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
@@ -248,25 +272,7 @@ mod tests {
                 Placed { url: path.to_str().unwrap().to_owned(), info }
             })
             .collect();
-        let rig = Arc::new(PanoramaRig {
-            camera: Equirectangular::new(256, 128).unwrap(),
-            mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
-            vehicle_mask: None,
-            camera_height: 2.5,
-        });
-        let mut config = PipelineConfig::default();
-        config.mm.half_extent = 3.0;
-        let tile = Tile {
-            files: &Files::default(),
-            id: TileId { col: 0, row: 0 },
-            placed: &placed,
-            rig: &rig,
-            config: &config,
-            size: (256, 128),
-            concurrency: 2,
-        };
-        let reference = Arc::new(AerialReference::Frames(Vec::new()));
-        let out = register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap();
+        let out = register_without_reference(&placed).await;
         let plumbline_registration::TileResult::V1(result) = &out.run.result;
         let ids: Vec<&str> = result.images.iter().map(|d| d.image.as_str()).collect();
         assert_eq!(ids, ["p1", "p3", "p5"]);
@@ -301,28 +307,10 @@ mod tests {
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn prepared_patches_held_do_not_grow_with_the_panoramas_of_a_tile() {
         let dir = tempfile::tempdir().unwrap();
-        let rig = Arc::new(PanoramaRig {
-            camera: Equirectangular::new(256, 128).unwrap(),
-            mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
-            vehicle_mask: None,
-            camera_height: 2.5,
-        });
-        let mut config = PipelineConfig::default();
-        config.mm.half_extent = 3.0;
         let mut held = Vec::new();
         for n in [40, 160] {
             let placed = street(dir.path(), n);
-            let tile = Tile {
-                files: &Files::default(),
-                id: TileId { col: 0, row: 0 },
-                placed: &placed,
-                rig: &rig,
-                config: &config,
-                size: (256, 128),
-                concurrency: 2,
-            };
-            let reference = Arc::new(AerialReference::Frames(Vec::new()));
-            let out = register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap();
+            let out = register_without_reference(&placed).await;
             let plumbline_registration::TileResult::V1(result) = &out.run.result;
             assert_eq!(result.images.len(), n);
             assert!(out.skipped.is_empty(), "{:?}", out.skipped);
