@@ -215,14 +215,7 @@ pub fn geotiff(raster: &Raster) -> Result<Vec<u8>, GdalWriteError> {
 }
 
 fn geotiff_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Result<Vec<u8>, GdalWriteError> {
-    let item = || format!("{}×{} raster", raster.width, raster.height);
-    if bands.is_empty() {
-        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem: "has no band".into() });
-    }
-    if let Some((b, band)) = bands.iter().enumerate().find(|(_, b)| b.len() != raster.width * raster.height) {
-        let problem = format!("band {} holds {} pixels", b + 1, band.len());
-        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem });
-    }
+    check_bands(&format!("{}×{} raster", raster.width, raster.height), raster.width * raster.height, bands)?;
     let srs = srs(raster.epsg)?;
     let path = vsimem_path("tif");
     let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
@@ -255,14 +248,7 @@ fn image_tiff_typed<T: GdalType + Copy>(
     height: usize,
     bands: &[Vec<T>],
 ) -> Result<Vec<u8>, GdalWriteError> {
-    let item = || format!("{width}×{height} image");
-    if bands.is_empty() {
-        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem: "has no band".into() });
-    }
-    if let Some((b, band)) = bands.iter().enumerate().find(|(_, b)| b.len() != width * height) {
-        let problem = format!("band {} holds {} pixels", b + 1, band.len());
-        return Err(GdalWriteError::Invalid { item: item(), field: "data", problem });
-    }
+    check_bands(&format!("{width}×{height} image"), width * height, bands)?;
     let path = vsimem_path("tif");
     let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
     let options = gdal::raster::RasterCreationOptions::from_iter([
@@ -286,6 +272,18 @@ fn image_tiff_typed<T: GdalType + Copy>(
     result?;
     closed?;
     bytes
+}
+
+/// At least one band, each of `pixels` values; the error names `item`.
+fn check_bands<T>(item: &str, pixels: usize, bands: &[Vec<T>]) -> Result<(), GdalWriteError> {
+    let invalid = |problem: String| GdalWriteError::Invalid { item: item.to_owned(), field: "data", problem };
+    if bands.is_empty() {
+        return Err(invalid("has no band".into()));
+    }
+    match bands.iter().enumerate().find(|(_, b)| b.len() != pixels) {
+        Some((b, band)) => Err(invalid(format!("band {} holds {} pixels", b + 1, band.len()))),
+        None => Ok(()),
+    }
 }
 
 fn fill<T: GdalType + Copy>(

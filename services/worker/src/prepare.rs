@@ -131,8 +131,8 @@ pub(crate) async fn register(
         }
         // Release every patch before the next segment's first owned panorama's previous one.
         if let Some(next) = segments.get(s + 1).and_then(|n| n.first()) {
-            let keep_from = by_time.iter().filter(|k| !failed.contains(k)).position(|k| k == next).unwrap_or(0);
             let live: Vec<usize> = by_time.iter().copied().filter(|k| !failed.contains(k)).collect();
+            let keep_from = live.iter().position(|k| k == next).unwrap_or(0);
             for &k in &live[..keep_from.saturating_sub(1)] {
                 if let Some(p) = done[k].as_mut() {
                     p.release();
