@@ -94,28 +94,81 @@ fn normal_equations(
     r0: f64,
     r1: f64,
 ) -> Result<(Normal, Rhs, f64, usize), ImagingError> {
-    let (mut n, mut rhs, mut ee) = (Normal::zeros(), Rhs::zeros(), 0.0);
+    let (mut upper, mut rhs, mut ee) = ([[0.0; 8]; 8], [0.0; 8], 0.0);
     let (cx, cy) = (t.width() as f64 / 2.0, t.height() as f64 / 2.0);
+    let interior = Interior::of(s, a, t.width(), t.height());
     for row in 0..t.height() {
         for col in 0..t.width() {
             let (x, y) = (col as f64 + 0.5 - cx, row as f64 + 0.5 - cy);
             let (u, v) = (a[0] + a[1] * x + a[2] * y, a[3] + a[4] * x + a[5] * y);
-            let sample = |du: f64, dv: f64| s.sample(u + du, v + dv).map(f64::from);
-            let (Some(g), Some(gl), Some(gr), Some(gt), Some(gb)) =
-                (sample(0.0, 0.0), sample(-1.0, 0.0), sample(1.0, 0.0), sample(0.0, -1.0), sample(0.0, 1.0))
-            else {
+            let samples = match interior {
+                Some(ref inside) => Some(inside.cross(u, v)),
+                None => cross_checked(s, u, v),
+            };
+            let Some([g, gl, gr, gt, gb]) = samples else {
                 return Err(s.out_of_bounds("least-squares matching", a[0], a[3], t.width() / 2));
             };
             let (gu, gv) = (0.5 * (gr - gl), 0.5 * (gb - gt));
             // paper 000 §3.4 (LSM): ∂/∂(a, r) of r0 + r1·S(u, v) with u, v affine in (x, y)
-            let j = Rhs::from([r1 * gu, r1 * gu * x, r1 * gu * y, r1 * gv, r1 * gv * x, r1 * gv * y, 1.0, g]);
+            let j = [r1 * gu, r1 * gu * x, r1 * gu * y, r1 * gv, r1 * gv * x, r1 * gv * y, 1.0, g];
             let e = f64::from(t.get(col, row)) - r0 - r1 * g;
-            n += j * j.transpose();
-            rhs += j * e;
+            for (p, line) in upper.iter_mut().enumerate() {
+                for q in p..8 {
+                    line[q] += j[p] * j[q];
+                }
+                rhs[p] += j[p] * e;
+            }
             ee += e * e;
         }
     }
-    Ok((n, rhs, ee, t.width() * t.height()))
+    let n = Normal::from_fn(|p, q| if p <= q { upper[p][q] } else { upper[q][p] });
+    Ok((n, Rhs::from(rhs), ee, t.width() * t.height()))
+}
+
+/// The bilinear samples of `s` at (u, v) and one pixel left, right, up and down, as f64; `None` when one
+/// of them lies outside the image ([`GrayImage::sample`]).
+fn cross_checked(s: &GrayImage, u: f64, v: f64) -> Option<[f64; 5]> {
+    let sample = |du: f64, dv: f64| s.sample(u + du, v + dv).map(f64::from);
+    Some([sample(0.0, 0.0)?, sample(-1.0, 0.0)?, sample(1.0, 0.0)?, sample(0.0, -1.0)?, sample(0.0, 1.0)?])
+}
+
+/// A search image known to hold the 4 × 4 pixels around every point a template's affine reaches, so the
+/// five samples of [`cross_checked`] need neither bounds checks nor edge clamping. They share their
+/// bilinear weights; the values are those of [`GrayImage::sample`] to the bit.
+struct Interior<'a> {
+    data: &'a [f32],
+    width: usize,
+}
+
+impl<'a> Interior<'a> {
+    /// `Some` when every point of the `tw` × `th` template under `a` lies at least 2 px inside `s` (the
+    /// affine image of the template's rectangle is the parallelogram of its corners; 1.5 px are needed,
+    /// the rest absorbs rounding).
+    fn of(s: &'a GrayImage, a: &Affine, tw: usize, th: usize) -> Option<Self> {
+        let (hx, hy) = (tw as f64 / 2.0, th as f64 / 2.0);
+        let (w, h) = (s.width() as f64, s.height() as f64);
+        let inside = [(-hx, -hy), (hx, -hy), (-hx, hy), (hx, hy)].iter().all(|&(x, y)| {
+            let (u, v) = (a[0] + a[1] * x + a[2] * y, a[3] + a[4] * x + a[5] * y);
+            u >= 2.0 && v >= 2.0 && u < w - 2.0 && v < h - 2.0
+        });
+        inside.then(|| Self { data: s.data(), width: s.width() })
+    }
+
+    /// The five samples of [`cross_checked`] at (u, v), which [`Interior::of`] placed inside.
+    fn cross(&self, u: f64, v: f64) -> [f64; 5] {
+        let (x, y) = (u - 0.5, v - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
+        let base = y0 as usize * self.width + x0 as usize;
+        let w = self.width as isize;
+        let at = |dc: isize, dr: isize| self.data[(base as isize + dr * w + dc) as usize];
+        let bilinear = |dc: isize, dr: isize| {
+            let top = at(dc, dr) * (1.0 - fx) + at(dc + 1, dr) * fx;
+            let bottom = at(dc, dr + 1) * (1.0 - fx) + at(dc + 1, dr + 1) * fx;
+            f64::from(top * (1.0 - fy) + bottom * fy)
+        };
+        [bilinear(0, 0), bilinear(-1, 0), bilinear(1, 0), bilinear(0, -1), bilinear(0, 1)]
+    }
 }
 
 /// Precision of the converged match from the final normal equations.
@@ -178,6 +231,37 @@ mod tests {
         // T = r0 + r1·S inverts the radiometric change.
         assert!((r.gain - 1.0 / gain).abs() < 0.01 * (1.0 / gain), "gain {}", r.gain);
         assert!(r.std[0] < 0.02 && r.std[1] < 0.02, "{r:?}");
+    }
+
+    /// The unchecked interior path gives the normal equations of the bounds-checked samples to the bit,
+    /// for a window well inside, one touching the 2 px border (checked path) and a sheared affine.
+    #[test]
+    fn the_interior_path_gives_the_checked_normal_equations_to_the_bit() {
+        let f = texture(7);
+        let s = GrayImage::from_fn(64, 48, |c, r| f(c as f64 + 0.5, r as f64 + 0.5) as f32);
+        let t = s.patch(30, 20, 6).unwrap();
+        for a in
+            [[30.3, 1.0, 0.0, 20.9, 0.0, 1.0], [12.6, 1.04, 0.07, 23.2, -0.05, 0.97], [8.4, 1.0, 0.0, 40.0, 0.0, 1.0]]
+        {
+            let (n, rhs, ee, count) = normal_equations(&t, &s, &a, 3.0, 1.1).unwrap();
+            let (mut n_ref, mut rhs_ref, mut ee_ref) = (Normal::zeros(), Rhs::zeros(), 0.0);
+            for row in 0..t.height() {
+                for col in 0..t.width() {
+                    let (x, y) = (col as f64 + 0.5 - 6.5, row as f64 + 0.5 - 6.5);
+                    let (u, v) = (a[0] + a[1] * x + a[2] * y, a[3] + a[4] * x + a[5] * y);
+                    let [g, gl, gr, gt, gb] = cross_checked(&s, u, v).unwrap();
+                    let (gu, gv) = (0.5 * (gr - gl), 0.5 * (gb - gt));
+                    let j =
+                        Rhs::from([1.1 * gu, 1.1 * gu * x, 1.1 * gu * y, 1.1 * gv, 1.1 * gv * x, 1.1 * gv * y, 1.0, g]);
+                    let e = f64::from(t.get(col, row)) - 3.0 - 1.1 * g;
+                    n_ref += j * j.transpose();
+                    rhs_ref += j * e;
+                    ee_ref += e * e;
+                }
+            }
+            assert_eq!((n, rhs, ee, count), (n_ref, rhs_ref, ee_ref, 169), "affine {a:?}");
+        }
+        assert!(Interior::of(&s, &[8.4, 1.0, 0.0, 40.0, 0.0, 1.0], 13, 13).is_none());
     }
 
     #[test]
