@@ -231,6 +231,42 @@ fn geotiff_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Resul
     bytes
 }
 
+/// A cloud-optimised GeoTIFF of the raster (GDAL's COG driver): deflate, 512 × 512 tiles, averaged
+/// overviews down to one tile, the overviews and tiles ordered for range reads. What agencies serve their
+/// orthophotos as; readers open it like any GeoTIFF.
+pub fn cloud_optimized_geotiff(raster: &Raster) -> Result<Vec<u8>, GdalWriteError> {
+    route_gdal_messages();
+    match &raster.data {
+        RasterData::U8(bands) => cog_typed(raster, bands),
+        RasterData::U16(bands) => cog_typed(raster, bands),
+        RasterData::F32(bands) => cog_typed(raster, bands),
+    }
+}
+
+fn cog_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Result<Vec<u8>, GdalWriteError> {
+    check_bands(&format!("{}×{} raster", raster.width, raster.height), raster.width * raster.height, bands)?;
+    let srs = srs(raster.epsg)?;
+    let memory = DriverManager::get_driver_by_name("MEM").map_err(failed("find the MEM driver"))?;
+    let mut source = memory
+        .create_with_band_type::<T, _>("", raster.width, raster.height, bands.len())
+        .map_err(failed("create an in-memory raster"))?;
+    fill(&mut source, raster, bands, &srs)?;
+    let path = vsimem_path("tif");
+    let cog = DriverManager::get_driver_by_name("COG").map_err(failed("find the COG driver"))?;
+    let options = gdal::raster::RasterCreationOptions::from_iter([
+        "COMPRESS=DEFLATE",
+        "BLOCKSIZE=512",
+        "OVERVIEWS=AUTO",
+        "RESAMPLING=AVERAGE",
+        "BIGTIFF=IF_SAFER",
+    ]);
+    let copy = source.create_copy(&cog, &path, &options).map_err(failed("write a cloud-optimised GeoTIFF"));
+    let closed = copy.and_then(|ds| ds.close().map_err(failed("close the cloud-optimised GeoTIFF")));
+    let bytes = take(&path);
+    closed?;
+    bytes
+}
+
 /// An image TIFF without georeferencing (aerial frames, which their orientation places): tiled 512 × 512,
 /// deflate with horizontal differencing, BigTIFF when it may pass 4 GB. `data` holds `width · height` pixels
 /// per band.

@@ -3,10 +3,11 @@
 
 #![allow(clippy::unwrap_used)]
 
-use gdal::Dataset;
 use gdal::vector::LayerAccess;
+use gdal::{Dataset, Metadata};
 use plumbline_runtime::gdal_write::{
-    FieldType, FieldValue, GdalWriteError, PointFeature, PointLayer, Raster, RasterData, geopackage, geotiff,
+    FieldType, FieldValue, GdalWriteError, PointFeature, PointLayer, Raster, RasterData, cloud_optimized_geotiff,
+    geopackage, geotiff,
 };
 
 fn reopen(bytes: &[u8], name: &str) -> (tempfile::TempDir, Dataset) {
@@ -81,6 +82,27 @@ fn geotiff_round_trips_geotransform_crs_and_pixels() {
     let b = dem.rasterband(1).unwrap();
     assert_eq!(b.no_data_value(), Some(-9999.0));
     assert!(b.read_as::<f32>((0, 0), (w, h), (w, h), None).unwrap().data().iter().all(|&v| v == 12.5));
+}
+
+/// The orthophoto as agencies serve it: a COG whose pixels, georeferencing and nodata are the raster's, with
+/// averaged overviews down to one 512 px tile, and which GDAL itself recognises as cloud-optimised.
+#[test]
+fn a_cloud_optimized_geotiff_has_the_pixels_and_overviews_down_to_one_tile() {
+    let (w, h) = (1500, 1100);
+    let band: Vec<u8> = (0..w * h).map(|i| ((i % w) / 6 + (i / w) / 5) as u8).collect();
+    let gt = [565_000.0, 0.1, 0.0, 5_933_000.0, 0.0, -0.1];
+    let data = RasterData::U8(vec![band.clone(), band.clone(), band.clone()]);
+    let raster = Raster { width: w, height: h, geotransform: gt, epsg: 25832, data, nodata: Some(0.0) };
+    let (_dir, ds) = reopen(&cloud_optimized_geotiff(&raster).unwrap(), "ortho.tif");
+    assert_eq!((ds.geo_transform().unwrap(), ds.spatial_ref().unwrap().auth_code().unwrap()), (gt, 25832));
+    let b = ds.rasterband(3).unwrap();
+    assert_eq!(b.read_as::<u8>((0, 0), (w, h), (w, h), None).unwrap().data(), band.as_slice());
+    assert_eq!((b.no_data_value(), b.block_size()), (Some(0.0), (512, 512)));
+    // 1500 → 750 → 375: overviews halve until the smallest fits one tile.
+    assert_eq!(b.overview_count().unwrap(), 2);
+    assert_eq!(b.overview(1).unwrap().size(), (375, 275));
+    let layout = ds.metadata_item("LAYOUT", "IMAGE_STRUCTURE");
+    assert_eq!(layout.as_deref(), Some("COG"), "GDAL reads it as a COG");
 }
 
 #[test]

@@ -1,12 +1,12 @@
 //! The aerial products of a simulated campaign: frame images of a block at 12 cm GSD (`--aerial-gsd`) rendered with the TRUE
 //! orientations of the aerial epoch, the AT-reported exterior orientations (`aerial/exterior_orientation.csv`;
-//! the true ones in `truth/aerial_orientation.csv`), a true orthophoto and a flat terrain model as GeoTIFFs
+//! the true ones in `truth/aerial_orientation.csv`), a true orthophoto (a cloud-optimised GeoTIFF with overviews) and a flat terrain model as GeoTIFFs
 //! in the campaign CRS. The camera, block spec, rasters and `[aerial]` section are shared with the `city`
 //! preset's tiled version (module `city_aerial`).
 
 use anyhow::Context as _;
 use plumbline_geo::camera::MetricInterior;
-use plumbline_runtime::gdal_write::{Raster, RasterData, geotiff, image_tiff};
+use plumbline_runtime::gdal_write::{Raster, RasterData, cloud_optimized_geotiff, geotiff, image_tiff};
 use plumbline_synth::aerial;
 use plumbline_synth::map::footprint;
 use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
@@ -104,7 +104,7 @@ pub(crate) fn write(
     let epsg = world.config.epsg;
     let grid = OrthoGrid::covering(&scene, spec.gsd);
     let ortho = ortho_raster(&render_orthophoto(&scene, &grid), &grid, epsg);
-    sink.put("aerial/orthophoto.tif", geotiff(&ortho).context("orthophoto GeoTIFF")?)?;
+    sink.put("aerial/orthophoto.tif", cloud_optimized_geotiff(&ortho).context("orthophoto COG")?)?;
     let terrain = flat_terrain(&OrthoGrid::covering(&scene, TERRAIN_GSD_M), world.config.ground_height, epsg);
     sink.put("aerial/terrain.tif", geotiff(&terrain).context("terrain GeoTIFF")?)?;
     let footprints = frames.iter().map(|f| footprint(&f.truth, interior.width, interior.height, gsd)).collect();

@@ -1,7 +1,7 @@
 //! The aerial products of the `city` preset, made leg by leg (`plumbline_synth::city_aerial`): the frames of the
 //! city's endless block that see ground within [`FRAME_REACH_M`] of the leg's drive and were not made for an
 //! earlier leg, rendered from a city window holding everything they show; their AT-reported and true
-//! orientations appended to `aerial/exterior_orientation.csv` and `truth/aerial_orientation.csv`; orthophoto and
+//! orientations appended to `aerial/exterior_orientation.csv` and `truth/aerial_orientation.csv`; orthophoto (COG) and
 //! terrain GeoTIFF tiles (`aerial/orthophoto/{col}_{row}.tif`, `aerial/terrain/{col}_{row}.tif`, 1000 px of
 //! the aerial GSD square) near the drive; at the end `aerial/orthophoto.vrt` and `aerial/terrain.vrt`, GDAL
 //! VRT mosaics of all tiles, which the manifest names as the orthophoto and terrain model. Camera, GSD,
@@ -11,7 +11,7 @@ use std::collections::{BTreeSet, HashSet};
 
 use anyhow::Context as _;
 use plumbline_geo::camera::{MetricInterior, Pinhole};
-use plumbline_runtime::gdal_write::{Mosaic, MosaicTile, MosaicType, geotiff, vrt};
+use plumbline_runtime::gdal_write::{Mosaic, MosaicTile, MosaicType, cloud_optimized_geotiff, geotiff, vrt};
 use plumbline_synth::aerial::{self, exterior_orientation_csv};
 use plumbline_synth::city_aerial::{CityBlock, FrameKey, TileKey, TileLattice, key_seed, track_points, window_seeing};
 use plumbline_synth::map::footprint;
@@ -122,7 +122,7 @@ impl CityAerial {
         let grid = self.tiles.grid(key, TILE_PX);
         let ortho = ortho_raster(&render_orthophoto(scene, &grid), &grid, self.epsg);
         let name = format!("{}_{}.tif", key.col, key.row);
-        sink.put(format!("aerial/orthophoto/{name}"), geotiff(&ortho).context("orthophoto tile GeoTIFF")?)?;
+        sink.put(format!("aerial/orthophoto/{name}"), cloud_optimized_geotiff(&ortho).context("orthophoto tile COG")?)?;
         let terrain = flat_terrain(&self.tiles.grid(key, self.terrain_px), self.ground_height, self.epsg);
         sink.put(format!("aerial/terrain/{name}"), geotiff(&terrain).context("terrain tile GeoTIFF")?)
     }
