@@ -8,7 +8,8 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::Tile;
 use plumbline_geo::{PositionInterpolation, TrajectoryRecord};
-use plumbline_imaging::decode::{Bounds, DecodeError, PANORAMA_PIXELS, decode_gray, decode_mask, header};
+use plumbline_imaging::ImagePart;
+use plumbline_imaging::decode::{Bounds, DecodeError, PANORAMA_PIXELS, decode_gray_part, decode_mask, header};
 use plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M;
 use plumbline_registration::mm::{Panorama, PanoramaRig};
 use plumbline_registration::pipeline::PanoramaInfo;
@@ -121,17 +122,18 @@ pub(crate) async fn size(files: &Files, spec: &Panoramas, placed: &[Placed]) -> 
     Err(failures)
 }
 
-/// Decode a panorama to gray within the pixel budget and the tile's panorama `size` (both checked on the
-/// header, before any pixel is decoded): the gray [`Panorama`] at its DG pose, or the skipped item
+/// Decode `part` of a panorama to gray within the pixel budget and the part's full size (both checked on
+/// the header, before any pixel is decoded): the gray [`Panorama`] at its DG pose, or the skipped item
 /// ([`SkipReason::Size`] or [`SkipReason::Decode`]).
-pub(crate) fn decode(placed: &Placed, bytes: &[u8], size: (u32, u32)) -> Result<Panorama, SkippedInput> {
+pub(crate) fn decode(placed: &Placed, bytes: &[u8], part: &ImagePart) -> Result<Panorama, SkippedInput> {
     let url = &placed.url;
-    let gray = decode_gray(url, bytes, &BUDGET.expecting(size.0, size.1)).map_err(|e| refused(STAGE, url, &e))?;
+    let gray = decode_gray_part(url, bytes, &BUDGET, part).map_err(|e| refused(STAGE, url, &e))?;
     let info = &placed.info;
     Ok(Panorama {
         id: info.id.clone(),
         time: info.time,
         image: gray,
+        part: *part,
         pose: info.pose,
         position_sigma: info.position_sigma,
     })
@@ -233,19 +235,19 @@ mod tests {
     fn a_panorama_of_another_size_or_over_the_budget_is_skipped_naming_it() {
         let bytes = jpeg(64, 32);
         let p = placed("file:///c/panoramas/p7.jpg");
-        let pano = decode(&p, &bytes, (64, 32)).unwrap();
+        let pano = decode(&p, &bytes, &ImagePart::whole(64, 32)).unwrap();
         assert_eq!((pano.id.as_str(), pano.time, pano.image.width(), pano.image.height()), ("pano7", 12.5, 64, 32));
         assert_eq!(pano.pose.translation.x(), 500.0);
-        let wrong = decode(&p, &bytes, (128, 64)).unwrap_err();
+        let wrong = decode(&p, &bytes, &ImagePart::whole(128, 64)).unwrap_err();
         assert_eq!((wrong.stage.as_str(), wrong.reason.as_str()), ("registration", "size"));
         assert!(wrong.detail.contains("p7.jpg") && wrong.detail.contains("64 × 32"), "{}", wrong.detail);
-        let garbage = decode(&p, b"no image", (64, 32)).unwrap_err();
+        let garbage = decode(&p, b"no image", &ImagePart::whole(64, 32)).unwrap_err();
         assert_eq!(garbage.reason, "decode");
         // Issue 18: a header claiming 20000² px is refused before any pixel is decoded, whatever size the tile
         // expects.
         let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
         for size in [(64, 32), (20_000, 20_000)] {
-            let bomb = decode(&p, &forged, size).unwrap_err();
+            let bomb = decode(&p, &forged, &ImagePart::whole(size.0, size.1)).unwrap_err();
             assert_eq!(bomb.reason, "size");
             assert!(bomb.detail.contains("20000 × 20000 px") && bomb.detail.contains("budget"), "{}", bomb.detail);
         }

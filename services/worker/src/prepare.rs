@@ -16,7 +16,7 @@ use futures::StreamExt as _;
 use plumbline_campaign::progress::Progress;
 use plumbline_geo::tiling::TileId;
 use plumbline_registration::aerial::AerialReference;
-use plumbline_registration::mm::{MmConfig, PanoramaRig};
+use plumbline_registration::mm::{MmConfig, PanoramaRig, patch_part};
 use plumbline_registration::output::ImageDiagnostic;
 use plumbline_registration::pipeline::{
     PreparedPanorama, TileInputs, TileRegistration, panoramas_to_prepare_for, prepare_panorama, time_order,
@@ -62,7 +62,6 @@ pub(crate) struct Tile<'a> {
     pub placed: &'a [Placed],
     pub rig: &'a Arc<PanoramaRig>,
     pub config: &'a PipelineConfig,
-    pub size: (u32, u32),
     pub concurrency: usize,
 }
 
@@ -154,8 +153,7 @@ fn taken(done: &mut [Option<PreparedPanorama>], placed: &[Placed], k: usize) -> 
 
 /// Read, decode and prepare `todo` (indices into the tile's placed panoramas), in order.
 async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>> {
-    let (files, placed, rig, config, size, concurrency) =
-        (tile.files, tile.placed, tile.rig, tile.config, tile.size, tile.concurrency);
+    let (files, placed, rig, config, concurrency) = (tile.files, tile.placed, tile.rig, tile.config, tile.concurrency);
     let threads = rayon::current_num_threads().max(1);
     futures::stream::iter(todo.iter().copied())
         .map(|k| {
@@ -175,7 +173,7 @@ async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>
                 let (k, bytes, read_s) = read?;
                 let one = placed[k].clone();
                 let (prepared, decode_s) = match bytes {
-                    Ok(bytes) => on_rayon(move || decode_and_prepare(&one, bytes, &rig, &mm, size)).await?,
+                    Ok(bytes) => on_rayon(move || decode_and_prepare(&one, bytes, &rig, &mm)).await?,
                     Err(s) => (Err(s), 0.0),
                 };
                 anyhow::Ok(Streamed { index: k, prepared, read_s, decode_s })
@@ -194,10 +192,10 @@ fn decode_and_prepare(
     bytes: Bytes,
     rig: &PanoramaRig,
     mm: &MmConfig,
-    size: (u32, u32),
 ) -> (Result<PreparedPanorama, SkippedInput>, f64) {
     let t0 = Instant::now();
-    let pano = decode(one, &bytes, size);
+    let part = patch_part(&one.info.pose, rig, mm.gsd, mm.half_extent);
+    let pano = decode(one, &bytes, &part);
     drop(bytes);
     let decode_s = t0.elapsed().as_secs_f64();
     (pano.map(|p| prepare_panorama(&p, one.info.owned, rig, mm)), decode_s)
@@ -241,7 +239,6 @@ mod tests {
             placed,
             rig: &rig,
             config: &config,
-            size: (256, 128),
             concurrency: 2,
         };
         let reference = Arc::new(AerialReference::Frames(Vec::new()));

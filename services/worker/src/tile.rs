@@ -238,7 +238,6 @@ async fn register(
         placed: &placed,
         rig: &rig,
         config: &pipeline,
-        size,
         concurrency: config.concurrency,
     };
     let registered = prepare::register(&streamed, Arc::new(reference.reference), progress).await?;

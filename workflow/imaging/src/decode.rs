@@ -15,11 +15,11 @@
 
 use std::io::Cursor;
 
-use ::image::error::{ImageFormatHint, UnsupportedError, UnsupportedErrorKind};
+use ::image::error::{DecodingError, ImageFormatHint, UnsupportedError, UnsupportedErrorKind};
 pub use ::image::{ColorType, ImageFormat};
 use ::image::{DynamicImage, ImageDecoder as _, ImageError, ImageReader, Limits};
 
-use crate::image::{GrayImage, Mask};
+use crate::image::{GrayImage, ImagePart, Mask};
 
 /// Budget of a panorama and of its vehicle mask: 16384 × 8192 px (134 M px), the largest equirectangular
 /// panoramas of survey cameras (e.g. Ladybug6: 12288 × 6144). Its 8-bit RGB decode takes 0.4 GB and the
@@ -257,6 +257,60 @@ pub fn decode_gray(image: &str, bytes: &[u8], bounds: &Bounds) -> Result<GrayIma
             })
         }
     })
+}
+
+/// Decode `part` of a PNG or JPEG (named `image` in errors) to grey ([`ImagePart::extract`]); the image
+/// must have the part's full size and fit `bounds`. A YCbCr or grey JPEG is decoded straight to its luma
+/// channel (the JFIF Y is [`luma`] of the RGB it encodes): no chroma, no RGB buffer, so a 16384 × 8192
+/// panorama peaks at its 134 MB of 8-bit luma plus the part as `f32`. Anything else goes through
+/// [`decode_gray`] first.
+pub fn decode_gray_part(
+    image: &str,
+    bytes: &[u8],
+    bounds: &Bounds,
+    part: &ImagePart,
+) -> Result<GrayImage, DecodeError> {
+    let (width, height) = part.full();
+    let bounds = bounds.expecting(width, height);
+    let header = header(image, bytes, &bounds)?;
+    let unreadable = |source| DecodeError::Unreadable { image: image.to_owned(), source };
+    if header.format == ImageFormat::Jpeg
+        && let Some(luma) = jpeg_luma(bytes, &header).map_err(unreadable)?
+    {
+        return part.extract(&luma).ok_or_else(|| unreadable(short_output(&header)));
+    }
+    let gray = decode_gray(image, bytes, &bounds)?;
+    if part.is_whole() {
+        return Ok(gray);
+    }
+    part.extract(gray.data()).ok_or_else(|| unreadable(short_output(&header)))
+}
+
+/// The luma plane of a YCbCr or grey JPEG whose header was checked; `None` for other colour spaces (CMYK,
+/// RGB JPEGs), which need the full decoder.
+fn jpeg_luma(bytes: &[u8], header: &Header) -> Result<Option<Vec<u8>>, ImageError> {
+    use zune_core::colorspace::ColorSpace;
+    use zune_core::options::DecoderOptions;
+    let failed = |e: zune_jpeg::errors::DecodeErrors| {
+        ImageError::Decoding(DecodingError::new(ImageFormatHint::Exact(ImageFormat::Jpeg), e.to_string()))
+    };
+    let options = DecoderOptions::default()
+        .set_max_width(header.width as usize)
+        .set_max_height(header.height as usize)
+        .jpeg_set_out_colorspace(ColorSpace::Luma);
+    let mut decoder = zune_jpeg::JpegDecoder::new_with_options(Cursor::new(bytes), options);
+    decoder.decode_headers().map_err(failed)?;
+    if !matches!(decoder.input_colorspace(), Some(ColorSpace::YCbCr | ColorSpace::Luma)) {
+        return Ok(None);
+    }
+    let luma = decoder.decode().map_err(failed)?;
+    Ok(Some(luma))
+}
+
+/// The error for a decoder whose output is not the size its header said.
+fn short_output(header: &Header) -> ImageError {
+    let hint = ImageFormatHint::Exact(header.format);
+    ImageError::Decoding(DecodingError::new(hint, format!("output is not {} × {} px", header.width, header.height)))
 }
 
 /// Decode a mask within `bounds`: a pixel is set where its 8-bit luma is non-zero (the manifest's vehicle

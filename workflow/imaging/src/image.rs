@@ -125,6 +125,81 @@ impl GrayImage {
     }
 }
 
+/// Which pixels of a camera's full image a decoded image holds: the camera rows from `first_row` to the
+/// bottom, each image column the mean of `col_step` neighbouring camera columns. Camera pixel (u, v) is
+/// image pixel (u / col_step, v − first_row). A panorama is decoded to the part its ortho patch samples, so
+/// a 16384 × 8192 panorama need not be held whole.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ImagePart {
+    full: (u32, u32),
+    first_row: u32,
+    col_step: u32,
+}
+
+impl ImagePart {
+    /// The whole `width` × `height` image.
+    pub const fn whole(width: u32, height: u32) -> Self {
+        Self { full: (width, height), first_row: 0, col_step: 1 }
+    }
+
+    /// Rows `first_row..height` of a `width` × `height` camera image at one column per `col_step`; the
+    /// step must divide the width and leave at least one row and column.
+    pub fn new(width: u32, height: u32, first_row: u32, col_step: u32) -> Result<Self, ImagingError> {
+        let ok = width > 0 && height > 0 && first_row < height && col_step > 0 && width.is_multiple_of(col_step);
+        if !ok {
+            let what = "image part (a column step dividing the width, a first row inside the image)";
+            return Err(ImagingError::Shape { what, width: width as usize, height: height as usize, len: 0 });
+        }
+        Ok(Self { full: (width, height), first_row, col_step })
+    }
+
+    /// The camera image's (width, height).
+    pub fn full(&self) -> (u32, u32) {
+        self.full
+    }
+
+    /// First camera row held.
+    pub fn first_row(&self) -> u32 {
+        self.first_row
+    }
+
+    /// Camera columns per image column.
+    pub fn col_step(&self) -> u32 {
+        self.col_step
+    }
+
+    /// Width of the held image, pixels.
+    pub fn width(&self) -> usize {
+        (self.full.0 / self.col_step) as usize
+    }
+
+    /// Height of the held image, pixels.
+    pub fn height(&self) -> usize {
+        (self.full.1 - self.first_row) as usize
+    }
+
+    /// Whether this is the whole image.
+    pub fn is_whole(&self) -> bool {
+        self.first_row == 0 && self.col_step == 1
+    }
+
+    /// The part of `row_major` (the full image, one value per pixel) as a gray image: rows from
+    /// `first_row`, every `col_step` columns averaged. `None` unless `row_major` has the full size.
+    pub fn extract<T: Copy + Into<f32> + Sync>(&self, row_major: &[T]) -> Option<GrayImage> {
+        let (w, h) = (self.full.0 as usize, self.full.1 as usize);
+        if row_major.len() != w * h {
+            return None;
+        }
+        let (step, first) = (self.col_step as usize, self.first_row as usize);
+        let scale = 1.0 / step as f32;
+        Some(GrayImage::from_fn(self.width(), self.height(), |c, r| {
+            let row = &row_major[(first + r) * w..(first + r + 1) * w];
+            let sum: f32 = row[c * step..(c + 1) * step].iter().map(|&v| v.into()).sum();
+            sum * scale
+        }))
+    }
+}
+
 /// A boolean mask with the shape of an image; `true` marks a pixel as set (e.g. "vehicle" or "valid").
 #[derive(Clone, Debug, PartialEq)]
 pub struct Mask {
@@ -177,6 +252,20 @@ impl Mask {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_image_part_needs_a_dividing_column_step_and_a_row_inside_and_averages_its_columns() {
+        assert!(ImagePart::new(10, 4, 4, 1).is_err() && ImagePart::new(10, 4, 0, 3).is_err());
+        assert!(ImagePart::new(10, 4, 0, 0).is_err() && ImagePart::new(0, 4, 0, 1).is_err());
+        let part = ImagePart::new(10, 4, 1, 5).unwrap();
+        assert_eq!((part.width(), part.height(), part.is_whole()), (2, 3, false));
+        let pixels: Vec<u8> = (0..40).collect();
+        let held = part.extract(&pixels).unwrap();
+        // Row 1 of the part is camera row 2: columns 5..10 hold 25..30, mean 27.
+        assert_eq!(held.get(1, 1), 27.0);
+        assert!(part.extract(&pixels[1..]).is_none());
+        assert!(ImagePart::whole(10, 4).is_whole());
+    }
 
     #[test]
     fn bilinear_sampling_reproduces_a_linear_ramp_at_any_point() {

@@ -21,5 +21,5 @@ pub mod ransac;
 mod stencil;
 pub mod warp;
 
-pub use self::image::{GrayImage, Mask};
+pub use self::image::{GrayImage, ImagePart, Mask};
 pub use error::ImagingError;

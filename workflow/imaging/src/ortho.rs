@@ -9,7 +9,7 @@ use plumbline_geo::{Map, MapFromBody, Point3};
 use rayon::prelude::*;
 
 use crate::error::{ImagingError, require};
-use crate::image::{GrayImage, Mask};
+use crate::image::{GrayImage, ImagePart, Mask};
 
 /// A raster on the ground: its centre in mapping coordinates, its ground sampling distance, its size, and
 /// the direction its "up" (−v) points as a heading (radians clockwise from grid north; 0 = north-up).
@@ -104,19 +104,42 @@ pub fn ortho_project<C: OrthoCamera>(
     grid: &GroundGrid,
     height: impl Fn(f64, f64) -> f64 + Sync,
 ) -> Result<Ortho, ImagingError> {
+    let part = ImagePart::whole(exposure.camera.width(), exposure.camera.height());
+    ortho_project_part(image, &part, vehicle_mask, exposure, grid, height)
+}
+
+/// [`ortho_project`] from an image holding only `part` of the camera's pixels; `vehicle_mask` stays at the
+/// camera's full size. Cells that project outside the part are invalid.
+pub fn ortho_project_part<C: OrthoCamera>(
+    image: &GrayImage,
+    part: &ImagePart,
+    vehicle_mask: Option<&Mask>,
+    exposure: &Exposure<'_, C>,
+    grid: &GroundGrid,
+    height: impl Fn(f64, f64) -> f64 + Sync,
+) -> Result<Ortho, ImagingError> {
     let cam = exposure.camera;
     let (w, h) = (cam.width() as usize, cam.height() as usize);
-    if image.width() != w || image.height() != h {
+    if part.full() != (cam.width(), cam.height()) {
+        let (pw, ph) = part.full();
         return Err(ImagingError::Shape {
-            what: "image (must match the camera size)",
+            what: "image part (must be of the camera's image)",
+            width: pw as usize,
+            height: ph as usize,
+            len: w * h,
+        });
+    }
+    if image.width() != part.width() || image.height() != part.height() {
+        return Err(ImagingError::Shape {
+            what: "image (must match the camera size, or the part of it held)",
             width: image.width(),
             height: image.height(),
-            len: w * h,
+            len: part.width() * part.height(),
         });
     }
     if let Some(m) = vehicle_mask.filter(|m| m.width() != w || m.height() != h) {
         return Err(ImagingError::Shape {
-            what: "vehicle mask (must match the image)",
+            what: "vehicle mask (must match the camera size)",
             width: m.width(),
             height: m.height(),
             len: w * h,
@@ -128,7 +151,11 @@ pub fn ortho_project<C: OrthoCamera>(
             let [e, n] = grid.to_map((i % grid.width) as f64 + 0.5, (i / grid.width) as f64 + 0.5);
             let p = Point3::<Map>::new(e, n, height(e, n));
             let px = exposure.mount.project(cam, exposure.pose, &p)?;
-            sample::<C>(image, vehicle_mask, px.u, px.v)
+            if vehicle_mask.is_some_and(|m| touches::<C>(m, px.u, px.v)) {
+                return None;
+            }
+            let (u, v) = (px.u / f64::from(part.col_step()), px.v - f64::from(part.first_row()));
+            sample::<C>(image, u, v)
         })
         .collect();
     let valid = Mask::new(grid.width, grid.height, samples.iter().map(Option::is_some).collect())?;
@@ -136,9 +163,10 @@ pub fn ortho_project<C: OrthoCamera>(
     Ok(Ortho { image, valid })
 }
 
-/// Bilinear sample at (u, v), wrapping u for panoramas; `None` off the image or touching the mask.
-fn sample<C: OrthoCamera>(img: &GrayImage, mask: Option<&Mask>, u: f64, v: f64) -> Option<f32> {
-    let (w, h) = (img.width() as isize, img.height() as isize);
+/// The four pixels a bilinear sample at (u, v) of a `w` × `h` image reads: (c0, c1, r0, r1) and the
+/// weights (fx, fy) of c1 and r1; `None` off the image. u wraps for panoramas.
+fn footprint<C: OrthoCamera>(w: usize, h: usize, u: f64, v: f64) -> Option<([usize; 4], [f32; 2])> {
+    let (w, h) = (w as isize, h as isize);
     let inside_u = C::WRAPS_U || (u >= 0.0 && u <= w as f64);
     if !(inside_u && v >= 0.0 && v <= h as f64 && u.is_finite()) {
         return None;
@@ -148,10 +176,19 @@ fn sample<C: OrthoCamera>(img: &GrayImage, mask: Option<&Mask>, u: f64, v: f64) 
     let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
     let col = |c: isize| if C::WRAPS_U { c.rem_euclid(w) } else { c.clamp(0, w - 1) } as usize;
     let row = |r: isize| r.clamp(0, h - 1) as usize;
-    let (c0, c1, r0, r1) = (col(x0 as isize), col(x0 as isize + 1), row(y0 as isize), row(y0 as isize + 1));
-    if mask.is_some_and(|m| m.get(c0, r0) || m.get(c1, r0) || m.get(c0, r1) || m.get(c1, r1)) {
-        return None;
-    }
+    Some(([col(x0 as isize), col(x0 as isize + 1), row(y0 as isize), row(y0 as isize + 1)], [fx, fy]))
+}
+
+/// Whether the bilinear footprint of (u, v) touches a set pixel of `mask`.
+fn touches<C: OrthoCamera>(mask: &Mask, u: f64, v: f64) -> bool {
+    footprint::<C>(mask.width(), mask.height(), u, v).is_some_and(|([c0, c1, r0, r1], _)| {
+        mask.get(c0, r0) || mask.get(c1, r0) || mask.get(c0, r1) || mask.get(c1, r1)
+    })
+}
+
+/// Bilinear sample at (u, v), wrapping u for panoramas; `None` off the image.
+fn sample<C: OrthoCamera>(img: &GrayImage, u: f64, v: f64) -> Option<f32> {
+    let ([c0, c1, r0, r1], [fx, fy]) = footprint::<C>(img.width(), img.height(), u, v)?;
     let top = img.get(c0, r0) * (1.0 - fx) + img.get(c1, r0) * fx;
     let bottom = img.get(c0, r1) * (1.0 - fx) + img.get(c1, r1) * fx;
     Some(top * (1.0 - fy) + bottom * fy)

@@ -17,11 +17,11 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::CameraMount;
 use plumbline_imaging::corners::Foerstner;
 use plumbline_imaging::kaze::KazeConfig;
-use plumbline_imaging::{GrayImage, ImagingError, Mask};
+use plumbline_imaging::{GrayImage, ImagePart, ImagingError, Mask};
 
 pub use corners::{CornerMatch, CornerMatches, match_corners};
 pub use motion::image_motion;
-pub use ortho::{OrthoPatch, ortho_patch};
+pub use ortho::{OrthoPatch, ortho_patch, patch_part};
 pub use transform::{
     FallbackReason, FeatureFit, PairTransform, TransformSource, features, orientation_transform, pair_transform,
 };
@@ -34,8 +34,11 @@ pub struct Panorama {
     pub id: String,
     /// Exposure time on the trajectory's time scale, seconds.
     pub time: f64,
-    /// The gray panorama; its size must match [`PanoramaRig::camera`].
+    /// The gray panorama: the pixels of [`Panorama::part`] of the camera image ([`PanoramaRig::camera`]).
     pub image: GrayImage,
+    /// Which pixels of the camera image `image` holds: the whole image, or what the ortho patch samples
+    /// ([`ortho::patch_part`]), which is all a worker decodes.
+    pub part: ImagePart,
     /// The vehicle pose at `time` from direct georeferencing (carries the DG error).
     pub pose: MapFromBody,
     /// 1σ horizontal uncertainty of the DG position, metres.

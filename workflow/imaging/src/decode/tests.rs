@@ -149,6 +149,39 @@ fn gray_is_the_luma_of_the_pixel_at_the_same_place_and_grey_input_takes_the_same
     assert_eq!(from_gray, from_rgb);
 }
 
+/// A panorama decoded to a part: a YCbCr JPEG goes straight to its luma plane and agrees with the full
+/// RGB decode's luma within JPEG rounding; the rows and the column means are those of the part; a PNG
+/// takes the full decoder; a file of another size is refused on its header.
+#[test]
+fn a_part_is_decoded_to_the_rows_and_column_means_it_names() {
+    let (w, h) = (64, 32);
+    let rgb = |x: u32, y: u32| [(4 * x) as u8, (7 * y) as u8, ((x * y) % 251) as u8];
+    let img = DynamicImage::ImageRgb8(ImageBuffer::from_fn(w, h, |x, y| Rgb(rgb(x, y))));
+    let jpeg = encode(img, ImageFormat::Jpeg);
+    let full = decode_gray("p.jpg", &jpeg, &ANY).unwrap();
+    let whole = decode_gray_part("p.jpg", &jpeg, &ANY, &ImagePart::whole(w, h)).unwrap();
+    // They differ where the RGB decode clamps a saturated colour: little on average, a few levels at most.
+    let diff: Vec<f32> = full.data().iter().zip(whole.data()).map(|(a, b)| (a - b).abs()).collect();
+    let (worst, mean) = (diff.iter().copied().fold(0.0, f32::max), diff.iter().sum::<f32>() / diff.len() as f32);
+    assert!(
+        worst <= 8.0 && mean < 0.75,
+        "luma plane and luma of the RGB decode differ by {mean} on average, {worst} at most"
+    );
+    let part = ImagePart::new(w, h, 20, 4).unwrap();
+    let cut = decode_gray_part("p.jpg", &jpeg, &ANY, &part).unwrap();
+    assert_eq!((cut.width(), cut.height()), (16, 12));
+    let mean = (0..4).map(|k| whole.get(5 * 4 + k, 20 + 7)).sum::<f32>() / 4.0;
+    assert!((cut.get(5, 7) - mean).abs() < 1e-4, "{} vs {mean}", cut.get(5, 7));
+    let png = png_rgb(w, h, rgb);
+    let from_png = decode_gray_part("p.png", &png, &ANY, &part).unwrap();
+    let png_whole = decode_gray("p.png", &png, &ANY).unwrap();
+    assert_eq!(from_png, part.extract(png_whole.data()).unwrap());
+    let wrong = decode_gray_part("p.jpg", &jpeg, &ANY, &ImagePart::whole(128, 64)).unwrap_err();
+    assert!(matches!(wrong, DecodeError::Size { .. }), "{wrong}");
+    let bomb = decode_gray_part("b.png", &png_claiming(20_000, 20_000), &ANY, &ImagePart::whole(20_000, 20_000));
+    assert!(matches!(bomb, Err(DecodeError::OverBudget { .. })));
+}
+
 #[test]
 fn a_mask_marks_non_zero_pixels() {
     let png = png_rgb(4, 2, |x, y| if y == 1 && x >= 2 { [255, 255, 255] } else { [0, 0, 0] });

@@ -95,6 +95,33 @@ fn panorama_ortho_image_puts_the_ground_pattern_within_a_fifth_of_a_pixel_at_3_c
     }
 }
 
+/// A panorama held as a part (rows from the horizon's neighbourhood down, every second column averaged)
+/// puts the dots where the whole one does; ground the part does not hold is invalid, not sampled wrongly.
+#[test]
+fn a_part_of_the_panorama_ortho_projects_like_the_whole_and_leaves_the_rest_invalid() {
+    let (pose, mount) = vehicle();
+    let cam = Equirectangular::new(4096, 2048).unwrap();
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose };
+    let pano = render(&exposure);
+    let c = mount.camera_pose(&pose).translation;
+    let grid = GroundGrid::new([c.x(), c.y()], 0.03, 300, 250, 0.3).unwrap();
+    let part = ImagePart::new(4096, 2048, 1024 + 100, 2).unwrap();
+    let held = part.extract(pano.data()).unwrap();
+    assert_eq!((held.width(), held.height()), (2048, 924));
+    let ortho = ortho_project_part(&held, &part, None, &exposure, &grid, |_, _| 0.0).unwrap();
+    assert_eq!(ortho.valid.count(), 300 * 250, "the part holds all of a 9 m × 7.5 m patch");
+    assert!(check_dots(&ortho, &grid, 0.2) >= 50);
+    // Rows from 8.8° below the horizon: ground 400 m away (0.4° below it) is not held.
+    let far = GroundGrid::new([c.x() + 400.0, c.y()], 0.03, 20, 20, 0.0).unwrap();
+    let whole = ortho_project(&pano, None, &exposure, &far, |_, _| 0.0).unwrap();
+    let cut = ortho_project_part(&held, &part, None, &exposure, &far, |_, _| 0.0).unwrap();
+    assert_eq!((whole.valid.count(), cut.valid.count()), (400, 0));
+    // The image must be the part's size, the part the camera's.
+    assert!(ortho_project_part(&pano, &part, None, &exposure, &grid, |_, _| 0.0).is_err());
+    let other = ImagePart::new(2048, 1024, 0, 1).unwrap();
+    assert!(ortho_project_part(&held, &other, None, &exposure, &grid, |_, _| 0.0).is_err());
+}
+
 #[test]
 fn the_vehicle_mask_removes_the_ground_under_the_car() {
     let (pose, mount) = vehicle();

@@ -1,9 +1,9 @@
 //! Step 1, paper 000 §3.2: a north-up ortho-image of the ground plane around the panorama's camera, made
 //! by back-projection with the DG pose (so it carries the DG error, which step 5 onwards measures).
 
-use plumbline_geo::{Map, Point3};
-use plumbline_imaging::ortho::{Exposure, GroundGrid, ortho_project};
-use plumbline_imaging::{GrayImage, Mask};
+use plumbline_geo::{Map, MapFromBody, Point3};
+use plumbline_imaging::ortho::{Exposure, GroundGrid, ortho_project_part};
+use plumbline_imaging::{GrayImage, ImagePart, Mask};
 
 use super::{MmError, Panorama, PanoramaRig};
 
@@ -41,26 +41,87 @@ impl OrthoPatch {
 /// Ortho-project `pano` at `gsd` onto a north-up square of half-side `half_extent` metres around its DG
 /// camera centre, on the plane `camera_height` below that centre (paper 000 §3.2), vehicle masked.
 pub fn ortho_patch(pano: &Panorama, rig: &PanoramaRig, gsd: f64, half_extent: f64) -> Result<OrthoPatch, MmError> {
+    let (grid, plane_height) = patch_grid(&pano.id, &pano.pose, rig, gsd, half_extent)?;
+    let imaging = |source| MmError::Imaging { image: pano.id.clone(), step: "ortho-projection", source };
+    let exposure = Exposure { camera: &rig.camera, mount: &rig.mount, pose: &pano.pose };
+    let mask = rig.vehicle_mask.as_ref();
+    let ortho =
+        ortho_project_part(&pano.image, &pano.part, mask, &exposure, &grid, |_, _| plane_height).map_err(imaging)?;
+    Ok(OrthoPatch { grid, image: ortho.image, valid: ortho.valid, plane_height })
+}
+
+/// The ground grid of [`ortho_patch`] around the DG camera centre of `pose` (panorama `id`), and its plane
+/// height.
+fn patch_grid(
+    id: &str,
+    pose: &MapFromBody,
+    rig: &PanoramaRig,
+    gsd: f64,
+    half_extent: f64,
+) -> Result<(GroundGrid, f64), MmError> {
     if !(half_extent.is_finite() && half_extent > 0.0 && gsd.is_finite() && gsd > 0.0 && half_extent / gsd < 10_000.0) {
         return Err(MmError::Config { field: "half_extent/gsd", value: half_extent / gsd, reason: "bad ortho size" });
     }
     if !(rig.camera_height.is_finite() && rig.camera_height > 0.0) {
         return Err(MmError::Config { field: "camera_height", value: rig.camera_height, reason: "must be positive" });
     }
-    let imaging = |source| MmError::Imaging { image: pano.id.clone(), step: "ortho-projection", source };
-    let centre = rig.mount.camera_pose(&pano.pose).translation;
-    let plane_height = centre.z() - rig.camera_height;
+    let centre = rig.mount.camera_pose(pose).translation;
     let side = (2.0 * half_extent / gsd).round() as usize;
-    let grid = GroundGrid::new([centre.x(), centre.y()], gsd, side, side, 0.0).map_err(imaging)?;
-    let exposure = Exposure { camera: &rig.camera, mount: &rig.mount, pose: &pano.pose };
-    let ortho = ortho_project(&pano.image, rig.vehicle_mask.as_ref(), &exposure, &grid, |_, _| plane_height)
-        .map_err(imaging)?;
-    Ok(OrthoPatch { grid, image: ortho.image, valid: ortho.valid, plane_height })
+    let grid = GroundGrid::new([centre.x(), centre.y()], gsd, side, side, 0.0).map_err(|source| MmError::Imaging {
+        image: id.to_owned(),
+        step: "ortho-projection",
+        source,
+    })?;
+    Ok((grid, centre.z() - rig.camera_height))
+}
+
+/// Boundary points sampled per side of the patch by [`patch_part`].
+const BOUNDARY_SAMPLES: usize = 256;
+
+/// Rows kept above the highest row the patch boundary reaches (bilinear footprint and rounding).
+const MARGIN_ROWS: f64 = 3.0;
+
+/// Coarsest column step [`patch_part`] chooses.
+const MAX_COL_STEP: u32 = 8;
+
+/// The part of the panorama taken at `pose` that [`ortho_patch`] samples, so a worker decodes no more:
+/// the rows from just above the highest row the patch's boundary projects to (the ground plane's highest
+/// point in the image lies on its boundary) down to the nadir, and the coarsest power-of-two column step
+/// (at most [`MAX_COL_STEP`]) at which one column still spans no more than `gsd` on the ground at the
+/// patch's farthest point. The whole image when any boundary point does not project.
+pub fn patch_part(pose: &MapFromBody, rig: &PanoramaRig, gsd: f64, half_extent: f64) -> ImagePart {
+    let (w, h) = (rig.camera.width, rig.camera.height);
+    let whole = ImagePart::whole(w, h);
+    let Ok((grid, plane)) = patch_grid("", pose, rig, gsd, half_extent) else {
+        return whole;
+    };
+    let side = grid.width as f64;
+    let (mut top, mut reach) = (f64::INFINITY, 0.0_f64);
+    for i in 0..=BOUNDARY_SAMPLES {
+        let t = side * i as f64 / BOUNDARY_SAMPLES as f64;
+        for (u, v) in [(t, 0.0), (t, side), (0.0, t), (side, t)] {
+            let [e, n] = grid.to_map(u, v);
+            let Some(px) = rig.mount.project(&rig.camera, pose, &Point3::<Map>::new(e, n, plane)) else {
+                return whole;
+            };
+            top = top.min(px.v);
+            reach = reach.max((e - grid.centre[0]).hypot(n - grid.centre[1]));
+        }
+    }
+    let first_row = (top - MARGIN_ROWS).floor().clamp(0.0, f64::from(h - 1)) as u32;
+    let needed_columns = std::f64::consts::TAU * reach / gsd;
+    let mut step = 1;
+    while step < MAX_COL_STEP && w.is_multiple_of(2 * step) && f64::from(w / (2 * step)) >= needed_columns {
+        step *= 2;
+    }
+    ImagePart::new(w, h, first_row, step).unwrap_or(whole)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use plumbline_geo::camera::Equirectangular;
+
     use crate::mm::testing::{Ground, rig, scene_panorama};
 
     #[test]
@@ -101,5 +162,41 @@ mod tests {
         rig.camera_height = -1.0;
         let err = ortho_patch(&pano, &rig, 0.03, 5.0).unwrap_err();
         assert!(err.to_string().contains("camera_height"), "{err}");
+    }
+
+    /// The part of the panorama whose pixels a worker decodes: the patch from it equals the patch from
+    /// the whole panorama, cell for cell, while it holds well under half the rows.
+    #[test]
+    fn the_patch_part_of_a_panorama_gives_the_same_patch_as_the_whole() {
+        let ground = Ground::markings(4, [0.0, 0.0], 16.0);
+        let rig = rig(true);
+        for (at, heading, half) in [([1.3, -0.7], 0.4, 6.0), ([-2.0, 3.1], 2.9, 14.0)] {
+            let whole = scene_panorama("p", &ground, &rig, at, heading, [0.05, -0.03, 0.02]);
+            let part = patch_part(&whole.pose, &rig, 0.03, half);
+            assert_eq!(part.col_step(), 1, "1024 columns resolve 3 cm nowhere near the patch edge");
+            assert!(part.height() * 2 < whole.image.height(), "{} of {} rows", part.height(), whole.image.height());
+            let cut = Panorama { image: part.extract(whole.image.data()).unwrap(), part, ..whole.clone() };
+            let (a, b) = (ortho_patch(&whole, &rig, 0.03, half).unwrap(), ortho_patch(&cut, &rig, 0.03, half).unwrap());
+            assert!(a.valid.count() > a.valid.data().len() / 2, "{} valid cells", a.valid.count());
+            assert_eq!(a.valid, b.valid);
+            assert_eq!(a.image, b.image);
+        }
+    }
+
+    /// A 16384-px panorama needs only every second column for a 3 cm patch of ±14 m (a column spans
+    /// 2π · 19.8 m / 8192 = 1.5 cm at its corners), and a coarser grid or smaller patch allows more.
+    #[test]
+    fn the_column_step_follows_the_ground_resolution_the_patch_needs() {
+        let mut rig = rig(false);
+        let pose = scene_panorama("p", &Ground::markings(1, [0.0, 0.0], 5.0), &rig, [0.0, 0.0], 0.0, [0.0; 3]).pose;
+        rig.camera = Equirectangular { width: 16384, height: 8192 };
+        assert_eq!(patch_part(&pose, &rig, 0.03, 14.0).col_step(), 2);
+        assert_eq!(patch_part(&pose, &rig, 0.12, 14.0).col_step(), 8);
+        rig.camera = Equirectangular { width: 4096, height: 2048 };
+        assert_eq!(patch_part(&pose, &rig, 0.03, 14.0).col_step(), 1);
+        let part = patch_part(&pose, &rig, 0.03, 14.0);
+        // The patch corner at 19.8 m lies 8.2° below the horizon (camera 2.85 m up, boresight < 1°).
+        let latitude = 90.0 - f64::from(part.first_row()) / 2048.0 * 180.0;
+        assert!((latitude + 8.2).abs() < 1.5, "first row at {latitude:.2}°");
     }
 }

@@ -4,7 +4,7 @@
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pixel};
 use plumbline_geo::dg::{Boresight, CameraMount, intersect_height};
 use plumbline_geo::{Attitude, MapFromBody, Point3};
-use plumbline_imaging::{GrayImage, Mask};
+use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -134,5 +134,6 @@ pub(crate) fn scene_panorama(
     let t = truth.translation;
     let pose =
         MapFromBody::new(truth.rotation, Point3::new(t.x() + dg_offset[0], t.y() + dg_offset[1], t.z() + dg_offset[2]));
-    Panorama { id: id.to_owned(), time: 0.0, image, pose, position_sigma: 0.1 }
+    let part = ImagePart::whole(cam.width, cam.height);
+    Panorama { id: id.to_owned(), time: 0.0, image, part, pose, position_sigma: 0.1 }
 }

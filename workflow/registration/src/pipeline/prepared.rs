@@ -5,8 +5,8 @@
 use std::time::Instant;
 
 use plumbline_geo::MapFromBody;
-use plumbline_imaging::GrayImage;
 use plumbline_imaging::kaze::KazeFeatures;
+use plumbline_imaging::{GrayImage, ImagePart};
 use rayon::prelude::*;
 
 use super::{PipelineConfig, StageTimings, pair};
@@ -56,6 +56,7 @@ impl PreparedPanorama {
             id: info.id,
             time: info.time,
             image: GrayImage::filled(0, 0, 0.0),
+            part: ImagePart::whole(0, 0),
             pose: info.pose,
             position_sigma: info.position_sigma,
         };

@@ -9,7 +9,7 @@ pub mod markings;
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
-use plumbline_imaging::{GrayImage, Mask};
+use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::aerial::{AerialFrame, AerialReference};
 use plumbline_registration::mm::{Panorama, PanoramaRig};
@@ -128,6 +128,7 @@ impl Campaign {
                     id: s.id.clone(),
                     time: s.time,
                     image,
+                    part: ImagePart::whole(w as u32, h as u32),
                     pose: s.dg.pose(),
                     position_sigma: std.east.max(std.north),
                 }

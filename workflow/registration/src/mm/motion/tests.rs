@@ -5,7 +5,7 @@ use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{Attitude, Map, MapFromBody, Point3};
 use plumbline_imaging::models::Correspondence;
 use plumbline_imaging::ortho::GroundGrid;
-use plumbline_imaging::{GrayImage, Mask};
+use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -35,7 +35,8 @@ fn shot(rig: &PanoramaRig, at: [f64; 2], heading: f64, err: [f64; 4], time: f64)
     let empty = GrayImage::filled(1, 1, 0.0);
     let valid = Mask::from_fn(1, 1, |_, _| true);
     let patch = OrthoPatch { grid, image: empty.clone(), valid, plane_height: cam.z() - rig.camera_height };
-    let pano = Panorama { id: format!("t{time}"), time, image: empty, pose: dg, position_sigma: 0.1 };
+    let part = ImagePart::whole(1, 1);
+    let pano = Panorama { id: format!("t{time}"), time, image: empty, part, pose: dg, position_sigma: 0.1 };
     Shot { truth, pano, patch }
 }
 
