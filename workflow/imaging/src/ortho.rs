@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::CameraMount;
-use plumbline_geo::{Map, MapFromBody, Point3};
+use plumbline_geo::{Camera, MapFromBody, Vec3};
 use rayon::prelude::*;
 
 use crate::error::{ImagingError, require};
@@ -145,12 +145,15 @@ pub fn ortho_project_part<C: OrthoCamera>(
             len: w * h,
         });
     }
+    // The camera pose once per image: a cell costs one matrix product before the camera model.
+    let pose = exposure.mount.camera_pose(exposure.pose);
+    let (to_camera, centre) = (pose.rotation.matrix().transpose(), pose.translation);
     let samples: Vec<Option<f32>> = (0..grid.width * grid.height)
         .into_par_iter()
         .map(|i| {
             let [e, n] = grid.to_map((i % grid.width) as f64 + 0.5, (i / grid.width) as f64 + 0.5);
-            let p = Point3::<Map>::new(e, n, height(e, n));
-            let px = exposure.mount.project(cam, exposure.pose, &p)?;
+            let d = to_camera * Vector3::new(e - centre.x(), n - centre.y(), height(e, n) - centre.z());
+            let px = cam.project(&Vec3::<Camera>::new(d.x, d.y, d.z))?;
             if vehicle_mask.is_some_and(|m| touches::<C>(m, px.u, px.v)) {
                 return None;
             }

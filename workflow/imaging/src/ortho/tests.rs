@@ -2,9 +2,9 @@
 //! casting, then ortho-projected; the pattern's dots must land where the grid says.
 
 use super::*;
-use plumbline_geo::Attitude;
 use plumbline_geo::camera::Pixel;
 use plumbline_geo::dg::{Boresight, intersect_height};
+use plumbline_geo::{Attitude, Point3};
 
 const SKY: f32 = 30.0;
 
