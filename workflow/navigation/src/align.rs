@@ -1,7 +1,8 @@
 //! Coarse alignment from the data themselves, for campaigns that deliver only raw GNSS and IMU. The drive
 //! may start standing or moving.
 //!
-//! - Motion over the first `levelling` seconds from the GNSS fixes (`fit`): a weighted quadratic per axis
+//! - Motion over the first `levelling` seconds from the GNSS fixes (`fit`), widened to the fourth fix when
+//!   the receiver logs slower (1 Hz), up to ten times `levelling`: a weighted quadratic per axis
 //!   and a χ² test of the standstill hypothesis; standing gives zero velocity and acceleration, moving the
 //!   fitted velocity at the start and the mean acceleration.
 //! - Roll and pitch by levelling (`level`): the gyro-compensated mean specific force over the window is the
@@ -30,6 +31,8 @@ use crate::config::{GnssFix, ImuSample, InitialState, STANDARD_GRAVITY};
 const MIN_FIXES: usize = 4;
 /// Levelling error of a perfect accelerometer triad: the turn-on bias of a tactical IMU over g, rad.
 const TILT_FLOOR: f64 = 2e-3;
+/// How far the levelling window may widen to hold [`MIN_FIXES`] fixes, in multiples of `levelling`.
+const MAX_LEVELLING_WINDOWS: f64 = 10.0;
 /// σ of the heading from the GNSS course, rad.
 const HEADING_STD: f64 = 0.02;
 /// Smallest stated velocity σ, m/s.
@@ -93,12 +96,8 @@ pub fn align(
     config.check()?;
     let first = imu.first().ok_or(NavError::Empty)?;
     let t0 = first.time - first.dt;
-    let until = t0 + config.levelling;
-    let usable = |f: &&GnssFix| f.position.is_finite() && f.std.iter().all(|s| s.is_finite() && *s > 0.0);
-    let window: Vec<&GnssFix> = gnss.iter().filter(usable).filter(|f| f.time >= t0 && f.time <= until).collect();
-    if window.len() < MIN_FIXES {
-        return Err(failed("fewer than 4 usable GNSS fixes within the levelling time of the first IMU sample"));
-    }
+    let window = levelling_window(gnss, t0, config)?;
+    let until = window[window.len() - 1].time.max(t0 + config.levelling);
     let motion = fit::fit(&window, t0, config.alpha)
         .ok_or(failed("the GNSS fixes of the levelling window do not determine the motion"))?;
     let (u, _) = level::mean_specific_force(imu, t0, until).ok_or(failed("no usable IMU samples to level with"))?;
@@ -124,6 +123,27 @@ pub fn align(
         velocity_std: v_std.max(VELOCITY_FLOOR),
         attitude_std: [tilt, tilt, HEADING_STD],
     })
+}
+
+/// The usable GNSS fixes the motion fit and levelling use: those of the first `levelling` seconds, or, when
+/// the receiver logs too slowly for [`MIN_FIXES`] of them (1 Hz GNSS in a 2 s window), the window widened to
+/// the [`MIN_FIXES`]-th fix — but never beyond [`MAX_LEVELLING_WINDOWS`] times `levelling`, and only when
+/// the first fix lies within `levelling` of the start.
+fn levelling_window<'a>(gnss: &'a [GnssFix], t0: f64, config: &AlignmentConfig) -> Result<Vec<&'a GnssFix>, NavError> {
+    let usable = |f: &&GnssFix| f.position.is_finite() && f.std.iter().all(|s| s.is_finite() && *s > 0.0);
+    let after: Vec<&GnssFix> = gnss.iter().filter(usable).filter(|f| f.time >= t0).collect();
+    let within = |limit: f64| after.iter().take_while(|f| f.time <= t0 + limit).count();
+    if within(config.levelling) == 0 {
+        return Err(failed("no usable GNSS fix within the levelling time of the first IMU sample"));
+    }
+    let n = within(config.levelling).max(MIN_FIXES.min(within(MAX_LEVELLING_WINDOWS * config.levelling)));
+    if n < MIN_FIXES {
+        return Err(failed(
+            "fewer than 4 usable GNSS fixes within the levelling time of the first IMU sample (widened up to \
+             10 times for slow receivers)",
+        ));
+    }
+    Ok(after[..n].to_vec())
 }
 
 /// The GNSS course (clockwise from north) over the first baseline after the vehicle moved, and its time.

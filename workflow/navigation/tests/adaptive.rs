@@ -280,6 +280,29 @@ fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
     }
 }
 
+/// Issue 19: agencies' raw GNSS is often logged at 1 Hz; the 2 s levelling window then holds two fixes.
+/// It widens to the fourth fix, and both a standing and a moving start align within their stated σ.
+#[test]
+fn one_hertz_gnss_aligns_standing_and_moving() {
+    for (seed, after) in [(3, None), (8, None), (8, Some(55.0)), (11, Some(100.0))] {
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 1.0);
+        let t0 = s.drive.trajectory.records()[0].time;
+        let (imu, gnss) = match after {
+            Some(a) => common::starting_at(&s, t0 + a),
+            None => (s.imu.clone(), s.gnss.clone()),
+        };
+        let init = align(&imu, &gnss, &lever(), &AlignmentConfig::default()).unwrap();
+        let [dr, dp, dh] = attitude_errors(&init, &s);
+        println!("seed {seed}, start {after:?}: roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad");
+        let sd = init.attitude_std;
+        assert!(dr.abs() < 3.0 * sd[0] && dp.abs() < 3.0 * sd[1] && dh.abs() < 3.0 * sd[2], "seed {seed}");
+        assert!(sd[0] < 0.01 && sd[2] < 0.05, "seed {seed}: σ {sd:?}");
+        let fw = filter_adaptive(&imu, &gnss, &init, &s.config, &Adaptation::default()).unwrap();
+        let err = worst_smoothed(&smooth(&fw).unwrap(), &s, init.time + 5.0, f64::MAX);
+        assert!(err < 0.05, "seed {seed}: smoothed error {err} m after a 1 Hz alignment");
+    }
+}
+
 #[test]
 fn alignment_fails_only_when_impossible_and_says_why() {
     let s = common::scenario(3, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
@@ -289,7 +312,11 @@ fn alignment_fails_only_when_impossible_and_says_why() {
         other => panic!("expected an alignment error, got {other:?}"),
     };
     let late: Vec<GnssFix> = s.gnss.iter().filter(|f| f.time > t0 + 5.0).copied().collect();
-    assert!(reason(&s.imu, &late).contains("fewer than 4 usable GNSS fixes"));
+    assert!(reason(&s.imu, &late).contains("no usable GNSS fix within the levelling time"));
+    // Three fixes in the widened window (10 × 2 s) are not enough for the motion fit.
+    let sparse: Vec<GnssFix> = s.gnss.iter().filter(|f| f.time < t0 + 21.0).step_by(40).copied().collect();
+    assert_eq!(sparse.len(), 3);
+    assert!(reason(&s.imu, &sparse).contains("fewer than 4 usable GNSS fixes"));
     // Only the standstill at the start: no course to take the heading from.
     let standing = t0 + s.drive.stops[0].duration * 0.9;
     let imu: Vec<ImuSample> = s.imu.iter().filter(|r| r.time <= standing).copied().collect();
