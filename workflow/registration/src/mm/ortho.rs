@@ -87,7 +87,7 @@ const MAX_COL_STEP: u32 = 8;
 /// The part of the panorama taken at `pose` that [`ortho_patch`] samples, so a worker decodes no more:
 /// the rows from just above the highest row the patch's boundary projects to (the ground plane's highest
 /// point in the image lies on its boundary) down to the nadir, and the coarsest power-of-two column step
-/// (at most [`MAX_COL_STEP`]) at which one column still spans no more than `gsd` on the ground at the
+/// (at most 8) at which one column still spans no more than `gsd` on the ground at the
 /// patch's farthest point. The whole image when any boundary point does not project.
 pub fn patch_part(pose: &MapFromBody, rig: &PanoramaRig, gsd: f64, half_extent: f64) -> ImagePart {
     let (w, h) = (rig.camera.width, rig.camera.height);
