@@ -170,8 +170,16 @@ mod tests {
     fn the_patch_part_of_a_panorama_gives_the_same_patch_as_the_whole() {
         let ground = Ground::markings(4, [0.0, 0.0], 16.0);
         let rig = rig(true);
-        for (at, heading, half) in [([1.3, -0.7], 0.4, 6.0), ([-2.0, 3.1], 2.9, 14.0)] {
-            let whole = scene_panorama("p", &ground, &rig, at, heading, [0.05, -0.03, 0.02]);
+        // Level, and tilted as on a steep, cambered street (the pose alone decides the part).
+        let cases = [
+            ([1.3, -0.7], 0.4, 6.0, [0.0, 0.0]),
+            ([-2.0, 3.1], 2.9, 14.0, [0.0, 0.0]),
+            ([0.5, 0.5], 1.1, 14.0, [3.0_f64, -5.0_f64]),
+        ];
+        for (at, heading, half, [roll, pitch]) in cases {
+            let mut whole = scene_panorama("p", &ground, &rig, at, heading, [0.05, -0.03, 0.02]);
+            let attitude = plumbline_geo::Attitude::new(roll.to_radians(), pitch.to_radians(), heading);
+            whole.pose = MapFromBody::new(attitude.to_rotation(), whole.pose.translation);
             let part = patch_part(&whole.pose, &rig, 0.03, half);
             assert_eq!(part.col_step(), 1, "1024 columns resolve 3 cm nowhere near the patch edge");
             assert!(part.height() * 2 < whole.image.height(), "{} of {} rows", part.height(), whole.image.height());
