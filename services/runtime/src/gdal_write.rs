@@ -259,6 +259,7 @@ fn cog_typed<T: GdalType + Copy>(raster: &Raster, bands: &[Vec<T>]) -> Result<Ve
         "OVERVIEWS=AUTO",
         "RESAMPLING=AVERAGE",
         "BIGTIFF=IF_SAFER",
+        "NUM_THREADS=ALL_CPUS",
     ]);
     let copy = source.create_copy(&cog, &path, &options).map_err(failed("write a cloud-optimised GeoTIFF"));
     let closed = copy.and_then(|ds| ds.close().map_err(failed("close the cloud-optimised GeoTIFF")));
@@ -279,6 +280,9 @@ pub fn image_tiff(width: usize, height: usize, data: &RasterData) -> Result<Vec<
     }
 }
 
+/// Tile edge of the image TIFFs, pixels.
+const TILE: usize = 512;
+
 fn image_tiff_typed<T: GdalType + Copy>(
     width: usize,
     height: usize,
@@ -289,19 +293,26 @@ fn image_tiff_typed<T: GdalType + Copy>(
     let driver = DriverManager::get_driver_by_name("GTiff").map_err(failed("find the GTiff driver"))?;
     let options = gdal::raster::RasterCreationOptions::from_iter([
         "TILED=YES",
-        "BLOCKXSIZE=512",
+        "BLOCKXSIZE=512", // TILE
         "BLOCKYSIZE=512",
         "COMPRESS=DEFLATE",
         "PREDICTOR=2",
         "BIGTIFF=IF_SAFER",
+        "NUM_THREADS=ALL_CPUS",
     ]);
     let ds = driver
         .create_with_band_type_with_options::<T, _>(&path, width, height, bands.len(), &options)
         .map_err(failed("create a TIFF"))?;
-    let result = bands.iter().enumerate().try_for_each(|(b, data)| {
-        let mut band = ds.rasterband(b + 1).map_err(failed(format!("open band {}", b + 1)))?;
-        let mut buffer = Buffer::new((width, height), data.clone());
-        band.write((0, 0), (width, height), &mut buffer).map_err(failed(format!("write band {}", b + 1)))
+    // One row of tiles at a time, every band: a pixel-interleaved tile is compressed once, when complete,
+    // instead of being written with one band and read back for each of the others.
+    let result = (0..height).step_by(TILE).try_for_each(|top| {
+        let rows = TILE.min(height - top);
+        bands.iter().enumerate().try_for_each(|(b, data)| {
+            let mut band = ds.rasterband(b + 1).map_err(failed(format!("open band {}", b + 1)))?;
+            let strip = data[top * width..(top + rows) * width].to_vec();
+            let mut buffer = Buffer::new((width, rows), strip);
+            band.write((0, top as isize), (width, rows), &mut buffer).map_err(failed(format!("write band {}", b + 1)))
+        })
     });
     let closed = ds.close().map_err(failed("close the TIFF"));
     let bytes = take(&path);

@@ -1,5 +1,5 @@
 //! GeoPackage and GeoTIFF bytes from `gdal_write` open again through GDAL with their layers, fields,
-//! features, CRS, geotransform and pixels; bad input names the item and field.
+//! features, CRS, geotransform and pixels, image TIFFs with their bands; bad input names the item and field.
 
 #![allow(clippy::unwrap_used)]
 
@@ -7,7 +7,7 @@ use gdal::vector::LayerAccess;
 use gdal::{Dataset, Metadata};
 use plumbline_runtime::gdal_write::{
     FieldType, FieldValue, GdalWriteError, PointFeature, PointLayer, Raster, RasterData, cloud_optimized_geotiff,
-    geopackage, geotiff,
+    geopackage, geotiff, image_tiff,
 };
 
 fn reopen(bytes: &[u8], name: &str) -> (tempfile::TempDir, Dataset) {
@@ -103,6 +103,28 @@ fn a_cloud_optimized_geotiff_has_the_pixels_and_overviews_down_to_one_tile() {
     assert_eq!(b.overview(1).unwrap().size(), (375, 275));
     let layout = ds.metadata_item("LAYOUT", "IMAGE_STRUCTURE");
     assert_eq!(layout.as_deref(), Some("COG"), "GDAL reads it as a COG");
+}
+
+/// An aerial frame as large-format cameras deliver it: every band of a 16-bit, pixel-interleaved image TIFF
+/// comes back to the value, in 512 px tiles, including the partial tiles at the right and bottom edges (the
+/// writer sends one row of tiles at a time).
+#[test]
+fn an_image_tiff_keeps_every_band_and_pixel_across_partial_tiles() {
+    let (w, h) = (1100, 1300);
+    let bands: Vec<Vec<u16>> =
+        (0..4).map(|k| (0..w * h).map(|i| (256 + k * 1000 + (i % w) + 3 * (i / w)) as u16).collect()).collect();
+    let (_dir, ds) = reopen(&image_tiff(w, h, &RasterData::U16(bands.clone())).unwrap(), "frame.tif");
+    assert_eq!((ds.raster_size(), ds.raster_count()), ((w, h), 4));
+    for (k, band) in bands.iter().enumerate() {
+        let b = ds.rasterband(k + 1).unwrap();
+        assert_eq!(b.block_size(), (512, 512));
+        assert_eq!(b.read_as::<u16>((0, 0), (w, h), (w, h), None).unwrap().data(), band.as_slice(), "band {}", k + 1);
+    }
+    let structure = |item| ds.metadata_item(item, "IMAGE_STRUCTURE");
+    assert_eq!(
+        (structure("INTERLEAVE").as_deref(), structure("COMPRESSION").as_deref()),
+        (Some("PIXEL"), Some("DEFLATE"))
+    );
 }
 
 #[test]

@@ -240,14 +240,15 @@ fn write_imagery(
     let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
     let shots = sensors::shots(&format!("pano{:04}_", leg.index), &times, &drive.trajectory, &dg.trajectory)?;
     let (scene, mount, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
-    for (k, shot) in shots.iter().enumerate() {
+    imagery::for_each_in_flight(&shots, |k, shot| {
         let pano = render_panorama(&scene, &cam, &mount, &shot.truth.pose(), &vehicle);
         sink.put(format!("panoramas/{}.jpg", shot.id), encode_jpeg(&pano.image, imagery::JPEG_QUALITY)?)?;
         imagery::pixel_truth(world, &cam, &mount, shot, &vehicle, sink)?;
         if first && k == 0 {
             sink.put("panoramas/vehicle_mask.png", imagery::vehicle_mask_png(&pano)?)?;
         }
-    }
+        Ok(())
+    })?;
     sink.append("panoramas/index.csv", csv(sensors::index_csv(&shots, "jpg")))?;
     sink.append("truth/images.csv", csv(sensors::truth_csv(&shots)))?;
     let panoramas = shots.len();
@@ -257,12 +258,12 @@ fn write_imagery(
     let shots: Vec<Shot> =
         sensors::shots(&format!("depth{:04}_", leg.index), &times, &drive.trajectory, &dg.trajectory)?;
     let depth_mount = Mount::DEPTH.camera_mount();
-    for (i, shot) in shots.iter().enumerate() {
+    imagery::for_each_in_flight(&shots, |i, shot| {
         let noise = DepthNoise::realsense(seed.wrapping_mul(1_000_003).wrapping_add((leg.index * 100_000 + i) as u64));
         let image =
             render_depth(world, Epoch::Mobile, &depth_cam, &depth_mount.camera_pose(&shot.truth.pose()), &noise);
-        sink.put(format!("depth/right/{}.png", shot.id), encode_png_gray16(&image)?)?;
-    }
+        sink.put(format!("depth/right/{}.png", shot.id), encode_png_gray16(&image)?)
+    })?;
     sink.append("depth/right/index.csv", csv(sensors::index_csv(&shots, "png")))?;
     sink.append("truth/depth_images.csv", csv(sensors::truth_csv(&shots)))?;
     Ok(panoramas)

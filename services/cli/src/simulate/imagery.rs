@@ -12,6 +12,7 @@ use plumbline_synth::render::{
 };
 use plumbline_synth::sensors::{self, Mount};
 use plumbline_synth::world::{Epoch, World};
+use rayon::prelude::*;
 
 use super::manifest::mount;
 use super::{Args, Preset, Sink};
@@ -71,22 +72,33 @@ pub(crate) fn panoramas(
     let times = sensors::spaced_times(drive, sizes.panorama_spacing)?;
     let shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory)?;
     let (scene, mount_, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
-    let mut mask_png = None;
-    for shot in &shots {
+    for_each_in_flight(&shots, |i, shot| {
         let pano = render_panorama(&scene, &cam, &mount_, &shot.truth.pose(), &vehicle);
         let jpeg = encode_jpeg(&pano.image, JPEG_QUALITY).with_context(|| format!("panorama {}", shot.id))?;
         sink.put(format!("panoramas/{}.jpg", shot.id), jpeg)?;
         pixel_truth(world, &cam, &mount_, shot, &vehicle, sink)?;
-        if mask_png.is_none() {
-            mask_png = Some(vehicle_mask_png(&pano)?);
+        if i == 0 {
+            sink.put("panoramas/vehicle_mask.png", vehicle_mask_png(&pano)?)?;
         }
-    }
-    if let Some(png) = mask_png {
-        sink.put("panoramas/vehicle_mask.png", png)?;
-    }
+        Ok(())
+    })?;
     sink.put("panoramas/index.csv", sensors::index_csv(&shots, "jpg"))?;
     sink.put("truth/images.csv", sensors::truth_csv(&shots))?;
     Ok(panorama_section(sizes, drive_config.imu_height))
+}
+
+/// Run `f` on every item (with its index), as many items at once as rayon has threads: rendering is parallel
+/// inside an item, but its encoding is not, so a second item renders while the first encodes. Whole chunks
+/// keep memory at that many images. The first error stops the run; files go out in no fixed order.
+pub(crate) fn for_each_in_flight<T: Sync>(
+    items: &[T],
+    f: impl Fn(usize, &T) -> anyhow::Result<()> + Sync,
+) -> anyhow::Result<()> {
+    let in_flight = rayon::current_num_threads().max(1);
+    items
+        .chunks(in_flight)
+        .enumerate()
+        .try_for_each(|(c, chunk)| chunk.par_iter().enumerate().try_for_each(|(k, item)| f(c * in_flight + k, item)))
 }
 
 /// The manifest's `[panoramas]` for the IMU `imu_height` above the road.
@@ -145,13 +157,13 @@ pub(crate) fn depth(
     let times = sensors::moving_times(drive, sizes.depth_rate)?;
     let shots = sensors::shots("depth", &times, &drive.trajectory, &dg.trajectory)?;
     let camera_mount = Mount::DEPTH.camera_mount();
-    for (i, shot) in shots.iter().enumerate() {
+    for_each_in_flight(&shots, |i, shot| {
         let noise = DepthNoise::realsense(seed.wrapping_mul(1_000_003).wrapping_add(i as u64));
         let pose = camera_mount.camera_pose(&shot.truth.pose());
         let image = render_depth(world, Epoch::Mobile, &cam, &pose, &noise);
         let png = encode_png_gray16(&image).with_context(|| format!("depth image {}", shot.id))?;
-        sink.put(format!("depth/right/{}.png", shot.id), png)?;
-    }
+        sink.put(format!("depth/right/{}.png", shot.id), png)
+    })?;
     sink.put("depth/right/index.csv", sensors::index_csv(&shots, "png"))?;
     sink.put("truth/depth_images.csv", sensors::truth_csv(&shots))?;
     depth_section(sizes)
