@@ -81,7 +81,9 @@ impl CameraModel for Equirectangular {
     }
 
     fn project(&self, d: &Vec3<Camera>) -> Option<Pixel> {
-        let horizontal = d.x().hypot(d.z());
+        // `hypot` only where the squares overflow: its guard costs a library call per pixel.
+        let squares = (d.x() * d.x() + d.z() * d.z()).sqrt();
+        let horizontal = if squares.is_finite() { squares } else { d.x().hypot(d.z()) };
         if !(d.is_finite() && (horizontal > 0.0 || d.y() != 0.0)) {
             return None;
         }

@@ -157,9 +157,10 @@ impl<'a> Interior<'a> {
     /// The five samples of [`cross_checked`] at (u, v), which [`Interior::of`] placed inside.
     fn cross(&self, u: f64, v: f64) -> [f64; 5] {
         let (x, y) = (u - 0.5, v - 0.5);
-        let (x0, y0) = (x.floor(), y.floor());
-        let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
-        let base = y0 as usize * self.width + x0 as usize;
+        // Inside means x, y ≥ 1.5: truncation is the floor (without a library call on baseline x86-64).
+        let (c0, r0) = (x as usize, y as usize);
+        let (fx, fy) = ((x - c0 as f64) as f32, (y - r0 as f64) as f32);
+        let base = r0 * self.width + c0;
         let w = self.width as isize;
         let at = |dc: isize, dr: isize| self.data[(base as isize + dr * w + dc) as usize];
         let bilinear = |dc: isize, dr: isize| {

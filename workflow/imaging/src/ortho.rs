@@ -175,11 +175,22 @@ fn footprint<C: OrthoCamera>(w: usize, h: usize, u: f64, v: f64) -> Option<([usi
         return None;
     }
     let (x, y) = (u - 0.5, v - 0.5);
-    let (x0, y0) = (x.floor(), y.floor());
+    let (x0, y0) = (floor(x), floor(y));
     let (fx, fy) = ((x - x0) as f32, (y - y0) as f32);
     let col = |c: isize| if C::WRAPS_U { c.rem_euclid(w) } else { c.clamp(0, w - 1) } as usize;
     let row = |r: isize| r.clamp(0, h - 1) as usize;
     Some(([col(x0 as isize), col(x0 as isize + 1), row(y0 as isize), row(y0 as isize + 1)], [fx, fy]))
+}
+
+/// `x.floor()` without the library call that baseline x86-64 (no SSE4.1 rounding) makes for it: truncation
+/// toward zero, one down for negative non-integers. Exact wherever an `i64` holds `x`; −0.0 gives +0.0.
+fn floor(x: f64) -> f64 {
+    if x.abs() < 4.0e18 {
+        let t = x as i64 as f64;
+        if t > x { t - 1.0 } else { t }
+    } else {
+        x.floor()
+    }
 }
 
 /// Whether the bilinear footprint of (u, v) touches a set pixel of `mask`.
