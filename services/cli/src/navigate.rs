@@ -14,21 +14,21 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, ImuModel, IntegrityConfig, NavConfig, STANDARD_GRAVITY, align, filter,
-    filter_adaptive, smooth, test_innovations, to_trajectory,
+    Adaptation, AlignmentConfig, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample, IntegrityConfig,
+    MeasuredNoise, NavConfig, STANDARD_GRAVITY, align, angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive,
+    measure_noise, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
-use plumbline_synth::motion::imu::ImuErrors;
 
 use crate::adjust::triple;
-use crate::exit::OrInvalid;
+use crate::exit::{OrInvalid, invalid};
 use crate::io::{Context, file_name};
 
-/// IMU grades (the error model the filter assumes).
+/// IMU grades `simulate` can generate (`plumbline_synth::motion::imu`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Grade {
-    /// Tactical grade (LN-100 class, paper 003 §2.1).
+    /// Navigation grade (LN-100 class, paper 003 §2.1; `navigate --imu-model navigation`).
     Tactical,
-    /// Consumer MEMS (BMI160 class, paper 002 §3.1.1).
+    /// Consumer MEMS (BMI160 class, paper 002 §3.1.1; `navigate --imu-model consumer`).
     Consumer,
 }
 
@@ -44,9 +44,10 @@ pub struct Args {
     /// GNSS antenna in the body frame (x forward, y right, z down), metres: X,Y,Z.
     #[arg(long, value_name = "X,Y,Z", value_parser = triple, default_value = "0,0,0")]
     pub lever_arm: [f64; 3],
-    /// Error model of the IMU.
-    #[arg(long = "imu-grade", value_enum, default_value_t = Grade::Tactical)]
-    pub grade: Grade,
+    /// Error model of the IMU: a class (navigation, tactical, industrial, consumer; their figures are in
+    /// ARCHITECTURE.md) or a TOML file of datasheet figures (`class = "…"` plus any figures that differ).
+    #[arg(long, value_name = "CLASS|FILE.toml", default_value = "tactical")]
+    pub imu_model: String,
     /// Significance level of the innovation tests.
     #[arg(long, default_value_t = 0.001)]
     pub alpha: f64,
@@ -61,22 +62,41 @@ pub struct Args {
     pub out: String,
 }
 
-/// The filter's model of an IMU grade: on a level vehicle the vertical accelerometer's scale-factor error
-/// times g acts as a bias, so it joins the turn-on bias.
-fn model_of(grade: Grade) -> ImuModel {
-    let e = match grade {
-        Grade::Tactical => ImuErrors::TACTICAL,
-        Grade::Consumer => ImuErrors::CONSUMER,
-    };
-    ImuModel {
-        gyro_bias: e.gyro_bias,
-        gyro_bias_instability: e.gyro_bias_instability,
-        gyro_random_walk: e.gyro_random_walk,
-        accel_bias: e.accel_bias.hypot(e.accel_scale_factor * STANDARD_GRAVITY),
-        accel_bias_instability: e.accel_bias_instability,
-        accel_random_walk: e.accel_random_walk,
-        bias_correlation_time: e.bias_correlation_time,
+/// The datasheet `--imu-model` names: a class, or a file (local path or URL) of figures.
+async fn datasheet_of(ctx: &Context, spec: &str) -> anyhow::Result<ImuDatasheet> {
+    if let Ok(class) = spec.parse::<ImuClass>() {
+        return Ok(class.datasheet());
     }
+    if !spec.ends_with(".toml") {
+        let classes: Vec<&str> = ImuClass::ALL.iter().map(|c| c.name()).collect();
+        return Err(invalid(format!("--imu-model {spec}: expected one of {} or a .toml file", classes.join(", "))));
+    }
+    let bytes = ctx.read(spec).await?;
+    let text = std::str::from_utf8(&bytes).map_err(|e| invalid(format!("{spec}: not UTF-8 text: {e}")))?;
+    let file: ImuModelFile = toml::from_str(text).map_err(|e| invalid(format!("{spec}: {e}")))?;
+    file.datasheet().map_err(|e| invalid(format!("{spec}: {e}")))
+}
+
+/// The datasheet's model with its random walks raised to the noise the records show (vibration of the mount
+/// adds to the sensor's own), said on stderr when it does; the measurement, if the records allow one.
+fn noise_floor(datasheet: &ImuDatasheet, imu: &[ImuSample], name: &str) -> (ImuModel, Option<MeasuredNoise>) {
+    let model = datasheet.model();
+    let Some(measured) = measure_noise(imu) else {
+        eprintln!("warning: {name}: too few regular samples to measure the IMU noise; the datasheet's is used");
+        return (model, None);
+    };
+    let (arw, vrw) = (
+        angle_random_walk_deg_per_sqrt_h(measured.gyro_random_walk),
+        velocity_random_walk_m_per_s_per_sqrt_h(measured.accel_random_walk),
+    );
+    let floored = model.with_noise_floor(&measured);
+    if floored != model {
+        eprintln!(
+            "IMU noise measured in {name}: ARW {arw:.3} °/√h, VRW {vrw:.3} m/s/√h (worst axis); the filter uses \
+             the larger of these and the datasheet's"
+        );
+    }
+    (floored, Some(measured))
 }
 
 /// Skipped fixes named one by one on stderr (all of them are in `summary.json`).
@@ -86,11 +106,24 @@ const SKIPPED_LISTED: usize = 10;
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let adaptation = Adaptation { alpha: args.alpha, window: args.window, ..Adaptation::default() };
     adaptation.check().or_invalid("--alpha/--window")?;
+    let datasheet = datasheet_of(ctx, &args.imu_model).await?;
     let gnss = files::gnss(&ctx.read(&args.gnss).await?, file_name(&args.gnss))?;
     let imu = files::imu(&ctx.read(&args.imu).await?, file_name(&args.imu))?;
     let imu_name = file_name(&args.imu).to_owned();
     let lever = Vec3::new(args.lever_arm[0], args.lever_arm[1], args.lever_arm[2]);
-    let config = NavConfig { imu: model_of(args.grade), lever_arm: lever, gravity: STANDARD_GRAVITY };
+    eprintln!(
+        "IMU model {}: gyro bias {} °/h (instability {} °/h), ARW {} °/√h; accelerometer bias {} mg \
+         (instability {} µg), VRW {} m/s/√h",
+        args.imu_model,
+        datasheet.gyro_bias_deg_per_h,
+        datasheet.gyro_bias_instability_deg_per_h,
+        datasheet.angle_random_walk_deg_per_sqrt_h,
+        datasheet.accel_bias_mg,
+        datasheet.accel_bias_instability_ug,
+        datasheet.velocity_random_walk_m_per_s_per_sqrt_h
+    );
+    let (model, noise) = noise_floor(&datasheet, &imu, &imu_name);
+    let config = NavConfig { imu: model, lever_arm: lever, gravity: STANDARD_GRAVITY };
     let adapt = !args.no_adapt;
     let (forward, trajectory, flags, initial) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
         let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
@@ -111,7 +144,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     ctx.write(&format!("{prefix}trajectory.csv"), output::trajectory_csv(&trajectory)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
-    let summary = output::summary(&forward, &flags, &initial, adapt);
+    let mut summary = output::summary(&forward, &flags, &initial, adapt);
+    summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     ctx.write(&format!("{prefix}summary.json"), serde_json::to_vec_pretty(&summary)?).await?;
     eprintln!(
         "navigated {} IMU epochs with {} fixes: {} flags, {} fixes skipped",

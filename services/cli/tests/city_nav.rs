@@ -65,7 +65,7 @@ fn raw_gnss_and_imu_run_through_the_joins_and_navigate_back_to_the_truth() {
     let nav = dir.path().join("nav");
     let (g, i) = (sim.join("nav/gnss.csv"), sim.join("nav/imu.csv"));
     plumbline(&["navigate", "--gnss", g.to_str().unwrap(), "--imu", i.to_str().unwrap(), "--lever-arm", "0,0,-0.4"])
-        .args(["--out", nav.to_str().unwrap()])
+        .args(["--imu-model", "navigation", "--out", nav.to_str().unwrap()])
         .run()
         .success();
     let smoothed = columns(&nav.join("trajectory.csv"), 4);

@@ -57,7 +57,7 @@ fn rms(v: &[f64]) -> f64 {
 fn navigate(sim: &Path, gnss: &Path, out: &Path) -> support::Run {
     let imu = sim.join("nav/imu.csv");
     plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
-        .args(["--lever-arm", "0,0,-0.4", "--out", out.to_str().unwrap()])
+        .args(["--lever-arm", "0,0,-0.4", "--imu-model", "navigation", "--out", out.to_str().unwrap()])
         .run()
 }
 
@@ -167,10 +167,18 @@ fn a_recording_that_starts_while_moving_aligns_in_motion() {
     cut(&sim.join("nav/gnss.csv"), &gnss, start);
     cut(&sim.join("nav/imu.csv"), &imu, start + 0.001);
     let out = dir.path().join("nav");
-    plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
-        .args(["--lever-arm", "0,0,-0.4", "--out", out.to_str().unwrap()])
-        .run()
-        .success();
+    // The simulator's IMU as a datasheet file: the navigation class with one figure restated.
+    let model = support::write(&dir, "imu.toml", "class = \"navigation\"\nangle_random_walk_deg_per_sqrt_h = 0.001\n");
+    let r = plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
+        .args(["--lever-arm", "0,0,-0.4", "--imu-model", &model, "--out", out.to_str().unwrap()])
+        .run();
+    r.success();
+    assert!(r.stderr.contains("IMU model ") && r.stderr.contains("ARW 0.001 °/√h"), "{}", r.stderr);
+    let used = &summary(&out)["imu_model"];
+    assert_eq!(used["datasheet"]["gyro_bias_deg_per_h"], 0.003, "{used}");
+    let measured = used["measured"]["gyro_random_walk"].as_f64().unwrap();
+    // The simulator's white noise is the datasheet's (0.001 °/√h = 2.9e-7 rad/√s); the motion adds little.
+    assert!(measured > 2.5e-7 && measured < 5e-7, "measured ARW {measured} rad/√s");
     let alignment = &summary(&out)["alignment"];
     let speed = alignment["velocity_mps"].as_array().unwrap().iter().map(|v| v.as_f64().unwrap().powi(2)).sum::<f64>();
     assert!(speed.sqrt() > 2.5, "aligned as standing while moving: {alignment}");
@@ -202,4 +210,20 @@ fn malformed_files_exit_2_naming_file_line_and_column() {
     let r = plumbline(&["navigate", "--gnss", &gnss, "--imu", &imu, "--out", out.to_str().unwrap()]).run();
     r.failure_with(2);
     assert!(r.stderr.contains("imu.csv: line 1: missing column `dv_z_mps`"), "{}", r.stderr);
+    // IMU models: an unknown class lists the classes; a file's unknown figure and missing figures are named.
+    let run = |model: &str| {
+        plumbline(&["navigate", "--gnss", &gnss, "--imu", &imu, "--imu-model", model, "--out", out.to_str().unwrap()])
+            .run()
+    };
+    let r = run("strategic");
+    r.failure_with(2);
+    assert!(r.stderr.contains("navigation, tactical, industrial, consumer or a .toml file"), "{}", r.stderr);
+    let typo = support::write(&dir, "typo.toml", "class = \"tactical\"\narw_deg_per_sqrt_h = 0.2\n");
+    let r = run(&typo);
+    r.failure_with(2);
+    assert!(r.stderr.contains("typo.toml") && r.stderr.contains("arw_deg_per_sqrt_h"), "{}", r.stderr);
+    let partial = support::write(&dir, "partial.toml", "gyro_bias_deg_per_h = 2.0\n");
+    let r = run(&partial);
+    r.failure_with(2);
+    assert!(r.stderr.contains("gyro_bias_instability_deg_per_h"), "{}", r.stderr);
 }

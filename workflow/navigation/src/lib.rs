@@ -8,6 +8,7 @@
 //! added to the `state` module's transition before it is used on it.
 //!
 //! ```text
+//! ImuClass::Tactical.datasheet() / ImuModelFile → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
 //! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
 //!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
 //! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
@@ -25,6 +26,7 @@ mod align;
 mod chi2;
 mod config;
 mod consistency;
+mod datasheet;
 mod filter;
 mod integrity;
 mod smoother;
@@ -35,6 +37,10 @@ pub use align::{AlignmentConfig, align};
 pub use chi2::{chi2_cdf, chi2_critical};
 pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
+pub use datasheet::{
+    ImuClass, ImuDatasheet, ImuModelFile, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
+    velocity_random_walk_m_per_s_per_sqrt_h,
+};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};

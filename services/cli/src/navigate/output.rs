@@ -5,7 +5,7 @@ use std::fmt::Write as _;
 
 use plumbline_geo::Trajectory;
 use plumbline_geo::formats::{self, RawTrajectory};
-use plumbline_navigation::{Decision, Flag, ForwardPass, InitialState};
+use plumbline_navigation::{Decision, Flag, ForwardPass, ImuDatasheet, ImuModel, InitialState, MeasuredNoise};
 use serde_json::{Value, json};
 
 /// The smoothed trajectory as projected CSV with σ.
@@ -81,5 +81,16 @@ pub fn summary(forward: &ForwardPass, flags: &[Flag], initial: &InitialState, ad
             "attitude_std_deg": initial.attitude_std.map(f64::to_degrees),
         },
         "final_biases": {"accelerometer_mps2": [accel.x, accel.y, accel.z], "gyro_radps": [gyro.x, gyro.y, gyro.z]},
+    })
+}
+
+/// `summary.json`'s `imu_model`: what `--imu-model` named, its datasheet, the noise measured in the records
+/// and the random walks the filter used (SI).
+pub fn imu_model(spec: &str, datasheet: &ImuDatasheet, measured: Option<&MeasuredNoise>, used: &ImuModel) -> Value {
+    json!({
+        "name": spec,
+        "datasheet": datasheet,
+        "measured": measured,
+        "used": {"gyro_random_walk_rad_per_sqrt_s": used.gyro_random_walk, "accel_random_walk_m_per_s_per_sqrt_s": used.accel_random_walk},
     })
 }
