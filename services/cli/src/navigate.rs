@@ -14,7 +14,7 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample, IntegrityConfig,
+    Adaptation, AlignmentConfig, Earth, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample, IntegrityConfig,
     MeasuredNoise, NavConfig, STANDARD_GRAVITY, align, angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive,
     measure_noise, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
@@ -48,6 +48,11 @@ pub struct Args {
     /// ARCHITECTURE.md) or a TOML file of datasheet figures (`class = "…"` plus any figures that differ).
     #[arg(long, value_name = "CLASS|FILE.toml", default_value = "tactical")]
     pub imu_model: String,
+    /// Geodetic latitude of the drive, degrees: mechanise on the WGS 84 Earth (Earth rotation, transport
+    /// rate, normal gravity), as real IMU data needs. Without it the Earth is flat and still, with standard
+    /// gravity: the simulator's world.
+    #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
+    pub latitude: Option<f64>,
     /// Significance level of the innovation tests.
     #[arg(long, default_value_t = 0.001)]
     pub alpha: f64,
@@ -107,6 +112,17 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let adaptation = Adaptation { alpha: args.alpha, window: args.window, ..Adaptation::default() };
     adaptation.check().or_invalid("--alpha/--window")?;
     let datasheet = datasheet_of(ctx, &args.imu_model).await?;
+    let earth = match args.latitude {
+        Some(deg) => Earth::Wgs84 { latitude: deg.to_radians() },
+        None => {
+            eprintln!(
+                "note: no --latitude: flat, non-rotating Earth with standard gravity (simulated data); real IMU \
+                 data senses Earth rotation (15 °/h) and needs --latitude"
+            );
+            Earth::Flat { gravity: STANDARD_GRAVITY }
+        }
+    };
+    earth.check().or_invalid("--latitude")?;
     let gnss = files::gnss(&ctx.read(&args.gnss).await?, file_name(&args.gnss))?;
     let imu = files::imu(&ctx.read(&args.imu).await?, file_name(&args.imu))?;
     let imu_name = file_name(&args.imu).to_owned();
@@ -123,7 +139,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         datasheet.velocity_random_walk_m_per_s_per_sqrt_h
     );
     let (model, noise) = noise_floor(&datasheet, &imu, &imu_name);
-    let config = NavConfig { imu: model, lever_arm: lever, gravity: STANDARD_GRAVITY };
+    let config = NavConfig { imu: model, lever_arm: lever, earth };
+    config.check().or_invalid("navigation config")?;
     let adapt = !args.no_adapt;
     let (forward, trajectory, flags, initial) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
         let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;

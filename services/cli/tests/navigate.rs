@@ -215,6 +215,11 @@ fn malformed_files_exit_2_naming_file_line_and_column() {
         plumbline(&["navigate", "--gnss", &gnss, "--imu", &imu, "--imu-model", model, "--out", out.to_str().unwrap()])
             .run()
     };
+    let r =
+        plumbline(&["navigate", "--gnss", &gnss, "--imu", &imu, "--latitude", "95", "--out", out.to_str().unwrap()])
+            .run();
+    r.failure_with(2);
+    assert!(r.stderr.contains("--latitude") && r.stderr.contains("within ±89°"), "{}", r.stderr);
     let r = run("strategic");
     r.failure_with(2);
     assert!(r.stderr.contains("navigation, tactical, industrial, consumer or a .toml file"), "{}", r.stderr);

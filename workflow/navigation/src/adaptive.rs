@@ -119,7 +119,18 @@ pub(crate) struct Monitor {
     window: std::collections::VecDeque<Parts>,
     /// The current exclusion episode.
     episode: Option<Episode>,
+    /// Re-openings in a row, each within [`ESCALATION_SPAN`] of the one before: the IMU errs beyond its model.
+    escalation: i32,
+    /// Time of the last re-opening.
+    last_reopen: Option<f64>,
 }
+
+/// A re-opening this soon after the previous one escalates the next (s).
+const ESCALATION_SPAN: f64 = 60.0;
+/// Growth of the re-opened bias σ per escalation step.
+const ESCALATION_STEP: f64 = 3.0;
+/// Most escalation steps (3⁵ = 243 times the turn-on σ: a tactical 1 °/h becomes 243 °/h).
+const ESCALATION_MAX: i32 = 5;
 
 impl Monitor {
     pub fn new(config: Adaptation) -> Self {
@@ -129,8 +140,22 @@ impl Monitor {
             slippage: chi2_critical(1.0, config.alpha),
             window: std::collections::VecDeque::with_capacity(config.window),
             episode: None,
+            escalation: 0,
+            last_reopen: None,
             config,
         }
+    }
+
+    /// The factor on the turn-on bias σ of the next re-opening: grows while re-openings follow each other.
+    pub fn reopen_scale(&self) -> f64 {
+        ESCALATION_STEP.powi(self.escalation)
+    }
+
+    /// Count a re-opening at `time` for the escalation.
+    fn reopened(&mut self, time: f64) {
+        let soon = self.last_reopen.is_some_and(|t| time - t < ESCALATION_SPAN);
+        self.escalation = if soon { (self.escalation + 1).min(ESCALATION_MAX) } else { 0 };
+        self.last_reopen = Some(time);
     }
 
     /// Seconds since the current exclusion episode started (0 outside one).
@@ -154,6 +179,7 @@ impl Monitor {
         self.window.push_back(parts);
         if self.window.len() == self.config.window && self.global_rejects() {
             self.window.clear();
+            self.reopened(time);
             return Decision::BiasReset;
         }
         Decision::Used
@@ -177,6 +203,7 @@ impl Monitor {
         if (drift >= self.local && away) || time - episode.start > self.config.max_exclusion {
             self.episode = None;
             self.window.clear();
+            self.reopened(time);
             return Decision::Reinitialised;
         }
         Decision::Excluded
@@ -196,13 +223,13 @@ impl Monitor {
 /// also position and velocity to the size of the innovation (`v`) and its growth over `elapsed` seconds.
 /// The smoother spreads the position part over the interval since the last used fix (see `smoother`), so
 /// the smoothed trajectory does not step where the filter re-initialised.
-pub(crate) fn reopen(p: &mut Mat15, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64) {
+pub(crate) fn reopen(p: &mut Mat15, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64, scale: f64) {
     if matches!(decision, Decision::Used | Decision::Excluded) {
         return;
     }
     for a in 0..3 {
-        p[(BA + a, BA + a)] += imu.accel_bias.powi(2);
-        p[(BG + a, BG + a)] += imu.gyro_bias.powi(2);
+        p[(BA + a, BA + a)] += (scale * imu.accel_bias).powi(2);
+        p[(BG + a, BG + a)] += (scale * imu.gyro_bias).powi(2);
     }
     if decision == Decision::Reinitialised {
         let rate = 2.0 / elapsed.max(1.0);

@@ -4,8 +4,9 @@ use plumbline_geo::{Attitude, Body, Map, Point3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
+use crate::earth::Earth;
 
-/// Standard gravity, m/s² (the simulator's value; Earth rotation and gravity variation are neglected).
+/// Standard gravity, m/s² (the simulator's flat Earth; [`Earth::Wgs84`] uses normal gravity).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
 
 /// One IMU record: angle and velocity increments over the interval `[time − dt, time]`, body frame.
@@ -59,8 +60,8 @@ pub struct NavConfig {
     pub imu: ImuModel,
     /// GNSS antenna position in the body frame (x forward, y right, z down), m.
     pub lever_arm: Vec3<Body>,
-    /// Gravity magnitude, m/s², acting along the map frame's −z.
-    pub gravity: f64,
+    /// The Earth of the mechanisation: flat with constant gravity (the simulator's), or WGS 84.
+    pub earth: Earth,
 }
 
 /// The state the filter starts from, with its uncertainty.
@@ -99,7 +100,8 @@ impl NavConfig {
                 return Err(NavError::Config { field, value, expected: "a finite σ >= 0" });
             }
         }
-        let positive = [("imu.bias_correlation_time", m.bias_correlation_time), ("gravity", self.gravity)];
+        self.earth.check()?;
+        let positive = [("imu.bias_correlation_time", m.bias_correlation_time)];
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {
                 return Err(NavError::Config { field, value, expected: "a finite number > 0" });

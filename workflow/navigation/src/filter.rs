@@ -157,9 +157,9 @@ impl<'a> Run<'a> {
 
     /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
     fn predict(&mut self, s: &ImuSample) {
-        let f = self.state.transition(s, self.config.imu.bias_correlation_time);
+        let f = self.state.transition(s, self.config.imu.bias_correlation_time, &self.config.earth);
         self.p = predict_cov(&f, &self.p, &process_noise(&self.config.imu, s.dt));
-        self.state = self.state.propagate(s, self.config.gravity);
+        self.state = self.state.propagate(s, &self.config.earth);
         self.out.nominal.push(self.state);
         self.out.position_cov.push(self.p.fixed_view::<3, 3>(POS, POS).into_owned());
     }
@@ -212,7 +212,7 @@ impl<'a> Run<'a> {
             Some(m) => {
                 let age = m.episode_age(fix.time);
                 let d = m.decide(fix.time, &residual, &s);
-                reopen(&mut self.p, d, &self.config.imu, &residual, age);
+                reopen(&mut self.p, d, &self.config.imu, &residual, age, m.reopen_scale());
                 d
             }
         };

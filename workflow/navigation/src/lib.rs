@@ -3,9 +3,9 @@
 //! RTS smoother, innovation-based integrity tests, and the consistency check of the DG trajectory against
 //! image-derived motion (paper 001 §4). Synchronous and I/O-free.
 //!
-//! The mechanisation is flat-Earth east-north-up with Earth rotation neglected and gravity along −z: the
-//! model `plumbline_synth::motion::imu` simulates. Real data at tactical grade needs the Earth-rate terms
-//! added to the `state` module's transition before it is used on it.
+//! The mechanisation runs in the east-north-up map frame on an [`Earth`]: flat with constant gravity along
+//! −z (the model `plumbline_synth::motion::imu` simulates), or WGS 84 at the campaign's latitude with Earth
+//! rate, transport rate, Coriolis and normal gravity (real data).
 //!
 //! ```text
 //! ImuClass::Tactical.datasheet() / ImuModelFile → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
@@ -27,6 +27,7 @@ mod chi2;
 mod config;
 mod consistency;
 mod datasheet;
+mod earth;
 mod filter;
 mod integrity;
 mod smoother;
@@ -41,6 +42,7 @@ pub use datasheet::{
     ImuClass, ImuDatasheet, ImuModelFile, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
     velocity_random_walk_m_per_s_per_sqrt_h,
 };
+pub use earth::{EARTH_RATE, Earth, normal_gravity};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};

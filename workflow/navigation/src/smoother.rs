@@ -83,7 +83,7 @@ fn interval(
     let mut p = *p_from;
     for k in from..to {
         let sample = &fw.samples[k];
-        let f = fw.nominal[k].transition(sample, tau);
+        let f = fw.nominal[k].transition(sample, tau, &fw.config.earth);
         steps.push((f, p));
         p = predict_cov(&f, &p, &process_noise(&fw.config.imu, sample.dt));
         if span > 0.0 {

@@ -1,12 +1,14 @@
 //! The nominal navigation state, its strapdown mechanisation and the error-state transition.
 //!
-//! Mechanisation in the map frame (east-north-up), flat Earth, Earth rotation neglected, gravity along −z:
-//! the same model the simulator (`plumbline_synth::motion::imu`) generates increments with. Error state
+//! Mechanisation in the map frame (east-north-up) on the configured [`Earth`]: flat, not rotating, gravity
+//! along −z (the model the simulator, `plumbline_synth::motion::imu`, generates increments with), or WGS 84
+//! with Earth rate, transport rate, Coriolis and normal gravity. Error state
 //! (15): δp, δv (map), φ (attitude error, map-frame rotation vector, C_true = Exp(φ)·C), δb_a, δb_g (body).
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
 use crate::config::{ImuModel, ImuSample};
+use crate::earth::Earth;
 
 /// 15 × 15 matrix of the error state.
 pub(crate) type Mat15 = SMatrix<f64, 15, 15>;
@@ -49,16 +51,28 @@ impl Nominal {
         (self.attitude * UnitQuaternion::from_scaled_axis(theta * 0.5)) * dv
     }
 
-    /// Strapdown step over one IMU interval: attitude by the rotation vector, velocity with the mid-interval
-    /// attitude, position by the trapezoid (the simulator's increment definition, `motion::imu`).
-    pub fn propagate(&self, s: &ImuSample, gravity: f64) -> Self {
+    /// Rotation of the map frame against inertial space (Earth rate + transport rate) at this state, rad/s.
+    fn frame_rate(&self, earth: &Earth) -> (Vector3<f64>, Vector3<f64>) {
+        (earth.earth_rate(), earth.transport_rate(&self.velocity, self.position.z))
+    }
+
+    /// Strapdown step over one IMU interval: attitude by the rotation vector less the frame's own rotation,
+    /// velocity with the mid-interval attitude, Coriolis and gravity, position by the trapezoid (on the flat
+    /// Earth, the simulator's increment definition, `motion::imu`).
+    pub fn propagate(&self, s: &ImuSample, earth: &Earth) -> Self {
         let (theta, _) = self.corrected(s);
-        let velocity = self.velocity + self.map_delta_v(s) + Vector3::new(0.0, 0.0, -gravity * s.dt);
+        let (ie, en) = self.frame_rate(earth);
+        let gravity = earth.gravity(self.position.z);
+        let coriolis = (2.0 * ie + en).cross(&self.velocity) * s.dt;
+        let frame_half = UnitQuaternion::from_scaled_axis(-(ie + en) * (0.5 * s.dt));
+        let velocity =
+            self.velocity + frame_half * self.map_delta_v(s) - coriolis + Vector3::new(0.0, 0.0, -gravity * s.dt);
+        let frame = UnitQuaternion::from_scaled_axis(-(ie + en) * s.dt);
         Self {
             time: s.time,
             position: self.position + (self.velocity + velocity) * (0.5 * s.dt),
             velocity,
-            attitude: self.attitude * UnitQuaternion::from_scaled_axis(theta),
+            attitude: frame * self.attitude * UnitQuaternion::from_scaled_axis(theta),
             ..*self
         }
     }
@@ -77,11 +91,16 @@ impl Nominal {
     }
 
     /// Error-state transition F over the interval of `s` (first order in dt).
-    pub fn transition(&self, s: &ImuSample, tau: f64) -> Mat15 {
+    pub fn transition(&self, s: &ImuSample, tau: f64, earth: &Earth) -> Mat15 {
         let c = self.attitude.to_rotation_matrix().into_inner();
         let decay = (-s.dt / tau).exp();
+        let (ie, en) = self.frame_rate(earth);
         let mut f = Mat15::identity();
         f.fixed_view_mut::<3, 3>(POS, VEL).copy_from(&(Matrix3::identity() * s.dt));
+        // The frame's rotation turns the attitude error, Coriolis the velocity error (rate derivatives by
+        // position and velocity are below the tactical gyro noise and left out).
+        f.fixed_view_mut::<3, 3>(ATT, ATT).copy_from(&(Matrix3::identity() - skew(&(ie + en)) * s.dt));
+        f.fixed_view_mut::<3, 3>(VEL, VEL).copy_from(&(Matrix3::identity() - skew(&(2.0 * ie + en)) * s.dt));
         f.fixed_view_mut::<3, 3>(VEL, ATT).copy_from(&(-skew(&self.map_delta_v(s))));
         f.fixed_view_mut::<3, 3>(VEL, BA).copy_from(&(-c * s.dt));
         f.fixed_view_mut::<3, 3>(ATT, BG).copy_from(&(-c * s.dt));
@@ -172,12 +191,13 @@ mod tests {
             delta_theta: plumbline_geo::Vec3::new(0.001, -0.002, 0.004),
             delta_v: plumbline_geo::Vec3::new(0.02, 0.01, -0.098),
         };
-        let f = nominal.transition(&s, 3600.0);
-        let base = nominal.propagate(&s, 9.8);
+        let earth = Earth::Flat { gravity: 9.8 };
+        let f = nominal.transition(&s, 3600.0, &earth);
+        let base = nominal.propagate(&s, &earth);
         let dx = Vec15::from_fn(|i, _| {
             [1e-3, -2e-3, 1e-3, 1e-3, 2e-3, -1e-3, 1e-4, -2e-4, 3e-4, 1e-3, 2e-3, -1e-3, 1e-4, 2e-4, 1e-4][i]
         });
-        let moved = nominal.inject(&dx).propagate(&s, 9.8);
+        let moved = nominal.inject(&dx).propagate(&s, &earth);
         let predicted = f * dx;
         let err =
             |o: usize, got: Vector3<f64>| (got - Vector3::new(predicted[o], predicted[o + 1], predicted[o + 2])).norm();
@@ -185,5 +205,37 @@ mod tests {
         assert!(err(VEL, moved.velocity - base.velocity) < 1e-6);
         let dphi = (moved.attitude * base.attitude.inverse()).scaled_axis();
         assert!(err(ATT, dphi) < 1e-7, "attitude {dphi:?} vs {:?}", predicted.fixed_rows::<3>(ATT));
+    }
+
+    /// An IMU at rest on the rotating Earth (gyros sensing Earth rate, accelerometers normal gravity) stays
+    /// at rest through 100 s of WGS 84 mechanisation; the flat model, blind to Earth rate, tilts and runs off.
+    #[test]
+    fn a_unit_at_rest_on_the_rotating_earth_stays_at_rest() {
+        let earth = Earth::Wgs84 { latitude: 49f64.to_radians() };
+        let attitude = *Attitude::new(0.01, -0.02, 0.5).to_rotation().quaternion();
+        let start = Nominal {
+            time: 0.0,
+            position: Vector3::new(0.0, 0.0, 120.0),
+            velocity: Vector3::zeros(),
+            attitude,
+            accel_bias: Vector3::zeros(),
+            gyro_bias: Vector3::zeros(),
+        };
+        let dt = 0.01;
+        let rate = attitude.inverse() * earth.earth_rate();
+        let force = attitude.inverse() * Vector3::new(0.0, 0.0, earth.gravity(120.0));
+        let sample = |k: usize| ImuSample {
+            time: (k + 1) as f64 * dt,
+            dt,
+            delta_theta: plumbline_geo::Vec3::from_vector(rate * dt),
+            delta_v: plumbline_geo::Vec3::from_vector(force * dt),
+        };
+        let run = |earth: &Earth| (0..10_000).fold(start, |state, k| state.propagate(&sample(k), earth));
+        let wgs = run(&earth);
+        assert!(wgs.velocity.norm() < 1e-4, "velocity {:?}", wgs.velocity);
+        assert!((wgs.position - start.position).norm() < 5e-3, "moved {:?}", wgs.position - start.position);
+        assert!(wgs.attitude.angle_to(&attitude) < 1e-7, "turned {}", wgs.attitude.angle_to(&attitude));
+        let flat = run(&Earth::Flat { gravity: earth.gravity(120.0) });
+        assert!(flat.velocity.norm() > 1.0, "the flat model ignores Earth rate: {:?}", flat.velocity);
     }
 }

@@ -4,7 +4,7 @@
 
 use nalgebra::Vector3;
 use plumbline_geo::{Attitude, Body, Point3, Rotation, Vec3};
-use plumbline_navigation::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
+use plumbline_navigation::{Earth, GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
 use plumbline_synth::motion::imu::{self, ImuErrors};
 use plumbline_synth::motion::routes;
 use plumbline_synth::motion::{Drive, DriveConfig};
@@ -69,7 +69,7 @@ pub fn scenario(seed: u64, route: &Route, grade: &ImuErrors, imu_rate: f64, gnss
     let config = NavConfig {
         imu: model_of(grade),
         lever_arm: Vec3::from_vector(Vector3::from(LEVER)),
-        gravity: STANDARD_GRAVITY,
+        earth: Earth::Flat { gravity: STANDARD_GRAVITY },
     };
     Scenario { drive, imu, gnss, initial, config }
 }
