@@ -14,9 +14,10 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample, IntegrityConfig,
-    MeasuredNoise, NavConfig, STANDARD_GRAVITY, align, angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive,
-    measure_noise, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample,
+    IntegrityConfig, MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, align,
+    angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive, measure_noise, screen_fixes, smooth, test_innovations,
+    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -104,6 +105,38 @@ fn noise_floor(datasheet: &ImuDatasheet, imu: &[ImuSample], name: &str) -> (ImuM
     (floored, Some(measured))
 }
 
+/// The fixes the plausibility tests set aside: counted, the first ones named on stderr (all in
+/// `summary.json`).
+fn report_screened(rejected: &[ScreenedFix], total: usize, name: &str) {
+    if rejected.is_empty() {
+        return;
+    }
+    eprintln!("warning: {name}: {} of {total} fixes set aside as implausible before the filter", rejected.len());
+    for r in rejected.iter().take(SKIPPED_LISTED) {
+        let why = match r.reason {
+            Implausible::Spike { deviation, allowed } => {
+                format!("{deviation:.1} m off the line between its neighbours (at most {allowed:.1} m plausible)")
+            }
+            Implausible::Speed { speed } => format!("implies {speed:.0} m/s"),
+        };
+        eprintln!("warning: {name} line {}: fix set aside: {why}", r.fix + 2);
+    }
+    if rejected.len() > SKIPPED_LISTED {
+        eprintln!("warning: {name}: {} more fixes set aside (summary.json)", rejected.len() - SKIPPED_LISTED);
+    }
+}
+
+/// A filter error about a fix, numbered as in the file.
+fn renumber(e: NavError, fix: usize) -> NavError {
+    match e {
+        NavError::Fix { time, field, value, expected, .. } => {
+            NavError::Fix { index: fix, time, field, value, expected }
+        }
+        NavError::FixOutsideImu { time, .. } => NavError::FixOutsideImu { index: fix, time },
+        other => other,
+    }
+}
+
 /// Skipped fixes named one by one on stderr (all of them are in `summary.json`).
 const SKIPPED_LISTED: usize = 10;
 
@@ -142,14 +175,25 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let config = NavConfig { imu: model, lever_arm: lever, earth };
     config.check().or_invalid("navigation config")?;
     let adapt = !args.no_adapt;
+    let gnss_name = file_name(&args.gnss).to_owned();
+    let screened = screen_fixes(&gnss, &Plausibility::default());
+    report_screened(&screened.rejected, gnss.len(), &gnss_name);
+    let rejected = screened.rejected.clone();
     let (forward, trajectory, flags, initial) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
+        let Screened { kept: gnss, index, .. } = screened;
         let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
-        let forward = if adapt {
+        let mut forward = if adapt {
             filter_adaptive(&imu, &gnss, &initial, &config, &adaptation)
         } else {
             filter(&imu, &gnss, &initial, &config)
         }
         .map_err(|e| files::name_sample(e, &imu_name))?;
+        // Fix numbers back to the file's, past the fixes screened out.
+        forward.innovations.iter_mut().for_each(|i| i.fix = index[i.fix]);
+        for s in &mut forward.skipped {
+            s.fix = index[s.fix];
+            s.reason = renumber(s.reason.clone(), s.fix);
+        }
         let smoothed = smooth(&forward).context("RTS smoother")?;
         let trajectory = to_trajectory(&smoothed).context("smoothed trajectory")?;
         let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
@@ -162,6 +206,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     ctx.write(&format!("{prefix}trajectory.csv"), output::trajectory_csv(&trajectory)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
     let mut summary = output::summary(&forward, &flags, &initial, adapt);
+    summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     ctx.write(&format!("{prefix}summary.json"), serde_json::to_vec_pretty(&summary)?).await?;
     eprintln!(
@@ -171,7 +216,6 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         flags.len(),
         forward.skipped.len()
     );
-    let gnss_name = file_name(&args.gnss);
     for s in forward.skipped.iter().take(SKIPPED_LISTED) {
         // Fix indices are 0-based data rows: the file's line is two further on (1-based, after the header).
         eprintln!("warning: {gnss_name} line {}: fix skipped: {}", s.fix + 2, s.reason);

@@ -8,6 +8,7 @@
 //! rate, transport rate, Coriolis and normal gravity (real data).
 //!
 //! ```text
+//! screen_fixes(gnss, &Plausibility) → Screened (outliers set aside by speed and spike tests, listed)
 //! ImuClass::Tactical.datasheet() / ImuModelFile → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
 //! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
 //!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
@@ -30,6 +31,7 @@ mod datasheet;
 mod earth;
 mod filter;
 mod integrity;
+mod screen;
 mod smoother;
 mod state;
 
@@ -45,6 +47,7 @@ pub use datasheet::{
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
+pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
 
 /// Why the filter or smoother could not run, naming the item and field.
