@@ -14,8 +14,8 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuModelFile, ImuSample,
-    IntegrityConfig, MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, align,
+    Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample, IntegrityConfig,
+    MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, align,
     angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive, measure_noise, screen_fixes, smooth, test_innovations,
     to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
@@ -79,8 +79,21 @@ async fn datasheet_of(ctx: &Context, spec: &str) -> anyhow::Result<ImuDatasheet>
     }
     let bytes = ctx.read(spec).await?;
     let text = std::str::from_utf8(&bytes).map_err(|e| invalid(format!("{spec}: not UTF-8 text: {e}")))?;
-    let file: ImuModelFile = toml::from_str(text).map_err(|e| invalid(format!("{spec}: {e}")))?;
-    file.datasheet().map_err(|e| invalid(format!("{spec}: {e}")))
+    let bad = |e: String| invalid(format!("{spec}: {e}"));
+    let mut figures: toml::Table = toml::from_str(text).map_err(|e| bad(e.to_string()))?;
+    // The class's figures, overridden by those the file gives; without a class, the file must give all.
+    let mut sheet = match figures.remove("class") {
+        None => toml::Table::new(),
+        Some(toml::Value::String(name)) => {
+            let class: ImuClass = name.parse().map_err(|e: String| bad(format!("`class`: {e}")))?;
+            toml::Table::try_from(class.datasheet()).map_err(|e| bad(e.to_string()))?
+        }
+        Some(other) => return Err(bad(format!("`class` is {other}; expected a class name in quotes"))),
+    };
+    sheet.extend(figures);
+    let sheet: ImuDatasheet = toml::Value::Table(sheet).try_into().map_err(|e: toml::de::Error| bad(e.to_string()))?;
+    sheet.check().map_err(|e| bad(e.to_string()))?;
+    Ok(sheet)
 }
 
 /// The datasheet's model with its random walks raised to the noise the records show (vibration of the mount

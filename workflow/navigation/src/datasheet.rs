@@ -198,89 +198,6 @@ impl ImuDatasheet {
     }
 }
 
-/// An IMU model file (`--imu-model FILE.toml`): a class to start from and any figures that differ from it,
-/// or every figure without a class.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ImuModelFile {
-    /// The preset the figures below override.
-    pub class: Option<ImuClass>,
-    /// See [`ImuDatasheet`].
-    pub gyro_bias_deg_per_h: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub gyro_bias_instability_deg_per_h: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub angle_random_walk_deg_per_sqrt_h: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub gyro_scale_factor_ppm: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub accel_bias_mg: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub accel_bias_instability_ug: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub velocity_random_walk_m_per_s_per_sqrt_h: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub accel_scale_factor_ppm: Option<f64>,
-    /// See [`ImuDatasheet`].
-    pub bias_correlation_time_s: Option<f64>,
-}
-
-impl ImuModelFile {
-    /// The datasheet it describes, checked; without a class every figure must be given, and the error names
-    /// the first one missing.
-    pub fn datasheet(&self) -> Result<ImuDatasheet, NavError> {
-        let base = self.class.map(ImuClass::datasheet);
-        let pick = |field: &'static str, given: Option<f64>, preset: Option<f64>| {
-            given.or(preset).ok_or(NavError::Config { field, value: f64::NAN, expected: "a figure (or a `class`)" })
-        };
-        let sheet = ImuDatasheet {
-            gyro_bias_deg_per_h: pick(
-                "gyro_bias_deg_per_h",
-                self.gyro_bias_deg_per_h,
-                base.map(|b| b.gyro_bias_deg_per_h),
-            )?,
-            gyro_bias_instability_deg_per_h: pick(
-                "gyro_bias_instability_deg_per_h",
-                self.gyro_bias_instability_deg_per_h,
-                base.map(|b| b.gyro_bias_instability_deg_per_h),
-            )?,
-            angle_random_walk_deg_per_sqrt_h: pick(
-                "angle_random_walk_deg_per_sqrt_h",
-                self.angle_random_walk_deg_per_sqrt_h,
-                base.map(|b| b.angle_random_walk_deg_per_sqrt_h),
-            )?,
-            gyro_scale_factor_ppm: pick(
-                "gyro_scale_factor_ppm",
-                self.gyro_scale_factor_ppm,
-                base.map(|b| b.gyro_scale_factor_ppm),
-            )?,
-            accel_bias_mg: pick("accel_bias_mg", self.accel_bias_mg, base.map(|b| b.accel_bias_mg))?,
-            accel_bias_instability_ug: pick(
-                "accel_bias_instability_ug",
-                self.accel_bias_instability_ug,
-                base.map(|b| b.accel_bias_instability_ug),
-            )?,
-            velocity_random_walk_m_per_s_per_sqrt_h: pick(
-                "velocity_random_walk_m_per_s_per_sqrt_h",
-                self.velocity_random_walk_m_per_s_per_sqrt_h,
-                base.map(|b| b.velocity_random_walk_m_per_s_per_sqrt_h),
-            )?,
-            accel_scale_factor_ppm: pick(
-                "accel_scale_factor_ppm",
-                self.accel_scale_factor_ppm,
-                base.map(|b| b.accel_scale_factor_ppm),
-            )?,
-            bias_correlation_time_s: pick(
-                "bias_correlation_time_s",
-                self.bias_correlation_time_s,
-                base.map(|b| b.bias_correlation_time_s),
-            )?,
-        };
-        sheet.check()?;
-        Ok(sheet)
-    }
-}
-
 /// The white noise of an IMU measured from its own records, worst axis, SI units.
 ///
 /// Datasheets state the sensor on a bench; mounted in a vehicle, engine and road vibration add white noise
@@ -402,22 +319,12 @@ mod tests {
         }
     }
 
-    /// A file overrides its class's figures; without a class, the first missing figure is named; a bad figure
-    /// is named.
+    /// Class names parse, and an unknown one lists them.
     #[test]
-    fn model_files_override_a_class_and_name_what_is_missing_or_wrong() {
-        let file: ImuModelFile =
-            toml::from_str("class = \"tactical\"\nangle_random_walk_deg_per_sqrt_h = 0.2\n").unwrap();
-        let sheet = file.datasheet().unwrap();
-        assert_eq!(sheet.angle_random_walk_deg_per_sqrt_h, 0.2);
-        assert_eq!(sheet.gyro_bias_deg_per_h, 1.0);
-        let bare: ImuModelFile = toml::from_str("gyro_bias_deg_per_h = 2.0\n").unwrap();
-        let err = bare.datasheet().unwrap_err().to_string();
-        assert!(err.contains("gyro_bias_instability_deg_per_h"), "{err}");
-        let bad: ImuModelFile = toml::from_str("class = \"industrial\"\nbias_correlation_time_s = 0.0\n").unwrap();
-        assert!(bad.datasheet().unwrap_err().to_string().contains("bias_correlation_time_s"));
-        let unknown = toml::from_str::<ImuModelFile>("class = \"tactical\"\narw = 0.2\n").unwrap_err();
-        assert!(unknown.to_string().contains("arw"), "{unknown}");
+    fn classes_parse_by_name() {
+        for class in ImuClass::ALL {
+            assert_eq!(class.name().parse::<ImuClass>().unwrap(), class);
+        }
         assert!("strategic".parse::<ImuClass>().unwrap_err().contains("navigation, tactical, industrial, consumer"));
     }
 

@@ -9,7 +9,7 @@
 //!
 //! ```text
 //! screen_fixes(gnss, &Plausibility) → Screened (outliers set aside by speed and spike tests, listed)
-//! ImuClass::Tactical.datasheet() / ImuModelFile → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
+//! ImuClass::Tactical.datasheet() → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
 //! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
 //!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
 //! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
@@ -41,7 +41,7 @@ pub use chi2::{chi2_cdf, chi2_critical};
 pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
 pub use datasheet::{
-    ImuClass, ImuDatasheet, ImuModelFile, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
+    ImuClass, ImuDatasheet, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
     velocity_random_walk_m_per_s_per_sqrt_h,
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
