@@ -29,7 +29,8 @@ pub struct Plausibility {
 
 impl Default for Plausibility {
     fn default() -> Self {
-        Self { max_acceleration: 8.0, max_speed: 70.0, max_gap: 5.0 }
+        // The speed limit is the one every trajectory is validated against (`plumbline_geo::ValidationLimits`).
+        Self { max_acceleration: 8.0, max_speed: plumbline_geo::ValidationLimits::default().max_speed, max_gap: 5.0 }
     }
 }
 
