@@ -2,8 +2,10 @@
 //! `plumbline simulate` writes as `nav/gnss.csv` and `nav/imu.csv`): coarse alignment, the Kalman filter
 //! acting on its innovation tests, the RTS smoother, and the flagged epochs with the sensor they blame.
 //!
-//! Layout under `--out`: `trajectory.csv` (smoothed, in the fixes' projected CRS, with σ), `flags.csv`
-//! (every rejection of the four innovation tests), `summary.json` (what the filter did with the fixes).
+//! Layout under `--out`: `trajectory.csv` (smoothed, in the fixes' projected CRS, with σ),
+//! `innovations.csv` (every fix's innovation, its σ and statistic, and what the filter did with it),
+//! `flags.csv` (every rejection of the four innovation tests), `summary.json` (what the filter did with the
+//! fixes).
 
 mod files;
 mod output;
@@ -15,9 +17,9 @@ use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample, IntegrityConfig,
-    MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, align,
-    angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive, measure_noise, screen_fixes, smooth, test_innovations,
-    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, VehicleConstraint,
+    align, angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive, measure_noise, screen_fixes, smooth,
+    test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -63,6 +65,10 @@ pub struct Args {
     /// Use every fix as it comes (do not exclude rejected fixes or re-open the covariance).
     #[arg(long)]
     pub no_adapt: bool,
+    /// The platform is not a wheeled vehicle (a backpack, a trolley): do not hold the body's lateral and
+    /// vertical velocity near zero
+    #[arg(long)]
+    pub no_vehicle_constraint: bool,
     /// Directory or object-store prefix for the results.
     #[arg(long, value_name = "DIR|URL")]
     pub out: String,
@@ -185,7 +191,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         datasheet.velocity_random_walk_m_per_s_per_sqrt_h
     );
     let (model, noise) = noise_floor(&datasheet, &imu, &imu_name);
-    let config = NavConfig { imu: model, lever_arm: lever, earth };
+    let vehicle = (!args.no_vehicle_constraint).then(VehicleConstraint::default);
+    let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle };
     config.check().or_invalid("navigation config")?;
     let adapt = !args.no_adapt;
     let gnss_name = file_name(&args.gnss).to_owned();
@@ -217,6 +224,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     .context("navigation task")??;
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     ctx.write(&format!("{prefix}trajectory.csv"), output::trajectory_csv(&trajectory)).await?;
+    ctx.write(&format!("{prefix}innovations.csv"), output::innovations_csv(&forward)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
     let mut summary = output::summary(&forward, &flags, &initial, adapt);
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;

@@ -115,6 +115,17 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     assert!(at_edges <= 4, "{screened:?}");
     let excluded = summary["decisions"]["excluded"].as_u64().unwrap_or(0) + at_edges;
     assert!(excluded >= in_jump as u64 && excluded <= in_jump as u64 + 5, "{excluded} excluded, jump {in_jump}");
+    // innovations.csv: one row per fix the filter met, the jump's fixes with their residual and decision.
+    let innovations = std::fs::read_to_string(out.join("innovations.csv")).unwrap();
+    let rows: Vec<Vec<&str>> = innovations.lines().skip(1).map(|l| l.split(',').collect()).collect();
+    let fixes = summary["fixes"].as_u64().unwrap() as usize;
+    assert_eq!(rows.len(), fixes, "{} innovation rows for {fixes} fixes", rows.len());
+    let in_jump_excluded = rows.iter().filter(|r| {
+        let t: f64 = r[0].parse().unwrap();
+        let north: f64 = r[3].parse().unwrap();
+        t >= a + 1.0 && t < b && r[9] == "excluded" && (north - 1.0).abs() < 0.2
+    });
+    assert!(in_jump_excluded.count() >= in_jump - 10, "{innovations}");
     let flags = std::fs::read_to_string(out.join("flags.csv")).unwrap();
     // The first fix the filter tested within the jump (the onset itself may have been set aside as a spike).
     let time = |l: &str| l.split(',').next().and_then(|t| t.parse::<f64>().ok()).unwrap_or(f64::NAN);

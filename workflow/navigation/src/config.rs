@@ -62,6 +62,51 @@ pub struct NavConfig {
     pub lever_arm: Vec3<Body>,
     /// The Earth of the mechanisation: flat with constant gravity (the simulator's), or WGS 84.
     pub earth: Earth,
+    /// The land vehicle's motion constraint (no sideways or vertical sliding), or `None` for a platform
+    /// that may move in any direction (a backpack, a trolley pushed sideways).
+    pub vehicle: Option<VehicleConstraint>,
+}
+
+/// A wheeled vehicle does not slide sideways or lift off: the body's lateral and vertical velocity stay
+/// near zero (the non-holonomic constraint of land-vehicle navigation). Applied as a zero-velocity
+/// pseudo-measurement of those two components every `interval` seconds, it holds the velocity's direction to
+/// the attitude, so accelerometer errors cannot build up across the track or in height while GNSS is out.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleConstraint {
+    /// Time between two constraint updates, s.
+    pub interval: f64,
+    /// σ of the body's lateral and vertical velocity on a straight, even road (suspension, tyre slip), m/s.
+    pub velocity_std: f64,
+    /// Distance from the IMU to the point the vehicle turns about (the rear axle), m: turning at ω moves the
+    /// IMU sideways at up to ω·arm, so the lateral σ grows by |ω_z|·arm and the vertical by |ω_y|·arm.
+    pub arm: f64,
+}
+
+impl Default for VehicleConstraint {
+    fn default() -> Self {
+        Self { interval: 0.1, velocity_std: 0.1, arm: 2.0 }
+    }
+}
+
+impl VehicleConstraint {
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), NavError> {
+        let positive = [("vehicle.interval", self.interval), ("vehicle.velocity_std", self.velocity_std)];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(NavError::Config { field, value, expected: "a finite number > 0" });
+            }
+        }
+        if !(self.arm.is_finite() && self.arm >= 0.0) {
+            return Err(NavError::Config {
+                field: "vehicle.arm",
+                value: self.arm,
+                expected: "a finite distance >= 0 m",
+            });
+        }
+        Ok(())
+    }
 }
 
 /// The state the filter starts from, with its uncertainty.
@@ -101,6 +146,9 @@ impl NavConfig {
             }
         }
         self.earth.check()?;
+        if let Some(v) = &self.vehicle {
+            v.check()?;
+        }
         let positive = [("imu.bias_correlation_time", m.bias_correlation_time)];
         for (field, value) in positive {
             if !(value.is_finite() && value > 0.0) {

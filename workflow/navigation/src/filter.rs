@@ -1,11 +1,13 @@
 //! The forward pass: strapdown prediction at the IMU rate, closed-loop GNSS position updates with the lever
 //! arm (paper 001 §2.1 prediction and update), and everything the RTS smoother needs.
 
-use nalgebra::{Matrix3, SMatrix, Vector3};
+use std::ops::AddAssign as _;
+
+use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2, Vector3};
 use plumbline_geo::Rotation;
 
 use crate::adaptive::{Adaptation, Decision, Monitor, reopen};
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::config::{GnssFix, ImuSample, InitialState, NavConfig, VehicleConstraint};
 use crate::state::{ATT, BA, BG, POS, VEL};
 use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
 use crate::{NavError, check_fix, check_samples};
@@ -49,8 +51,11 @@ pub(crate) struct Checkpoint {
     /// The error-state estimate injected at this epoch (zero where nothing was observed).
     pub update: Vec15,
     /// The part of `prior`'s position block that re-opening added: the smoother spreads it as a position
-    /// random walk over the interval from the previous checkpoint (zero where nothing was re-opened).
+    /// random walk over the interval from the previous checkpoint (zero where nothing was re-opened; see
+    /// [`spread_back`] for re-openings after vehicle-constraint checkpoints).
     pub spread: Matrix3<f64>,
+    /// Whether a GNSS fix was used here, not excluded (the initial state counts as one).
+    pub fix: bool,
 }
 
 /// The result of the forward pass.
@@ -104,10 +109,10 @@ fn run_filter(
     initial.check()?;
     check_samples(imu, initial.time)?;
     let mut run = Run::new(imu, initial, config, monitor);
-    run.fixes_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5);
+    run.updates_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5, None);
     for s in imu {
         run.predict(s);
-        run.fixes_at(gnss, s.dt * 0.5);
+        run.updates_at(gnss, s.dt * 0.5, Some(s));
     }
     Ok(run.finish(gnss.len()))
 }
@@ -119,6 +124,8 @@ struct Run<'a> {
     state: Nominal,
     p: Mat15,
     next_fix: usize,
+    /// Time of the next vehicle-constraint update, s.
+    next_constraint: f64,
     monitor: Option<Monitor>,
     out: ForwardPass,
 }
@@ -148,11 +155,13 @@ impl<'a> Run<'a> {
                 posterior: p,
                 update: Vec15::zeros(),
                 spread: Matrix3::zeros(),
+                fix: true,
             }],
             innovations: Vec::new(),
             skipped: Vec::new(),
         };
-        Self { config, imu, state, p, next_fix: 0, monitor, out }
+        let next_constraint = init.time + config.vehicle.map_or(f64::INFINITY, |v| v.interval);
+        Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, out }
     }
 
     /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
@@ -164,22 +173,31 @@ impl<'a> Run<'a> {
         self.out.position_cov.push(self.p.fixed_view::<3, 3>(POS, POS).into_owned());
     }
 
-    /// Apply every fix within `half` seconds of the current epoch.
-    fn fixes_at(&mut self, gnss: &[GnssFix], half: f64) {
+    /// Apply the vehicle constraint when it is due after `sample`, then every fix within `half` seconds of
+    /// the current epoch.
+    fn updates_at(&mut self, gnss: &[GnssFix], half: f64, sample: Option<&ImuSample>) {
         let epoch = self.out.nominal.len() - 1;
         let mut prior = self.p;
         let mut update = Vec15::zeros();
         let mut spread = Matrix3::zeros();
-        while let Some(fix) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
+        let mut fix = false;
+        if let (Some(vehicle), Some(s)) = (self.config.vehicle, sample)
+            && self.state.time >= self.next_constraint - half
+        {
+            self.next_constraint = self.state.time + vehicle.interval;
+            update += self.constrain(&vehicle, s);
+        }
+        while let Some(f) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
             let index = self.next_fix;
             self.next_fix += 1;
-            if let Err(reason) = check_fix(index, fix) {
+            if let Err(reason) = check_fix(index, f) {
                 self.out.skipped.push(SkippedFix { fix: index, reason });
-            } else if fix.time < self.state.time - half {
-                let reason = NavError::FixOutsideImu { index, time: fix.time };
+            } else if f.time < self.state.time - half {
+                let reason = NavError::FixOutsideImu { index, time: f.time };
                 self.out.skipped.push(SkippedFix { fix: index, reason });
             } else {
-                let (dx, reopened) = self.update(index, fix);
+                let (dx, reopened) = self.update(index, f);
+                fix |= self.out.innovations.last().is_some_and(|i| i.decision != Decision::Excluded);
                 update += dx;
                 // Re-opening is process noise added at this epoch: the smoother's C_{k|k−1} includes it.
                 prior += reopened;
@@ -189,7 +207,7 @@ impl<'a> Run<'a> {
         if update != Vec15::zeros() {
             self.out.position_cov[epoch] = self.p.fixed_view::<3, 3>(POS, POS).into_owned();
             *self.out.nominal.last_mut().expect("the initial epoch is always present") = self.state;
-            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update, spread });
+            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update, spread, fix });
         }
     }
 
@@ -232,6 +250,36 @@ impl<'a> Run<'a> {
         (dx, reopened)
     }
 
+    /// The vehicle constraint (see [`VehicleConstraint`]): the body's lateral and vertical velocity observed
+    /// as zero. With C = R_B^M and C_true = Exp(φ)·C, v_body = Cᵀ(v + δv) + Cᵀ[v]×φ to first order.
+    fn constrain(&mut self, vehicle: &VehicleConstraint, s: &ImuSample) -> Vec15 {
+        let ct = self.state.attitude.to_rotation_matrix().into_inner().transpose();
+        let body = ct * self.state.velocity;
+        let turning = ct * skew(&self.state.velocity);
+        let mut h = SMatrix::<f64, 2, 15>::zeros();
+        for (row, axis) in [(0, 1), (1, 2)] {
+            for j in 0..3 {
+                h[(row, VEL + j)] = ct[(axis, j)];
+                h[(row, ATT + j)] = turning[(axis, j)];
+            }
+        }
+        let rate = (s.delta_theta.v - self.state.gyro_bias * s.dt) / s.dt;
+        let lateral = vehicle.velocity_std + rate.z.abs() * vehicle.arm;
+        let vertical = vehicle.velocity_std + rate.y.abs() * vehicle.arm;
+        let r = Matrix2::new(lateral * lateral, 0.0, 0.0, vertical * vertical);
+        let residual = -Vector2::new(body.y, body.z);
+        let ph = self.p * h.transpose();
+        let Some(s_inv) = (h * ph + r).try_inverse() else {
+            return Vec15::zeros();
+        };
+        let k = ph * s_inv;
+        let dx = k * residual;
+        let ikh = Mat15::identity() - k * h;
+        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
+        self.state = self.state.inject(&dx);
+        dx
+    }
+
     fn finish(mut self, total_fixes: usize) -> ForwardPass {
         for index in self.next_fix..total_fixes {
             let time = self.imu.last().map_or(self.state.time, |s| s.time);
@@ -240,9 +288,41 @@ impl<'a> Run<'a> {
         let epoch = self.out.nominal.len() - 1;
         if self.out.checkpoints.last().is_none_or(|c| c.epoch != epoch) {
             let (prior, posterior, update, spread) = (self.p, self.p, Vec15::zeros(), Matrix3::zeros());
-            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior, update, spread });
+            self.out.checkpoints.push(Checkpoint { epoch, prior, posterior, update, spread, fix: false });
         }
+        let nominal = &self.out.nominal;
+        spread_back(&mut self.out.checkpoints, |epoch| nominal[epoch].time);
         self.out
+    }
+}
+
+/// A re-opening at a fix spreads its position variance over the time since the previous fix, not just since
+/// the previous checkpoint (a vehicle-constraint update may lie a tenth of a second before it): each
+/// checkpoint in between gets the share of the variance that a random walk would have reached by its time,
+/// in its prior and posterior alike, and the share of its own interval as its `spread`. This is exact: the
+/// constraint does not observe position, and position variance passes through the transition unchanged, so
+/// added position variance survives both untouched — the smoother then sees one consistent random walk.
+fn spread_back(checkpoints: &mut [Checkpoint], time: impl Fn(usize) -> f64) {
+    let mut last_fix = 0;
+    for j in 1..checkpoints.len() {
+        if checkpoints[j].spread != Matrix3::zeros() && j > last_fix + 1 {
+            let total = checkpoints[j].spread;
+            let start = time(checkpoints[last_fix].epoch);
+            let span = time(checkpoints[j].epoch) - start;
+            let mut reached = 0.0;
+            for c in &mut checkpoints[last_fix + 1..j] {
+                let share = if span > 0.0 { (time(c.epoch) - start) / span } else { 0.0 };
+                let added = total * share;
+                c.prior.fixed_view_mut::<3, 3>(POS, POS).add_assign(&added);
+                c.posterior.fixed_view_mut::<3, 3>(POS, POS).add_assign(&added);
+                c.spread = total * (share - reached);
+                reached = share;
+            }
+            checkpoints[j].spread = total * (1.0 - reached);
+        }
+        if checkpoints[j].fix {
+            last_fix = j;
+        }
     }
 }
 

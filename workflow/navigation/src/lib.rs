@@ -38,7 +38,7 @@ mod state;
 pub use adaptive::{Adaptation, Decision};
 pub use align::{AlignmentConfig, align};
 pub use chi2::{chi2_cdf, chi2_critical};
-pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
+pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY, VehicleConstraint};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
 pub use datasheet::{
     ImuClass, ImuDatasheet, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,

@@ -10,7 +10,8 @@ use nalgebra::Vector3;
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Decision, Flag, ForwardPass, GnssFix, ImuSample, InitialState, IntegrityConfig,
-    NavError, Sensor, SmoothedEpoch, align, filter, filter_adaptive, smooth, test_innovations, to_trajectory,
+    NavConfig, NavError, Sensor, SmoothedEpoch, VehicleConstraint, align, filter, filter_adaptive, smooth,
+    test_innovations, to_trajectory,
 };
 use plumbline_synth::motion::imu::ImuErrors;
 
@@ -228,17 +229,23 @@ fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
     }
     // The jump outlasts the exclusion limit: the filter blames itself and takes the jumped fixes.
     let adaptation = Adaptation { max_exclusion: 5.0, ..Adaptation::default() };
-    let fw = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &adaptation).unwrap();
-    let reinit = fw.innovations.iter().find(|i| i.decision == Decision::Reinitialised).unwrap();
-    assert!(reinit.time > a + 5.0 && reinit.time < a + 6.0, "re-initialised at {}", reinit.time - a);
-    let smoothed = smooth(&fw).unwrap();
-    // Re-opening the position as a step at the re-initialisation would move 1 m in one 10 ms epoch (100 m/s);
-    // spread over the 5 s since the last used fix it adds about 0.2 m/s.
-    let excess = worst_speed_excess(&smoothed, &s);
-    println!("largest smoothed speed above the truth: {excess:.3} m/s");
-    assert!(excess < 0.5, "the smoothed trajectory steps: {excess} m/s above the true speed");
-    assert!(worst_smoothed(&smoothed, &s, t0 + 2.0, a - 1.0) < 0.03, "the bend reaches back before the jump");
-    to_trajectory(&smoothed).unwrap();
+    // With the vehicle constraint, checkpoints lie 0.1 s apart: the spread must still reach back to the
+    // last used fix, not to the last constraint update.
+    for vehicle in [None, Some(VehicleConstraint::default())] {
+        let config = NavConfig { vehicle, ..s.config };
+        let fw = filter_adaptive(&s.imu, &s.gnss, &s.initial, &config, &adaptation).unwrap();
+        let reinit = fw.innovations.iter().find(|i| i.decision == Decision::Reinitialised).unwrap();
+        assert!(reinit.time > a + 5.0 && reinit.time < a + 6.0, "re-initialised at {}", reinit.time - a);
+        let smoothed = smooth(&fw).unwrap();
+        // Re-opening the position as a step at the re-initialisation would move 1 m in one 10 ms epoch
+        // (100 m/s); spread over the 5 s since the last used fix it adds about 0.2 m/s.
+        let excess = worst_speed_excess(&smoothed, &s);
+        println!("vehicle constraint {}: largest smoothed speed above the truth: {excess:.3} m/s", vehicle.is_some());
+        assert!(excess < 0.5, "the smoothed trajectory steps: {excess} m/s above the true speed");
+        let before = worst_smoothed(&smoothed, &s, t0 + 2.0, a - 1.0);
+        assert!(before < 0.03, "the bend reaches back before the jump: {before} m");
+        to_trajectory(&smoothed).unwrap();
+    }
 }
 
 /// Alignment errors (roll, pitch, heading; rad) against the truth at the aligned epoch.

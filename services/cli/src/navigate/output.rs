@@ -1,4 +1,5 @@
-//! Writing the results of `plumbline navigate`: the smoothed trajectory, the flags and the summary.
+//! Writing the results of `plumbline navigate`: the smoothed trajectory, the innovations, the flags and the
+//! summary.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -34,6 +35,35 @@ pub fn flags_csv(flags: &[Flag]) -> Vec<u8> {
             f.critical,
             component,
             name(&f.sensor)
+        );
+    }
+    s.into_bytes()
+}
+
+/// One row per fix the filter met: time, fix index, the innovation (fix − prediction) east/north/up, its σ
+/// from C_v, the normalised statistic vᵀC_v⁻¹v (χ² with 3 degrees of freedom when the model holds) and what
+/// the filter did with the fix.
+pub fn innovations_csv(forward: &ForwardPass) -> Vec<u8> {
+    let mut s = String::from(
+        "time_s,fix,residual_east_m,residual_north_m,residual_up_m,std_east_m,std_north_m,std_up_m,statistic,decision\n",
+    );
+    for i in &forward.innovations {
+        let r = &i.residual;
+        let c = &i.covariance;
+        let statistic = c.try_inverse().map_or(f64::NAN, |inv| r.dot(&(inv * r)));
+        let _ = writeln!(
+            s,
+            "{},{},{},{},{},{},{},{},{},{}",
+            i.time,
+            i.fix,
+            r.x,
+            r.y,
+            r.z,
+            c[(0, 0)].sqrt(),
+            c[(1, 1)].sqrt(),
+            c[(2, 2)].sqrt(),
+            statistic,
+            name(&i.decision)
         );
     }
     s.into_bytes()

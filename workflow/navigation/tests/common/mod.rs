@@ -70,6 +70,7 @@ pub fn scenario(seed: u64, route: &Route, grade: &ImuErrors, imu_rate: f64, gnss
         imu: model_of(grade),
         lever_arm: Vec3::from_vector(Vector3::from(LEVER)),
         earth: Earth::Flat { gravity: STANDARD_GRAVITY },
+        vehicle: None,
     };
     Scenario { drive, imu, gnss, initial, config }
 }
