@@ -17,9 +17,9 @@ use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample, IntegrityConfig,
-    MeasuredNoise, NavConfig, NavError, Plausibility, STANDARD_GRAVITY, Screened, ScreenedFix, VehicleConstraint,
-    align, angle_random_walk_deg_per_sqrt_h, filter, filter_adaptive, measure_noise, screen_fixes, smooth,
-    test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway, STANDARD_GRAVITY, Screened, ScreenedFix,
+    VehicleConstraint, align, angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, measure_noise,
+    screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -156,6 +156,16 @@ fn renumber(e: NavError, fix: usize) -> NavError {
     }
 }
 
+/// What left the physical limits, in words.
+fn runaway_text(r: Runaway) -> &'static str {
+    match r {
+        Runaway::Speed => "the speed beyond a road vehicle's",
+        Runaway::VerticalSpeed => "a vertical speed no road allows",
+        Runaway::AccelBias => "an accelerometer bias estimate beyond the unit's plausibility",
+        Runaway::GyroBias => "a gyro bias estimate beyond the unit's plausibility",
+    }
+}
+
 /// Skipped fixes named one by one on stderr (all of them are in `summary.json`).
 const SKIPPED_LISTED: usize = 10;
 
@@ -199,7 +209,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let screened = screen_fixes(&gnss, &Plausibility::default());
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
-    let (forward, trajectory, flags, initial) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
+    let (forward, trajectory, flags, initial, diverged) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
         let Screened { kept: gnss, index, .. } = screened;
         let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
         let mut forward = if adapt {
@@ -214,22 +224,44 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             s.fix = index[s.fix];
             s.reason = renumber(s.reason.clone(), s.fix);
         }
-        let smoothed = smooth(&forward).context("RTS smoother")?;
-        let trajectory = to_trajectory(&smoothed).context("smoothed trajectory")?;
+        // A runaway or a smoother failure still leaves the filter's record to be written.
+        let diverged = divergences(&forward, &Physics::for_unit(config.imu.accel_bias, config.imu.gyro_bias));
+        let trajectory = match diverged.first() {
+            Some(d) => Err(anyhow::anyhow!(
+                "the filter diverged in {} span(s); the first from time {:.2} s to {:.2} s ({}, speed up to {:.1} \
+                 m/s): its IMU model does not fit the data (try a worse --imu-model class) or the GNSS it trusted \
+                 was wrong",
+                diverged.len(),
+                d.start,
+                d.end,
+                runaway_text(d.first),
+                d.max_speed
+            )),
+            None => smooth(&forward)
+                .context("RTS smoother")
+                .and_then(|smoothed| to_trajectory(&smoothed).context("smoothed trajectory")),
+        };
         let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
         let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-        Ok((forward, trajectory, flags, initial))
+        Ok((forward, trajectory, flags, initial, diverged))
     })
     .await
     .context("navigation task")??;
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
-    ctx.write(&format!("{prefix}trajectory.csv"), output::trajectory_csv(&trajectory)).await?;
     ctx.write(&format!("{prefix}innovations.csv"), output::innovations_csv(&forward)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
     let mut summary = output::summary(&forward, &flags, &initial, adapt);
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
+    summary["divergences"] = serde_json::to_value(&diverged)?;
+    if let Err(e) = &trajectory {
+        summary["trajectory_error"] = format!("{e:#}").into();
+    }
     ctx.write(&format!("{prefix}summary.json"), serde_json::to_vec_pretty(&summary)?).await?;
+    let trajectory = trajectory.context(format!(
+        "no trajectory written; {prefix}innovations.csv, flags.csv and summary.json record what the filter did"
+    ))?;
+    ctx.write(&format!("{prefix}trajectory.csv"), output::trajectory_csv(&trajectory)).await?;
     eprintln!(
         "navigated {} IMU epochs with {} fixes: {} flags, {} fixes skipped",
         forward.len(),

@@ -261,3 +261,41 @@ fn malformed_files_exit_2_naming_file_line_and_column() {
     r.failure_with(2);
     assert!(r.stderr.contains("gyro_bias_instability_deg_per_h"), "{}", r.stderr);
 }
+
+#[test]
+fn a_runaway_filter_stops_with_exit_1_naming_the_span_and_keeps_its_record() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate(&sim, 4);
+    // 30 s without fixes while the forward accelerometer reads 3 m/s² too much: the INS passes 70 m/s.
+    let gnss_text = std::fs::read_to_string(sim.join("nav/gnss.csv")).unwrap();
+    let t0: f64 = gnss_text.lines().nth(1).unwrap().split(',').next().unwrap().parse().unwrap();
+    let (a, b) = (t0 + 40.0, t0 + 70.0);
+    let time = |l: &str| l.split(',').next().and_then(|t| t.parse::<f64>().ok());
+    let kept: Vec<&str> = gnss_text.lines().filter(|l| time(l).is_none_or(|t| t < a || t > b)).collect();
+    let gnss = dir.path().join("gnss_outage.csv");
+    std::fs::write(&gnss, kept.join("\n") + "\n").unwrap();
+    let imu_text = std::fs::read_to_string(sim.join("nav/imu.csv")).unwrap();
+    let mut biased = String::new();
+    for (i, line) in imu_text.lines().enumerate() {
+        let mut f: Vec<String> = line.split(',').map(str::to_owned).collect();
+        if i > 0 && time(line).is_some_and(|t| t > a) {
+            let dt: f64 = f[1].parse().unwrap();
+            f[5] = (f[5].parse::<f64>().unwrap() + 3.0 * dt).to_string();
+        }
+        biased += &(f.join(",") + "\n");
+    }
+    std::fs::write(sim.join("nav/imu.csv"), biased).unwrap();
+    let out = dir.path().join("nav");
+    let r = navigate(&sim, &gnss, &out);
+    assert_eq!(r.code, Some(1), "{}", r.stderr);
+    assert!(r.stderr.contains("the filter diverged in"), "{}", r.stderr);
+    assert!(r.stderr.contains("the speed beyond a road vehicle's"), "{}", r.stderr);
+    assert!(!out.join("trajectory.csv").exists());
+    let summary = summary(&out);
+    let spans = summary["divergences"].as_array().unwrap();
+    let start = spans[0]["start"].as_f64().unwrap();
+    assert!(start > a && start < b + 5.0, "the span starts {} s after the outage began", start - a);
+    assert!(summary["trajectory_error"].as_str().unwrap().contains("diverged"));
+    assert!(out.join("innovations.csv").exists() && out.join("flags.csv").exists());
+}

@@ -16,6 +16,7 @@
 //! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
 //!     re-opened where the IMU is blamed (a jump may build up over `transition` s); each innovation
 //!     carries its Decision
+//! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
 //! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag> (each blaming a Sensor)
@@ -30,6 +31,7 @@ mod consistency;
 mod datasheet;
 mod earth;
 mod filter;
+mod guard;
 mod integrity;
 mod screen;
 mod smoother;
@@ -46,6 +48,7 @@ pub use datasheet::{
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
+pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};

@@ -150,3 +150,25 @@ fn the_vehicle_constraint_bridges_an_outage_with_accelerometer_drift() {
     }
     println!("worst: free {worst_free:.2} m, held {worst_held:.2} m");
 }
+
+/// The divergence guard: an accelerometer bias step of 2 m/s² (far beyond any tactical unit) during a 60 s
+/// outage drives the forward state past a road vehicle's speed; the guard names a span inside the outage.
+/// The clean drive has none.
+#[test]
+fn the_divergence_guard_names_the_span_where_the_state_ran_away() {
+    let mut s = common::scenario(41, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let physics = plumbline_navigation::Physics::for_unit(s.config.imu.accel_bias, s.config.imu.gyro_bias);
+    let clean = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    assert_eq!(plumbline_navigation::divergences(&clean, &physics), vec![]);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let (a, b) = (t0 + 60.0, t0 + 120.0);
+    s.gnss.retain(|f| f.time < a || f.time > b);
+    common::add_bias_step(&mut s.imu, a, 2.0);
+    let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let spans = plumbline_navigation::divergences(&fw, &physics);
+    println!("{spans:?}");
+    let first = spans.first().expect("a runaway span");
+    assert!(first.start > a && first.start < b, "span starts {} s into the outage", first.start - a);
+    assert_eq!(first.first, plumbline_navigation::Runaway::Speed);
+    assert!(first.max_speed > physics.max_speed);
+}
