@@ -45,7 +45,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         out: args.out.clone(),
         profile: args.profile,
-        imu: Grade::Tactical,
+        imu: Grade::Navigation,
         navigation_only: false,
         length: None,
         panorama_spacing: None,

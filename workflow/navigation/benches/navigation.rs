@@ -15,7 +15,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|");
     // One pass around the block takes ~2.8 min; 21 passes ≈ 1 h.
     for passes in [3, 9, 21] {
-        let s = common::scenario(7, &common::block_route(passes), &ImuErrors::TACTICAL, 200.0, 5.0);
+        let s = common::scenario(7, &common::block_route(passes), &ImuErrors::NAVIGATION, 200.0, 5.0);
         let t = Instant::now();
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         let t_filter = t.elapsed().as_secs_f64();

@@ -31,7 +31,7 @@ fn perfect_imu_free_inertial_follows_truth() {
 fn smoother_bridges_outage_consistently() {
     let (mut nees_fw, mut nees_sm, mut n) = (0.0, 0.0, 0usize);
     for seed in [21, 22, 23] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 60.0, t0 + 120.0);
         s.gnss.retain(|f| f.time < a || f.time > b);
@@ -64,7 +64,7 @@ fn smoother_bridges_outage_consistently() {
         println!("seed {seed}: outage max error forward {max_fw:.3} m, smoothed {max_sm:.3} m, linear {max_lin:.3} m");
         assert!(max_sm < 0.5 * max_fw, "smoother {max_sm} vs forward {max_fw}");
         assert!(max_sm < 0.5 * max_lin, "smoother {max_sm} vs linear interpolation {max_lin}");
-        assert!(max_sm < 0.10, "smoothed error {max_sm} m over a 60 s tactical-grade outage");
+        assert!(max_sm < 0.10, "smoothed error {max_sm} m over a 60 s navigation-grade outage");
     }
     let (m_fw, m_sm) = (nees_fw / n as f64, nees_sm / n as f64);
     println!("mean position NEES over {n} samples: forward {m_fw:.2}, smoothed {m_sm:.2} (3 expected)");
@@ -81,7 +81,7 @@ fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
 /// The smoothed trajectory carries σ that shrink where GNSS is present and grow in the outage's middle.
 #[test]
 fn smoothed_trajectory_has_sigma_from_covariance() {
-    let mut s = common::scenario(31, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(31, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     s.gnss.retain(|f| f.time < t0 + 60.0 || f.time > t0 + 120.0);
     let traj = to_trajectory(&smooth(&filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap()).unwrap()).unwrap();
@@ -96,7 +96,7 @@ fn smoothed_trajectory_has_sigma_from_covariance() {
 /// A broken IMU sample stops the run with its index and field; a broken fix is skipped and reported.
 #[test]
 fn bad_input_is_named() {
-    let s = common::scenario(41, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let s = common::scenario(41, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let mut imu = s.imu[..2000].to_vec();
     imu[700].dt = f64::NAN;
     match filter(&imu, &s.gnss, &s.initial, &s.config) {
@@ -122,7 +122,7 @@ fn bad_input_is_named() {
 fn the_vehicle_constraint_bridges_an_outage_with_accelerometer_drift() {
     let (mut worst_free, mut worst_held) = (0.0f64, 0.0f64);
     for seed in [31, 32, 33] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 60.0, t0 + 120.0);
         s.gnss.retain(|f| f.time < a || f.time > b);
@@ -156,7 +156,7 @@ fn the_vehicle_constraint_bridges_an_outage_with_accelerometer_drift() {
 /// The clean drive has none.
 #[test]
 fn the_divergence_guard_names_the_span_where_the_state_ran_away() {
-    let mut s = common::scenario(41, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(41, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let physics = plumbline_navigation::Physics::for_unit(s.config.imu.accel_bias, s.config.imu.gyro_bias);
     let clean = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     assert_eq!(plumbline_navigation::divergences(&clean, &physics), vec![]);

@@ -27,7 +27,7 @@ fn worst(fw: &ForwardPass, s: &common::Scenario, a: f64, b: f64) -> f64 {
 
 #[test]
 fn a_gnss_jump_is_excluded_instead_of_absorbed() {
-    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 80.0, t0 + 90.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -42,7 +42,7 @@ fn a_gnss_jump_is_excluded_instead_of_absorbed() {
     let (e_plain, e_adaptive) = (worst(&plain, &s, a, b + 5.0), worst(&adaptive, &s, a, b + 5.0));
     println!("error during the jump: absorbed {e_plain:.3} m, excluded {e_adaptive:.3} m");
     assert!(e_plain > 0.5, "the plain filter follows the jump: {e_plain}");
-    // 10 s of free inertial navigation with a tactical IMU: centimetres.
+    // 10 s of free inertial navigation with a navigation-grade IMU: centimetres.
     assert!(e_adaptive < 0.05, "the adaptive filter stays on the IMU: {e_adaptive}");
     // Outside the jump almost every fix is used (local test at α = 0.001).
     let outside = adaptive.innovations.iter().filter(|i| i.time < a || i.time >= b);
@@ -58,7 +58,7 @@ fn late_flags(fw: &ForwardPass, from: f64) -> Vec<Flag> {
 
 #[test]
 fn after_an_imu_bias_step_the_filter_recovers_instead_of_flagging_forever() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis
@@ -93,7 +93,7 @@ fn after_an_imu_bias_step_the_filter_recovers_instead_of_flagging_forever() {
 /// until it does.
 #[test]
 fn a_gyro_bias_far_beyond_its_model_is_taken_in_by_escalating_reopenings() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let bias = 1000.0 * s.config.imu.gyro_bias;
     for r in s.imu.iter_mut().filter(|r| r.time > t0 + 30.0) {
@@ -109,14 +109,14 @@ fn a_gyro_bias_far_beyond_its_model_is_taken_in_by_escalating_reopenings() {
 
 #[test]
 fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
-    let clean = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let clean = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = clean.drive.trajectory.records()[0].time;
     let flags_of = |s: &common::Scenario| {
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap()
     };
     let (a, b) = (t0 + 40.0, t0 + 50.0);
-    let mut jumped = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut jumped = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     for f in jumped.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
         f.position.p.x += 0.5;
     }
@@ -149,7 +149,7 @@ fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
 #[test]
 fn coarse_alignment_recovers_the_start_pose_and_the_filter_converges() {
     for seed in [3, 8] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let lever = Vec3::new(common::LEVER[0], common::LEVER[1], common::LEVER[2]);
         let init = align(&s.imu, &s.gnss, &lever, &AlignmentConfig::default()).unwrap();
         let truth = &s.drive.trajectory.records()[0];
@@ -197,7 +197,7 @@ fn worst_speed_excess(smoothed: &[SmoothedEpoch], s: &common::Scenario) -> f64 {
 #[test]
 fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_imu() {
     for seed in [5, 9] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 80.0, t0 + 90.0);
         // 0.4 m, arriving and leaving over 1 s like the simulator's multipath jumps.
@@ -213,7 +213,7 @@ fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_
         let followed = worst_smoothed(&plain, &s, a - 2.0, b + 5.0);
         println!("seed {seed}: smoothed error around the jump {worst:.3} m (plain filter {followed:.3} m)");
         assert!(followed > 0.08, "seed {seed}: the plain filter follows the jump: {followed}");
-        // 10 s bridged on a tactical IMU between clean fixes: centimetres.
+        // 10 s bridged on a navigation-grade IMU between clean fixes: centimetres.
         assert!(worst < 0.05, "seed {seed}: the jump bends the smoothed trajectory by {worst} m");
         to_trajectory(&smoothed).unwrap();
     }
@@ -221,7 +221,7 @@ fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_
 
 #[test]
 fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
-    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 60.0, t0 + 100.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -264,7 +264,7 @@ fn lever() -> Vec3<plumbline_geo::Body> {
 #[test]
 fn a_drive_that_starts_moving_is_aligned_in_motion() {
     for (seed, after) in [(3, 30.0), (8, 55.0), (11, 100.0)] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (imu, gnss): (Vec<ImuSample>, Vec<GnssFix>) = common::starting_at(&s, t0 + after);
         let k = s.drive.kinematics.partition_point(|k| k.time < imu[0].time - imu[0].dt - 1e-9);
@@ -291,14 +291,14 @@ fn a_drive_that_starts_moving_is_aligned_in_motion() {
 #[test]
 fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
     for seed in [1, 2, 3, 4] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         // The simulator's canyon receiver noise: 5 cm per horizontal axis, 10 cm in height.
         common::degrade_fixes(&mut s.gnss, [0.05, 0.05, 0.1], seed);
         let init = align(&s.imu, &s.gnss, &lever(), &AlignmentConfig::default()).unwrap();
         let [dr, dp, dh] = attitude_errors(&init, &s);
         println!("seed {seed}: roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad, σ {:?}", init.attitude_std);
         assert_eq!(init.velocity.v, Vector3::zeros(), "seed {seed}: the standstill was not recognised");
-        // Static levelling of a tactical IMU: the turn-on accelerometer bias over g.
+        // Static levelling of a navigation-grade IMU: the turn-on accelerometer bias over g.
         assert!(dr.abs() < 3.0 * init.attitude_std[0] && init.attitude_std[0] < 3e-3, "seed {seed}: roll {dr}");
         assert!(dp.abs() < 3.0 * init.attitude_std[1], "seed {seed}: pitch {dp}");
         assert!(dh.abs() < 3.0 * init.attitude_std[2], "seed {seed}: heading {dh}");
@@ -312,7 +312,7 @@ fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
 #[test]
 fn one_hertz_gnss_aligns_standing_and_moving() {
     for (seed, after) in [(3, None), (8, None), (8, Some(55.0)), (11, Some(100.0))] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 1.0);
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (imu, gnss) = match after {
             Some(a) => common::starting_at(&s, t0 + a),
@@ -332,7 +332,7 @@ fn one_hertz_gnss_aligns_standing_and_moving() {
 
 #[test]
 fn alignment_fails_only_when_impossible_and_says_why() {
-    let s = common::scenario(3, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let s = common::scenario(3, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let reason = |imu: &[ImuSample], gnss: &[GnssFix]| match align(imu, gnss, &lever(), &AlignmentConfig::default()) {
         Err(NavError::Alignment { reason }) => reason,

@@ -24,7 +24,7 @@ fn clean_data_rejects_at_nominal_rate() {
     };
     let (mut lo, mut ls, mut go, mut gs) = (0, 0, 0, 0);
     for seed in [1, 2, 3, 4] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         let inn = &fw.innovations;
         epochs += inn.len();
@@ -50,7 +50,7 @@ fn clean_data_rejects_at_nominal_rate() {
 
 #[test]
 fn gnss_jump_is_flagged_and_blamed_on_its_component() {
-    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 80.0, t0 + 90.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -72,7 +72,7 @@ fn gnss_jump_is_flagged_and_blamed_on_its_component() {
 
 #[test]
 fn accelerometer_bias_step_is_flagged() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::TACTICAL, 100.0, 5.0);
+    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis

@@ -40,7 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let dg = dg?;
     let (t_gnss, fixes) = time(runs, || gnss::simulate(&drive, &dg, &dg_config, &GnssConfig::default(), 1));
     let fixes = fixes?;
-    let (t_imu, imu_data) = time(runs, || imu::simulate(&drive, &ImuErrors::TACTICAL, 1));
+    let (t_imu, imu_data) = time(runs, || imu::simulate(&drive, &ImuErrors::NAVIGATION, 1));
     let imu_data = imu_data?;
     let (t_csv, bytes) = time(runs, || files::imu_csv(&imu_data).len() + files::dg_errors_csv(&dg.errors).len());
     let length = drive.kinematics.last().map_or(0.0, |k| k.distance);

@@ -78,7 +78,7 @@ fn error_free_increments_integrate_back_to_the_truth() {
 fn grade_errors_make_the_integration_drift_in_proportion() {
     let drive = short_drive();
     for seed in 1..=3 {
-        let (tactical, _) = strapdown(&drive, &imu::simulate(&drive, &ImuErrors::TACTICAL, seed).unwrap());
+        let (tactical, _) = strapdown(&drive, &imu::simulate(&drive, &ImuErrors::NAVIGATION, seed).unwrap());
         let (consumer, _) = strapdown(&drive, &imu::simulate(&drive, &ImuErrors::CONSUMER, seed).unwrap());
         assert!(tactical < 2.0, "seed {seed}: tactical drifted {tactical} m in ~90 s");
         assert!(consumer > 10.0 * tactical.max(0.05), "seed {seed}: consumer {consumer} m vs tactical {tactical} m");
@@ -115,7 +115,7 @@ fn noise_and_bias_at_rest_match_the_parameters() {
         let tol = 4.0 * e.accel_random_walk * dt.sqrt() / n.sqrt();
         assert!((mz - want).abs() < tol, "seed {seed}: {mz} vs {want}");
     }
-    let bad = ImuErrors { bias_correlation_time: 0.0, ..ImuErrors::TACTICAL };
+    let bad = ImuErrors { bias_correlation_time: 0.0, ..ImuErrors::NAVIGATION };
     assert!(imu::simulate(&drive, &bad, 1).unwrap_err().to_string().contains("bias_correlation_time"));
 }
 

@@ -80,8 +80,9 @@ pub struct Args {
     /// buildings decide, street by street).
     #[arg(long, value_enum, default_value_t = Profile::Mixed)]
     pub profile: Profile,
-    /// Grade of the IMU: tactical (LN-100 class) or consumer (BMI160 class).
-    #[arg(long, value_enum, default_value_t = Grade::Tactical)]
+    /// Grade of the IMU: navigation (LN-100 class; `navigate --imu-model navigation` fits it) or consumer
+    /// (BMI160 class).
+    #[arg(long, value_enum, default_value_t = Grade::Navigation)]
     pub imu: Grade,
     /// Write only the navigation data (trajectories, GNSS, IMU, error series, overview): no images, no cadastre.
     #[arg(long)]
@@ -163,8 +164,9 @@ pub enum Profile {
 /// IMU grades.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Grade {
-    /// Tactical grade (paper 003 §2.1).
-    Tactical,
+    /// Navigation grade, the LN-100 paper 003 §2.1 quotes (`tactical` is its former, wrong name).
+    #[value(alias = "tactical")]
+    Navigation,
     /// Consumer MEMS (paper 002 §3.1.1).
     Consumer,
 }
@@ -270,7 +272,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
 /// The IMU errors of a grade and the DG outage growth it gives (`DgConfig::outage_growth`, m per 60 s).
 pub(crate) fn imu_grade(grade: Grade) -> (ImuErrors, f64) {
     match grade {
-        Grade::Tactical => (ImuErrors::TACTICAL, 0.15),
+        Grade::Navigation => (ImuErrors::NAVIGATION, 0.15),
         Grade::Consumer => (ImuErrors::CONSUMER, 1.5),
     }
 }

@@ -61,10 +61,10 @@ impl ImuErrors {
         bias_correlation_time: 3600.0,
     };
 
-    /// Tactical grade, Litton LN-100 class: gyro bias 0.003°/h, accelerometer bias 25 µg (paper 003 §2.1);
-    /// ARW 0.001°/√h, VRW 5 µg/√Hz, instabilities 0.001°/h and 5 µg over 1 h, scale factors 5 and 50 ppm
+    /// Navigation grade, Litton LN-100 class (paper 003 §2.1 calls it tactical): gyro bias 0.003°/h,
+    /// accelerometer bias 25 µg (paper 003 §2.1); ARW 0.001°/√h, VRW 5 µg/√Hz, instabilities 0.001°/h and 5 µg over 1 h, scale factors 5 and 50 ppm
     /// (typical ring-laser values, not from the paper).
-    pub const TACTICAL: Self = Self {
+    pub const NAVIGATION: Self = Self {
         gyro_bias: 0.003 * DEG / HOUR,
         gyro_bias_instability: 0.001 * DEG / HOUR,
         gyro_random_walk: 0.001 * DEG / 60.0,

@@ -6,7 +6,7 @@
 //! 2. [`dg`]: the direct-georeferencing (GNSS/INS) error process driven by the urban canyon: drift,
 //!    multipath jumps, outages, optimistic standard deviations in canyons (paper 001 §1.2, paper 002 §4.2).
 //! 3. [`gnss`] and [`imu`]: the raw sensor data the DG solution would come from — GNSS fixes at 1–10 Hz with
-//!    the same canyon process, IMU increments at the trajectory rate for a tactical (LN-100 class, paper 003
+//!    the same canyon process, IMU increments at the trajectory rate for a navigation-grade (LN-100 class, paper 003
 //!    §2.1) or consumer (BMI160 class, paper 002 §3.1.1) grade. For drives made in legs (`city`),
 //!    [`dg::DgStream`], [`gnss::GnssStream`] and [`imu::ImuStream`] carry every process across the joins.
 //! 4. [`files`]: the bytes of the GNSS, IMU and error-series CSV files; [`overview_png`]: a map of the drive
