@@ -4,7 +4,7 @@
 //! fixes that would pull it back, the covariance re-openings grow, and the state ends hundreds of metres
 //! off while every step looked valid to the filter. The guard checks the state itself against physics, not
 //! against the filter's own covariance: a speed above the vehicle's limit, a vertical speed no road allows,
-//! or bias estimates larger than any unit of the configured class could carry. `navigate` reports each span
+//! or bias estimates larger than any unit of the configured class could carry, for ten seconds or more. `navigate` reports each span
 //! and stops with a non-zero exit instead of writing a trajectory through it.
 
 use serde::{Deserialize, Serialize};
@@ -23,6 +23,9 @@ pub struct Physics {
     pub max_accel_bias: f64,
     /// Largest plausible gyro bias, rad/s, per axis.
     pub max_gyro_bias: f64,
+    /// Shortest span that counts, s: a re-opening may swing an estimate past a limit for a moment and the
+    /// next fixes pull it back; a runaway stays.
+    pub min_duration: f64,
 }
 
 impl Physics {
@@ -36,6 +39,7 @@ impl Physics {
             max_vertical_speed: 10.0,
             max_accel_bias: (10.0 * accel_bias).max(0.5),
             max_gyro_bias: (10.0 * gyro_bias).max(1f64.to_radians()),
+            min_duration: 10.0,
         }
     }
 }
@@ -70,7 +74,8 @@ pub struct Divergence {
 /// Implausible spans closer than this merge into one, s.
 const MERGE: f64 = 5.0;
 
-/// Every span of the forward pass where the state left `physics`, in time order.
+/// Every span of the forward pass where the state left `physics` (gaps under 5 s joined) for at least
+/// `min_duration`, in time order.
 pub fn divergences(forward: &ForwardPass, physics: &Physics) -> Vec<Divergence> {
     let mut spans: Vec<Divergence> = Vec::new();
     for n in &forward.nominal {
@@ -95,5 +100,6 @@ pub fn divergences(forward: &ForwardPass, physics: &Physics) -> Vec<Divergence> 
             _ => spans.push(Divergence { start: n.time, end: n.time, first, max_speed: speed }),
         }
     }
+    spans.retain(|s| s.end - s.start >= physics.min_duration);
     spans
 }
