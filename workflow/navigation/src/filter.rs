@@ -236,18 +236,31 @@ impl<'a> Run<'a> {
         };
         self.out.innovations.push(Innovation { time: fix.time, fix: index, residual, covariance: s, decision });
         let reopened = self.p - before;
-        let ph = self.p * h.transpose();
-        let s = h * ph + r;
-        let Some(s_inv) = s.try_inverse().filter(|_| decision != Decision::Excluded) else {
+        if decision == Decision::Excluded {
             return (Vec15::zeros(), reopened);
+        }
+        (self.correct(&h, &r, &residual), reopened)
+    }
+
+    /// The Kalman update with observation matrix `h`, noise `r` and innovation `residual`: the gain, the
+    /// Joseph-form covariance (symmetric and positive definite) and the closed-loop injection; returns the
+    /// injected error state (zero when the innovation covariance cannot be inverted).
+    fn correct<const M: usize>(
+        &mut self,
+        h: &SMatrix<f64, M, 15>,
+        r: &SMatrix<f64, M, M>,
+        residual: &SMatrix<f64, M, 1>,
+    ) -> Vec15 {
+        let ph = self.p * h.transpose();
+        let Some(s_inv) = (h * ph + r).try_inverse() else {
+            return Vec15::zeros();
         };
         let k = ph * s_inv;
         let dx = k * residual;
         let ikh = Mat15::identity() - k * h;
-        // Joseph form keeps C_{k|k} symmetric and positive definite.
         self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
         self.state = self.state.inject(&dx);
-        (dx, reopened)
+        dx
     }
 
     /// The vehicle constraint (see [`VehicleConstraint`]): the body's lateral and vertical velocity observed
@@ -268,16 +281,7 @@ impl<'a> Run<'a> {
         let vertical = vehicle.velocity_std + rate.y.abs() * vehicle.arm;
         let r = Matrix2::new(lateral * lateral, 0.0, 0.0, vertical * vertical);
         let residual = -Vector2::new(body.y, body.z);
-        let ph = self.p * h.transpose();
-        let Some(s_inv) = (h * ph + r).try_inverse() else {
-            return Vec15::zeros();
-        };
-        let k = ph * s_inv;
-        let dx = k * residual;
-        let ikh = Mat15::identity() - k * h;
-        self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
-        self.state = self.state.inject(&dx);
-        dx
+        self.correct(&h, &r, &residual)
     }
 
     fn finish(mut self, total_fixes: usize) -> ForwardPass {
