@@ -4,16 +4,77 @@
 //! bytes fetched from an object store through GDAL's in-memory file system — and serves windows given as
 //! mapping-coordinate boxes, so a city orthophoto is never decoded whole. Handles are not `Send`: open one
 //! source per thread.
+//!
+//! Rasters come from agencies, so GDAL is confined: a file opens only with the drivers of
+//! [`RASTER_DRIVERS`] (no VRT, no network or archive formats that name other files), never lists its
+//! directory for side-car files, and an XML file is never handed to GDAL as it is. A VRT mosaic is parsed
+//! and rewritten by [`crate::vrt`] to the tiles beside it that a window needs, each checked to be a raster
+//! file before GDAL opens it.
 
+use std::collections::HashMap;
+use std::io::Read as _;
 use std::path::{Path, PathBuf};
 
-use gdal::Dataset;
 use gdal::errors::GdalError;
 use gdal::raster::{GdalDataType, GdalType};
+use gdal::{Dataset, DatasetOptions, GdalOpenFlags};
 
 use crate::gdal_messages::route_gdal_messages;
 use crate::gdal_write::{Raster, RasterData};
 use crate::store::GdalRemote;
+use crate::vrt::{VrtMosaic, is_xml};
+
+/// The GDAL drivers an agency's raster may open with: formats whose files hold their own pixels.
+pub const RASTER_DRIVERS: [&str; 4] = ["GTiff", "JPEG", "PNG", "JP2OpenJPEG"];
+
+/// Open `path` with only `drivers`, read-only, after setting the process-wide options that keep GDAL from
+/// probing a file's directory.
+fn open_confined(path: &Path, drivers: &[&str]) -> Result<Dataset, GdalError> {
+    static ONCE: std::sync::Once = std::sync::Once::new();
+    ONCE.call_once(|| {
+        // Side-car files (.ovr, .aux.xml, .msk) are not looked for: a directory listing per open is slow on
+        // object stores and would read files nobody named.
+        if let Err(e) = gdal::config::set_config_option("GDAL_DISABLE_READDIR_ON_OPEN", "EMPTY_DIR") {
+            tracing::warn!(error = %e, "GDAL option GDAL_DISABLE_READDIR_ON_OPEN not set");
+        }
+    });
+    let options = DatasetOptions {
+        open_flags: GdalOpenFlags::GDAL_OF_RASTER | GdalOpenFlags::GDAL_OF_READONLY,
+        allowed_drivers: Some(drivers),
+        ..DatasetOptions::default()
+    };
+    Dataset::open_ex(path, options)
+}
+
+/// The first bytes of a local file (fewer when it is shorter).
+fn head_of(path: &Path) -> std::io::Result<Vec<u8>> {
+    let mut head = Vec::with_capacity(MAGIC_BYTES as usize);
+    std::fs::File::open(path)?.take(MAGIC_BYTES).read_to_end(&mut head)?;
+    Ok(head)
+}
+
+/// Whether a file's first bytes are a raster file holding its own pixels: TIFF, BigTIFF, JPEG 2000, JPEG or PNG.
+pub fn is_raster_file(head: &[u8]) -> bool {
+    is_tiled_raster(head) || head.starts_with(&[0xFF, 0xD8, 0xFF]) || head.starts_with(b"\x89PNG\r\n\x1a\n")
+}
+
+/// The refusal of an XML file where a raster was expected.
+fn xml_refused(name: &str) -> GdalReadError {
+    let problem =
+        "is XML (a VRT?), not a raster file; a VRT mosaic is read through its tiles (`RasterSource::open_path`, \
+                   `open_mosaic_bytes`), other VRTs not at all"
+            .to_owned();
+    GdalReadError::Unusable { name: name.to_owned(), problem }
+}
+
+/// A tile of a VRT mosaic: a local file (resolved below the VRT's directory) or bytes fetched from a store.
+#[derive(Clone, Debug)]
+pub enum MosaicFile {
+    /// A local file.
+    Path(PathBuf),
+    /// The file's bytes.
+    Bytes(Vec<u8>),
+}
 
 /// Why a raster could not be read, naming the raster and the step.
 #[derive(Debug, thiserror::Error)]
@@ -74,13 +135,96 @@ impl PixelSource {
         if std::fs::metadata(path).is_ok_and(|m| m.len() == 0) {
             return Err(GdalReadError::Unusable { name, problem: "is empty (0 bytes)".into() });
         }
-        let dataset = Dataset::open(path).map_err(failed(&name, "open the raster"))?;
+        if head_of(path).is_ok_and(|head| is_xml(&head)) {
+            return Err(xml_refused(&name));
+        }
+        let dataset = open_confined(path, &RASTER_DRIVERS).map_err(failed(&name, "open the raster"))?;
         Self::checked(name, dataset, Vec::new())
     }
 
     /// Open a raster from its bytes; `name` is used in errors.
     pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
-        Self::open_in_memory(name, "raster.tif", bytes, Vec::new())
+        if is_xml(&bytes) {
+            return Err(xml_refused(name));
+        }
+        route_gdal_messages();
+        let path = PathBuf::from(crate::gdal_write::vsimem_path("raster"));
+        Self::hold(name, &path, bytes, "raster")?;
+        match open_confined(&path, &RASTER_DRIVERS) {
+            Ok(dataset) => Self::checked(name.to_owned(), dataset, vec![path]),
+            Err(e) => {
+                let _ = gdal::vsi::unlink_mem_file(&path);
+                Err(failed(name, "open the raster")(e))
+            }
+        }
+    }
+
+    /// Put `bytes` in GDAL's in-memory file system at `path`; `what` names them in errors.
+    fn hold(name: &str, path: &Path, bytes: Vec<u8>, what: &str) -> Result<(), GdalReadError> {
+        // GDAL takes ownership of the buffer; an empty `Vec` has no allocation for it to free.
+        if bytes.is_empty() {
+            return Err(GdalReadError::Unusable {
+                name: name.to_owned(),
+                problem: format!("{what} is empty (0 bytes)"),
+            });
+        }
+        gdal::vsi::create_mem_file(path, bytes).map_err(failed(name, format!("hold {what} in memory")))
+    }
+
+    /// Open a VRT mosaic with the tiles given (paths relative to the VRT, as [`VrtMosaic::files_over`] lists
+    /// them): GDAL sees a VRT written afresh from `mosaic` holding only these tiles, each checked to be a
+    /// raster file. Areas of tiles not given read as the band's no-data value (zero without one).
+    pub fn open_mosaic(
+        name: &str,
+        mosaic: &VrtMosaic,
+        files: Vec<(String, MosaicFile)>,
+    ) -> Result<Self, GdalReadError> {
+        route_gdal_messages();
+        let dir = crate::gdal_write::vsimem_path("mosaic");
+        let mut held = Vec::new();
+        let mut located: HashMap<String, (String, bool)> = HashMap::new();
+        let mut place = |relative: String, file: MosaicFile, held: &mut Vec<PathBuf>| -> Result<(), GdalReadError> {
+            let not_raster = |detail: String| GdalReadError::Unusable {
+                name: name.to_owned(),
+                problem: format!("mosaic tile {relative} {detail}"),
+            };
+            match file {
+                MosaicFile::Path(path) => {
+                    let head = head_of(&path).map_err(|e| not_raster(format!("cannot be read: {e}")))?;
+                    if !is_raster_file(&head) {
+                        return Err(not_raster("is no TIFF, JPEG 2000, JPEG or PNG file".into()));
+                    }
+                    located.insert(relative, (path.display().to_string(), false));
+                }
+                MosaicFile::Bytes(bytes) => {
+                    if !bytes.is_empty() && !is_raster_file(&bytes) {
+                        return Err(not_raster("is no TIFF, JPEG 2000, JPEG or PNG file".into()));
+                    }
+                    let path = PathBuf::from(format!("{dir}/{relative}"));
+                    Self::hold(name, &path, bytes, &relative)?;
+                    held.push(path);
+                    located.insert(relative.clone(), (relative, true));
+                }
+            }
+            Ok(())
+        };
+        let placed = files.into_iter().try_for_each(|(relative, file)| place(relative, file, &mut held));
+        let opened = placed.and_then(|()| {
+            let xml = mosaic.to_xml(|p| located.get(p).cloned());
+            let path = PathBuf::from(format!("{dir}/mosaic.vrt"));
+            Self::hold(name, &path, xml, "the mosaic")?;
+            held.push(path.clone());
+            open_confined(&path, &["VRT"]).map_err(failed(name, "open the mosaic"))
+        });
+        match opened {
+            Ok(dataset) => Self::checked(name.to_owned(), dataset, held),
+            Err(e) => {
+                for path in &held {
+                    let _ = gdal::vsi::unlink_mem_file(path);
+                }
+                Err(e)
+            }
+        }
     }
 
     /// Open a raster GDAL reads itself over the network with range requests (`remote.path`, e.g. `/vsis3/…`,
@@ -100,7 +244,8 @@ impl PixelSource {
                 .map_err(failed(name, format!("set the GDAL option {key}")))?;
         }
         let keys: Vec<String> = options.into_iter().map(|(k, _)| k).collect();
-        let opened = Dataset::open(Path::new(&remote.path)).map_err(failed(name, "open the raster over the network"));
+        let opened = open_confined(Path::new(&remote.path), &RASTER_DRIVERS)
+            .map_err(failed(name, "open the raster over the network"));
         match opened {
             Ok(dataset) => {
                 let mut source = Self::checked(name.to_owned(), dataset, Vec::new())?;
@@ -109,43 +254,6 @@ impl PixelSource {
             }
             Err(e) => {
                 clear_thread_options(&keys);
-                Err(e)
-            }
-        }
-    }
-
-    /// Hold `bytes` as `{dir}/{file}` and the `others` beside it in GDAL's in-memory file system, and open it.
-    fn open_in_memory(
-        name: &str,
-        file: &str,
-        bytes: Vec<u8>,
-        others: Vec<(String, Vec<u8>)>,
-    ) -> Result<Self, GdalReadError> {
-        route_gdal_messages();
-        let dir = crate::gdal_write::vsimem_path("dir");
-        let mut held = Vec::new();
-        let mut hold = |relative: &str, bytes: Vec<u8>| {
-            // GDAL takes ownership of the buffer; an empty `Vec` has no allocation for it to free.
-            if bytes.is_empty() {
-                let problem = format!("{relative} is empty (0 bytes)");
-                return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
-            }
-            let path = PathBuf::from(format!("{dir}/{relative}"));
-            let result = gdal::vsi::create_mem_file(&path, bytes);
-            held.push(path);
-            result.map_err(failed(name, format!("hold {relative} in memory")))
-        };
-        let result =
-            others.into_iter().try_for_each(|(relative, b)| hold(&relative, b)).and_then(|()| hold(file, bytes));
-        let opened = result.and_then(|()| {
-            Dataset::open(held.last().map_or(Path::new(""), PathBuf::as_path)).map_err(failed(name, "open the raster"))
-        });
-        match opened {
-            Ok(dataset) => Self::checked(name.to_owned(), dataset, held),
-            Err(e) => {
-                for path in &held {
-                    let _ = gdal::vsi::unlink_mem_file(path);
-                }
                 Err(e)
             }
         }
@@ -286,28 +394,41 @@ pub struct RasterSource {
 }
 
 impl RasterSource {
-    /// Open a raster file on the local file system.
+    /// Open a raster file on the local file system; a VRT mosaic with every tile ([`Self::open_local`]).
     pub fn open_path(path: &Path) -> Result<Self, GdalReadError> {
-        Self::georeferenced(PixelSource::open_path(path)?)
+        Self::open_local(path, Tiles::All)
     }
 
-    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors. A VRT mosaic
-    /// is refused: its tiles are named relative to it and cannot be reached from memory (use
-    /// [`mosaic_tiles`] and [`RasterSource::open_mosaic_bytes`]).
-    pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
-        if is_vrt(&bytes) {
-            let problem = "is a VRT mosaic: its tiles are named relative to it and are not in memory; fetch the \
-                           tiles the window needs (`mosaic_tiles`) and open it with `open_mosaic_bytes`"
-                .to_owned();
-            return Err(GdalReadError::Unusable { name: name.to_owned(), problem });
+    /// Open a raster file on the local file system. A VRT (XML) is parsed as a [`VrtMosaic`] and opened with
+    /// `tiles` of it, resolved below the VRT's directory.
+    pub fn open_local(path: &Path, tiles: Tiles<'_>) -> Result<Self, GdalReadError> {
+        let name = path.display().to_string();
+        if !head_of(path).is_ok_and(|head| is_xml(&head)) {
+            return Self::georeferenced(PixelSource::open_path(path)?);
         }
+        let bytes = read_bounded(path).map_err(|problem| GdalReadError::Unusable { name: name.clone(), problem })?;
+        let mosaic = VrtMosaic::parse(&name, &bytes)?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        let files = tiles.of(&mosaic).into_iter().map(|f| {
+            let path = dir.join(&f);
+            (f, MosaicFile::Path(path))
+        });
+        Self::georeferenced(PixelSource::open_mosaic(&name, &mosaic, files.collect())?)
+    }
+
+    /// Open a raster from its bytes (e.g. fetched from an object store); `name` is used in errors. XML (a VRT
+    /// mosaic) is refused: parse it ([`VrtMosaic::parse`]), fetch the tiles the window needs
+    /// ([`VrtMosaic::files_over`]) and open it with [`Self::open_mosaic_bytes`].
+    pub fn open_bytes(name: &str, bytes: Vec<u8>) -> Result<Self, GdalReadError> {
         Self::georeferenced(PixelSource::open_bytes(name, bytes)?)
     }
 
-    /// Open a VRT mosaic from its bytes and those of its tiles (paths relative to the VRT, as
-    /// [`mosaic_tiles`] lists them); windows over tiles not given fail naming the tile.
-    pub fn open_mosaic_bytes(name: &str, vrt: Vec<u8>, tiles: Vec<(String, Vec<u8>)>) -> Result<Self, GdalReadError> {
-        Self::georeferenced(PixelSource::open_in_memory(name, "mosaic.vrt", vrt, tiles)?)
+    /// Open a VRT mosaic from its bytes and those of some of its tiles (paths relative to the VRT, as
+    /// [`VrtMosaic::files_over`] lists them); areas of tiles not given read as no data.
+    pub fn open_mosaic_bytes(name: &str, vrt: &[u8], tiles: Vec<(String, Vec<u8>)>) -> Result<Self, GdalReadError> {
+        let mosaic = VrtMosaic::parse(name, vrt)?;
+        let files = tiles.into_iter().map(|(f, bytes)| (f, MosaicFile::Bytes(bytes))).collect();
+        Self::georeferenced(PixelSource::open_mosaic(name, &mosaic, files)?)
     }
 
     fn georeferenced(pixels: PixelSource) -> Result<Self, GdalReadError> {
@@ -389,61 +510,38 @@ impl RasterSource {
     }
 }
 
-/// Whether the bytes are a GDAL VRT (XML starting with `<VRTDataset`).
-pub fn is_vrt(bytes: &[u8]) -> bool {
-    let text = bytes.get(..512.min(bytes.len())).unwrap_or_default();
-    String::from_utf8_lossy(text).trim_start().starts_with("<VRTDataset")
+/// Which tiles of a local VRT mosaic to open.
+#[derive(Clone, Copy, Debug)]
+pub enum Tiles<'a> {
+    /// Every tile.
+    All,
+    /// The tiles holding pixels of an area (mapping coordinates).
+    Over(&'a MapBox),
+    /// None: size, georeferencing and bands only.
+    None,
 }
 
-/// The tiles of a VRT mosaic (paths relative to the VRT, each once) that hold pixels of `area`, read from each
-/// source's `SourceFilename` and `DstRect` (what `gdalbuildvrt` and `gdal_write::vrt` write); empty when the
-/// area misses the mosaic or the bytes are no VRT.
-pub fn mosaic_tiles(name: &str, vrt: &[u8], area: &MapBox) -> Result<Vec<String>, GdalReadError> {
-    if !is_vrt(vrt) {
-        return Ok(Vec::new());
-    }
-    let text = String::from_utf8_lossy(vrt);
-    let unusable = |problem: String| GdalReadError::Unusable { name: name.to_owned(), problem };
-    let head = text.split("<VRTRasterBand").next().unwrap_or_default();
-    let size = |key: &str| attribute(head, key).ok_or_else(|| unusable(format!("has no {key}")));
-    let (width, height) = (size("rasterXSize")?, size("rasterYSize")?);
-    let gt: Vec<f64> = element(head, "GeoTransform")
-        .map(|g| g.split(',').filter_map(|v| v.trim().parse().ok()).collect())
-        .unwrap_or_default();
-    let [x0, dx, _, y0, _, dy] = gt[..] else { return Err(unusable("has no geotransform".into())) };
-    // The area in mosaic pixels (as `pixel_window`).
-    let (c0, c1) = ((area.min_e - x0) / dx, (area.max_e - x0) / dx);
-    let (r0, r1) = ((area.max_n - y0) / dy, (area.min_n - y0) / dy);
-    let mut tiles: Vec<String> = Vec::new();
-    for source in text.split("<SourceFilename").skip(1) {
-        let path = source.split_once('>').and_then(|(_, rest)| rest.split_once("</SourceFilename>")).map(|p| p.0);
-        let rect = source.split_once("<DstRect").map(|(_, r)| r.split_once("/>").map_or(r, |r| r.0));
-        let (Some(path), Some(rect)) = (path, rect) else { continue };
-        let v = |key: &str| attribute(rect, key);
-        let (Some(x), Some(y), Some(w), Some(h)) = (v("xOff"), v("yOff"), v("xSize"), v("ySize")) else { continue };
-        let overlaps = c0 < x + w && c1 > x && r0 < y + h && r1 > y && x < width && y < height;
-        let path = unescape(path);
-        if overlaps && !tiles.contains(&path) {
-            tiles.push(path);
+impl Tiles<'_> {
+    fn of(self, mosaic: &VrtMosaic) -> Vec<String> {
+        match self {
+            Self::All => {
+                let mut seen = std::collections::HashSet::new();
+                let sources = mosaic.bands.iter().flat_map(|b| &b.sources);
+                sources.filter(|s| seen.insert(s.path.as_str())).map(|s| s.path.clone()).collect()
+            }
+            Self::Over(area) => mosaic.files_over(area),
+            Self::None => Vec::new(),
         }
     }
-    Ok(tiles)
 }
 
-/// The number in `key="…"` within `text`.
-fn attribute(text: &str, key: &str) -> Option<f64> {
-    let start = text.find(&format!("{key}=\""))? + key.len() + 2;
-    text[start..].split('"').next()?.trim().parse().ok()
-}
-
-/// The text of the first `<tag>…</tag>` within `text`.
-fn element<'t>(text: &'t str, tag: &str) -> Option<&'t str> {
-    let start = text.find(&format!("<{tag}>"))? + tag.len() + 2;
-    text[start..].split(&format!("</{tag}>")).next()
-}
-
-fn unescape(text: &str) -> String {
-    text.replace("&lt;", "<").replace("&gt;", ">").replace("&quot;", "\"").replace("&amp;", "&")
+/// A local VRT's bytes, refused above [`crate::vrt::MAX_VRT_BYTES`] before reading.
+fn read_bounded(path: &Path) -> Result<Vec<u8>, String> {
+    let len = std::fs::metadata(path).map_err(|e| format!("cannot be read: {e}"))?.len();
+    if len > crate::vrt::MAX_VRT_BYTES as u64 {
+        return Err(format!("is a VRT of {len} bytes; at most {} are read", crate::vrt::MAX_VRT_BYTES));
+    }
+    std::fs::read(path).map_err(|e| format!("cannot be read: {e}"))
 }
 
 fn failed(name: &str, step: impl Into<String>) -> impl FnOnce(GdalError) -> GdalReadError {
@@ -455,6 +553,7 @@ fn failed(name: &str, step: impl Into<String>) -> impl FnOnce(GdalError) -> Gdal
 mod tests {
     use super::*;
     use crate::gdal_write::geotiff;
+    use crate::vrt::VrtMosaic;
 
     fn ramp(width: usize, height: usize) -> Raster {
         let data: Vec<f32> = (0..width * height).map(|i| i as f32).collect();
@@ -517,10 +616,11 @@ mod tests {
     fn empty_rasters_are_refused_before_gdal_sees_them() {
         // An empty `Vec` handed to GDAL's in-memory file system was freed by GDAL: a segfault.
         let e = RasterSource::open_bytes("s3://b/empty.tif", Vec::new()).unwrap_err();
-        assert_eq!(e.to_string(), "s3://b/empty.tif: raster.tif is empty (0 bytes)");
-        let e = RasterSource::open_mosaic_bytes("m.vrt", b"<VRTDataset/>".to_vec(), vec![("t.tif".into(), vec![])])
-            .unwrap_err();
-        assert!(e.to_string().contains("t.tif is empty (0 bytes)"), "{e}");
+        assert_eq!(e.to_string(), "s3://b/empty.tif: raster is empty (0 bytes)");
+        let (_dir, path) = two_tile_mosaic(None);
+        let vrt = std::fs::read(path).unwrap();
+        let e = RasterSource::open_mosaic_bytes("m.vrt", &vrt, vec![("tiles/0_0.tif".into(), vec![])]).unwrap_err();
+        assert!(e.to_string().contains("tiles/0_0.tif is empty (0 bytes)"), "{e}");
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("empty.tif");
         std::fs::write(&path, b"").unwrap();
@@ -619,28 +719,92 @@ mod tests {
         let (dir, path) = two_tile_mosaic(Some(-9999.0));
         let vrt = std::fs::read(&path).unwrap();
         let e = RasterSource::open_bytes("s3://b/mosaic.vrt", vrt.clone()).unwrap_err();
-        assert!(e.to_string().starts_with("s3://b/mosaic.vrt: is a VRT mosaic"), "{e}");
+        assert!(e.to_string().starts_with("s3://b/mosaic.vrt: is XML (a VRT?)"), "{e}");
         // The west tile only (columns 0–7 are E 500000–500004), both, and none.
         let west = MapBox { min_e: 500_000.5, min_n: 5_000_098.0, max_e: 500_003.5, max_n: 5_000_099.0 };
         let across = MapBox { min_e: 500_003.0, min_n: 5_000_099.0, max_e: 500_005.0, max_n: 5_000_101.0 };
         let outside = MapBox { min_e: 400_000.0, min_n: 5_000_099.0, max_e: 400_005.0, max_n: 5_000_101.0 };
-        assert_eq!(mosaic_tiles("m", &vrt, &west).unwrap(), vec!["tiles/0_0.tif".to_owned()]);
-        assert_eq!(
-            mosaic_tiles("m", &vrt, &across).unwrap(),
-            vec!["tiles/0_0.tif".to_owned(), "tiles/1_0.tif".to_owned()]
-        );
-        assert!(mosaic_tiles("m", &vrt, &outside).unwrap().is_empty());
-        assert!(mosaic_tiles("m", b"II*\0", &west).unwrap().is_empty(), "a GeoTIFF needs no tiles");
+        let mosaic = VrtMosaic::parse("m", &vrt).unwrap();
+        assert_eq!(mosaic.files_over(&west), vec!["tiles/0_0.tif".to_owned()]);
+        assert_eq!(mosaic.files_over(&across), vec!["tiles/0_0.tif".to_owned(), "tiles/1_0.tif".to_owned()]);
+        assert!(mosaic.files_over(&outside).is_empty());
         let fetch = |t: &str| (t.to_owned(), std::fs::read(dir.path().join(t)).unwrap());
-        let tiles = mosaic_tiles("m", &vrt, &across).unwrap().iter().map(|t| fetch(t)).collect();
-        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", vrt.clone(), tiles).unwrap();
+        let tiles = mosaic.files_over(&across).iter().map(|t| fetch(t)).collect();
+        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", &vrt, tiles).unwrap();
         let w = source.window(&across).unwrap().unwrap();
         let RasterData::F32(bands) = &w.data else { panic!("float raster expected") };
         assert_eq!(&bands[0][8..12], &[6.0, 7.0, 1000.0, 1001.0]);
-        // Only the west tile held: a window over the east one fails naming the step.
-        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", vrt, vec![fetch("tiles/0_0.tif")]).unwrap();
-        assert!(source.window(&west).unwrap().is_some());
-        let e = source.window(&across).unwrap_err();
-        assert!(e.to_string().starts_with("s3://b/mosaic.vrt: GDAL could not read band 1"), "{e}");
+        // Only the west tile held: the east tile's pixels read as no data.
+        let source = RasterSource::open_mosaic_bytes("s3://b/mosaic.vrt", &vrt, vec![fetch("tiles/0_0.tif")]).unwrap();
+        let w = source.window(&across).unwrap().unwrap();
+        let RasterData::F32(bands) = &w.data else { panic!("float raster expected") };
+        assert_eq!(&bands[0][8..12], &[6.0, 7.0, -9999.0, -9999.0]);
+    }
+
+    /// A listener on a free loopback port that tells whether anything connected to it.
+    fn listener() -> (std::net::TcpListener, u16) {
+        let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+        listener.set_nonblocking(true).unwrap();
+        let port = listener.local_addr().unwrap().port();
+        (listener, port)
+    }
+
+    #[test]
+    fn an_agency_vrt_reads_no_file_outside_its_directory_and_makes_no_request() {
+        let (dir, path) = two_tile_mosaic(None);
+        let secret = dir.path().parent().unwrap().join(format!("secret-{}.tif", std::process::id()));
+        std::fs::write(&secret, geotiff(&ramp(8, 6)).unwrap()).unwrap();
+        let vrt = std::fs::read_to_string(&path).unwrap();
+        let secret_name = secret.file_name().unwrap().to_str().unwrap();
+        // A source written with single quotes, escaping the directory.
+        let escaping = vrt.replacen(
+            "<SourceFilename relativeToVRT=\"1\">tiles/1_0.tif",
+            &format!("<SourceFilename relativeToVRT='1'>tiles/../../{secret_name}"),
+            1,
+        );
+        assert_ne!(escaping, vrt);
+        std::fs::write(&path, &escaping).unwrap();
+        let e = RasterSource::open_path(&path).unwrap_err().to_string();
+        assert!(e.contains("band 1, source 2") && e.contains("`..` segment"), "{e}");
+        // An absolute source, and a network one behind a leading comment: refused before GDAL, no request made.
+        let (server, port) = listener();
+        let remote = format!("<!-- tiles --><VRTDataset{}", vrt.split_once("<VRTDataset").unwrap().1).replacen(
+            "<SourceFilename relativeToVRT=\"1\">tiles/1_0.tif",
+            &format!("<SourceFilename relativeToVRT=\"0\">/vsicurl/http://127.0.0.1:{port}/t.tif"),
+            1,
+        );
+        std::fs::write(&path, &remote).unwrap();
+        let e = RasterSource::open_path(&path).unwrap_err().to_string();
+        assert!(e.contains("not relative to the VRT"), "{e}");
+        let e = RasterSource::open_mosaic_bytes("s3://b/m.vrt", remote.as_bytes(), vec![]).unwrap_err().to_string();
+        assert!(e.contains("not relative to the VRT"), "{e}");
+        let e = RasterSource::open_bytes("s3://b/t.tif", remote.clone().into_bytes()).unwrap_err().to_string();
+        assert!(e.contains("is XML"), "{e}");
+        let frame = dir.path().join("frame.tif");
+        std::fs::write(&frame, &remote).unwrap();
+        assert!(PixelSource::open_path(&frame).unwrap_err().to_string().contains("is XML"));
+        assert!(server.accept().is_err_and(|e| e.kind() == std::io::ErrorKind::WouldBlock), "GDAL connected");
+        // A tile that is itself XML is no raster file.
+        std::fs::write(&path, &vrt).unwrap();
+        std::fs::write(dir.path().join("tiles/1_0.tif"), &remote).unwrap();
+        let e = RasterSource::open_path(&path).unwrap_err().to_string();
+        assert!(e.contains("mosaic tile tiles/1_0.tif is no TIFF"), "{e}");
+        let e = RasterSource::open_mosaic_bytes("m.vrt", vrt.as_bytes(), vec![("tiles/1_0.tif".into(), remote.into())]);
+        assert!(e.unwrap_err().to_string().contains("mosaic tile tiles/1_0.tif is no TIFF"));
+        std::fs::remove_file(secret).unwrap();
+    }
+
+    #[test]
+    fn only_raster_drivers_open_agency_files() {
+        // An ESRI ASCII grid: a raster GDAL reads with its AAIGrid driver, which is not on the list.
+        let grid = b"ncols 2\nnrows 2\nxllcorner 500000\nyllcorner 5000000\ncellsize 1\n1 2\n3 4\n";
+        let dir = tempfile::tempdir().unwrap();
+        let path = dir.path().join("terrain.tif");
+        std::fs::write(&path, grid).unwrap();
+        assert_eq!(Dataset::open(&path).unwrap().raster_size(), (2, 2), "GDAL reads it unconfined");
+        let e = RasterSource::open_path(&path).unwrap_err().to_string();
+        assert!(e.contains("GDAL could not open the raster"), "{e}");
+        let e = RasterSource::open_bytes("s3://b/terrain.tif", grid.to_vec()).unwrap_err().to_string();
+        assert!(e.contains("GDAL could not open the raster"), "{e}");
     }
 }

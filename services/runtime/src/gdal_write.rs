@@ -12,6 +12,7 @@ use gdal::vector::{Feature, FieldDefn, Geometry, LayerAccess, LayerOptions, OGRF
 use gdal::{Dataset, DriverManager};
 
 use crate::gdal_messages::route_gdal_messages;
+use crate::vrt::{Rect, SourceProperties, VrtBand, VrtMosaic, VrtSource};
 
 /// Why encoding failed: the GDAL step, or the item and field that were bad.
 #[derive(Debug, thiserror::Error)]
@@ -406,40 +407,44 @@ pub fn vrt(mosaic: &Mosaic) -> Result<Vec<u8>, GdalWriteError> {
         MosaicType::U8 => ("Byte", &["Red", "Green", "Blue"]),
         MosaicType::F32 => ("Float32", &["Gray"]),
     };
-    let gt = mosaic.geotransform.map(|v| format!("{v:?}")).join(", ");
-    let mut xml = format!(
-        "<VRTDataset rasterXSize=\"{}\" rasterYSize=\"{}\">\n  <SRS dataAxisToSRSAxisMapping=\"1,2\">{}</SRS>\n  \
-         <GeoTransform>{gt}</GeoTransform>\n",
-        mosaic.width,
-        mosaic.height,
-        xml_escape(&wkt)
-    );
     let (tw, th) = mosaic.tile_size;
-    let block = (tw.min(256), th.min(256));
-    for b in 1..=mosaic.bands {
-        let colour = if mosaic.bands == colours.len() { colours[b - 1] } else { "Undefined" };
-        xml += &format!("  <VRTRasterBand dataType=\"{ty}\" band=\"{b}\">\n    <ColorInterp>{colour}</ColorInterp>\n");
-        if let Some(nodata) = mosaic.nodata {
-            xml += &format!("    <NoDataValue>{nodata:?}</NoDataValue>\n");
-        }
-        for t in &mosaic.tiles {
-            xml += &format!(
-                "    <SimpleSource>\n      <SourceFilename relativeToVRT=\"1\">{}</SourceFilename>\n      \
-                 <SourceBand>{b}</SourceBand>\n      <SourceProperties RasterXSize=\"{tw}\" RasterYSize=\"{th}\" \
-                 DataType=\"{ty}\" BlockXSize=\"{}\" BlockYSize=\"{}\"/>\n      \
-                 <SrcRect xOff=\"0\" yOff=\"0\" xSize=\"{tw}\" ySize=\"{th}\"/>\n      \
-                 <DstRect xOff=\"{}\" yOff=\"{}\" xSize=\"{tw}\" ySize=\"{th}\"/>\n    </SimpleSource>\n",
-                xml_escape(&t.path),
-                block.0,
-                block.1,
-                t.col,
-                t.row
-            );
-        }
-        xml += "  </VRTRasterBand>\n";
-    }
-    xml += "</VRTDataset>\n";
-    Ok(xml.into_bytes())
+    let whole = |x: usize, y: usize| Rect { x: x as f64, y: y as f64, w: tw as f64, h: th as f64 };
+    let properties = SourceProperties {
+        width: tw,
+        height: th,
+        data_type: ty.to_owned(),
+        block_width: tw.min(256),
+        block_height: th.min(256),
+    };
+    let bands = (1..=mosaic.bands)
+        .map(|b| VrtBand {
+            data_type: ty.to_owned(),
+            colour: Some(if mosaic.bands == colours.len() { colours[b - 1] } else { "Undefined" }.to_owned()),
+            nodata: mosaic.nodata,
+            sources: mosaic
+                .tiles
+                .iter()
+                .map(|t| VrtSource {
+                    complex: false,
+                    path: t.path.clone(),
+                    band: b,
+                    properties: Some(properties.clone()),
+                    src: Some(whole(0, 0)),
+                    dst: whole(t.col, t.row),
+                    nodata: None,
+                })
+                .collect(),
+        })
+        .collect();
+    let vrt = VrtMosaic {
+        width: mosaic.width,
+        height: mosaic.height,
+        srs: Some(wkt),
+        axis_mapping: Some("1,2".to_owned()),
+        geotransform: mosaic.geotransform,
+        bands,
+    };
+    Ok(vrt.to_xml(|path| Some((path.to_owned(), true))))
 }
 
 fn check_mosaic(m: &Mosaic) -> Result<(), GdalWriteError> {
@@ -460,8 +465,4 @@ fn check_mosaic(m: &Mosaic) -> Result<(), GdalWriteError> {
         }
     }
     Ok(())
-}
-
-fn xml_escape(text: &str) -> String {
-    text.replace('&', "&amp;").replace('<', "&lt;").replace('>', "&gt;").replace('"', "&quot;")
 }

@@ -9,7 +9,9 @@
 //! - [`store`] — [`open_store`] from a `file://`, `memory://`, `s3://` URL or a plain path;
 //!   [`read_url`] / [`write_url`] for one object named by URL.
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
-//! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding.
+//! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding;
+//!   agency rasters open only through an allow-list of GDAL drivers, agency VRTs only as [`vrt::VrtMosaic`]s rewritten
+//!   to the files beside them.
 //! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`InvalidInput`] (exit code 2).
 //! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
 //! - [`logging`] — [`init_tracing`], with OTLP span export through [`telemetry`]; [`progress`] — bars, log
@@ -29,6 +31,7 @@ pub mod secret;
 pub mod store;
 pub mod telemetry;
 pub mod trajectory;
+pub mod vrt;
 
 pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
 pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, is_projected, meridian_convergence};

@@ -1,6 +1,6 @@
 //! Windows of the orthophoto and the terrain model through GDAL ([`RasterSource`]): local files are opened in
-//! place (windowed reads, never the whole city), object-store files are fetched whole first — of a VRT mosaic
-//! on an object store, the VRT and the tiles the window needs. GDAL handles are not `Send`, so each call opens
+//! place (windowed reads, never the whole city), object-store files are fetched whole first — of a VRT mosaic,
+//! only the tiles the window needs, and GDAL sees the mosaic rewritten to them (`plumbline_runtime::vrt`). GDAL handles are not `Send`, so each call opens
 //! its source on the blocking thread that uses it.
 
 use std::path::PathBuf;
@@ -8,8 +8,9 @@ use std::path::PathBuf;
 use plumbline_imaging::GrayImage;
 use plumbline_imaging::radiometry::gray_from_bands;
 use plumbline_registration::aerial::Terrain;
-use plumbline_runtime::gdal_read::{MapBox, RasterSource, is_vrt, mosaic_tiles};
+use plumbline_runtime::gdal_read::{MapBox, RasterSource, Tiles};
 use plumbline_runtime::gdal_write::{Raster, RasterData};
+use plumbline_runtime::vrt::{VrtMosaic, is_xml};
 use plumbline_runtime::{Files, invalid, is_invalid};
 
 use crate::fetch::{SkipReason, blocking};
@@ -62,14 +63,14 @@ pub(crate) async fn read_window(
         Some(_) => None,
     };
     let tiles = match &bytes {
-        Some(vrt) if is_vrt(vrt) => Some(read_tiles(files, url, vrt, &area).await?),
+        Some(vrt) if is_xml(vrt) => Some(read_tiles(files, url, vrt, &area).await?),
         _ => None,
     };
     let url = url.to_owned();
     let window = blocking(move || -> anyhow::Result<Option<Raster>> {
         let source = match (local, bytes, tiles) {
-            (Some(path), _, _) => RasterSource::open_path(&path)?,
-            (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, bytes.unwrap_or_default(), tiles)?,
+            (Some(path), _, _) => RasterSource::open_local(&path, Tiles::Over(&area))?,
+            (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, &bytes.unwrap_or_default(), tiles)?,
             (None, bytes, None) => RasterSource::open_bytes(&url, bytes.unwrap_or_default())?,
         };
         // A raster in another CRS would only "miss" every tile: say what is wrong instead.
@@ -84,7 +85,7 @@ pub(crate) async fn read_window(
 }
 
 /// The tiles of the VRT mosaic at `url` that hold pixels of `area`, fetched from beside it (their paths are
-/// relative to the VRT).
+/// relative to the VRT and below its directory: `VrtMosaic::parse` refuses others).
 async fn read_tiles(
     files: &Files,
     url: &str,
@@ -93,7 +94,8 @@ async fn read_tiles(
 ) -> Result<Vec<(String, Vec<u8>)>, WindowError> {
     let dir = url.rsplit_once('/').map_or("", |(dir, _)| dir);
     let mut tiles = Vec::new();
-    for tile in mosaic_tiles(url, vrt, area).map_err(|e| WindowError::Raster(e.into()))? {
+    let mosaic = VrtMosaic::parse(url, vrt).map_err(|e| WindowError::Raster(e.into()))?;
+    for tile in mosaic.files_over(area) {
         let tile_url = if dir.is_empty() { tile.clone() } else { format!("{dir}/{tile}") };
         tiles.push((tile, files.read(&tile_url).await.map_err(WindowError::Store)?.to_vec()));
     }
@@ -228,6 +230,18 @@ mod tests {
         let missing = read_window(&files, lonely, area, 25832).await.unwrap_err();
         assert_eq!(missing.reason(), SkipReason::Missing, "{missing}");
         assert!(missing.to_string().contains("no-tiles/terrain/0_0.tif"), "{missing}");
+        // Another agency's tile named from this one's VRT (single-quoted, behind a comment): refused before any
+        // read, as the VRT's fault.
+        let other = "s3://rasters/other-agency/terrain/0_0.tif";
+        files.write(other, tile(0, 99.0)).await.unwrap();
+        let xml = String::from_utf8(vrt(&mosaic).unwrap()).unwrap();
+        let hostile =
+            format!("<!-- x -->{}", xml.replace("\"1\">terrain/0_0.tif", "'1'>../../other-agency/terrain/0_0.tif"));
+        assert!(hostile.contains("'1'>../../other-agency"), "{hostile}");
+        files.write(&format!("{base}/hostile.vrt"), hostile.into_bytes()).await.unwrap();
+        let refused = read_window(&files, &format!("{base}/hostile.vrt"), area, 25832).await.unwrap_err();
+        assert_eq!(refused.reason(), SkipReason::Decode, "{refused}");
+        assert!(refused.to_string().contains("`..` segment"), "{refused}");
     }
 
     /// A store that fails to deliver is a read failure (retried); one that says the file is not there, or

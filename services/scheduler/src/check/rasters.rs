@@ -3,7 +3,8 @@
 //! without its tiles.
 
 use plumbline_campaign::Location;
-use plumbline_runtime::gdal_read::{RasterSource, is_vrt};
+use plumbline_runtime::gdal_read::{RasterSource, Tiles};
+use plumbline_runtime::vrt::is_xml;
 
 use super::{Checker, RASTER_REACH_M};
 
@@ -31,13 +32,14 @@ pub(crate) async fn raster(c: &mut Checker<'_>, field: &str, location: &Location
     let Some(url) = c.url(field, location) else { return };
     let opened = if let Some(path) = url.strip_prefix("file://") {
         let path = std::path::PathBuf::from(path);
-        tokio::task::spawn_blocking(move || RasterSource::open_path(&path).and_then(|s| metadata(&s))).await
+        tokio::task::spawn_blocking(move || RasterSource::open_local(&path, Tiles::None).and_then(|s| metadata(&s)))
+            .await
     } else {
         let Some(bytes) = c.read(field, &url).await else { return };
         let name = url.clone();
         tokio::task::spawn_blocking(move || {
-            let source = if is_vrt(&bytes) {
-                RasterSource::open_mosaic_bytes(&name, bytes.to_vec(), Vec::new())
+            let source = if is_xml(&bytes) {
+                RasterSource::open_mosaic_bytes(&name, &bytes, Vec::new())
             } else {
                 RasterSource::open_bytes(&name, bytes.to_vec())
             };
