@@ -1,10 +1,12 @@
 //! `plumbline status ID`: a campaign's state from the scheduler's job API; `--watch` follows it with progress
 //! bars until it is done (exit 0; exit 3 when it was adjusted without its dead-lettered tiles), failed or
-//! cancelled (exit 1).
+//! cancelled (exit 1). While watching, transient errors (no answer, 429, 5xx: a scheduler restart, its NATS or
+//! store briefly away) are logged and polled through for up to `--patience-s`; only a final state, an answer
+//! that is the request's fault (401, 404) or an outage longer than the patience ends the watch otherwise.
 
 use std::io::IsTerminal as _;
 use std::process::ExitCode;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 use clap::Args as ClapArgs;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
@@ -28,6 +30,10 @@ pub struct Args {
     /// Seconds between polls while watching.
     #[arg(long, default_value_t = 2.0)]
     pub interval_s: f64,
+    /// While watching: seconds of consecutive transient errors (no answer, 429, 5xx) to poll through before
+    /// giving up.
+    #[arg(long, default_value_t = 1800.0)]
+    pub patience_s: f64,
     /// Print the state as JSON instead of text (without --watch).
     #[arg(long)]
     pub json: bool,
@@ -36,7 +42,32 @@ pub struct Args {
 /// Run `status`.
 pub async fn run(_ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let client = args.server.client()?;
-    let mut view = client.status(&args.id).await.map_err(api_error)?;
+    let interval = Duration::from_secs_f64(args.interval_s.clamp(0.2, 3600.0));
+    let patience = Duration::from_secs_f64(args.patience_s.clamp(0.0, 7.0 * 86_400.0));
+    let poll = || async {
+        let mut failing_since: Option<Instant> = None;
+        loop {
+            match client.status(&args.id).await {
+                Ok(view) => {
+                    if failing_since.is_some() {
+                        tracing::info!(campaign = args.id, "the job API answers again");
+                    }
+                    return Ok(view);
+                }
+                Err(e) if args.watch && e.is_transient() => {
+                    let since = *failing_since.get_or_insert_with(Instant::now);
+                    if since.elapsed() >= patience {
+                        let waited = since.elapsed().as_secs();
+                        return Err(api_error(e).context(format!("the job API has not answered for {waited} s")));
+                    }
+                    tracing::warn!(campaign = args.id, error = %e, "job API unavailable; still watching");
+                    tokio::time::sleep(interval).await;
+                }
+                Err(e) => return Err(api_error(e)),
+            }
+        }
+    };
+    let mut view = poll().await?;
     if !args.watch {
         if args.json {
             println!("{}", serde_json::to_string_pretty(&view)?);
@@ -47,7 +78,6 @@ pub async fn run(_ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     }
     let progress = reporter(ProgressStyle::choose(false, false, std::io::stderr().is_terminal()));
     let mut shown: Vec<(u64, u64)> = Vec::new();
-    let interval = Duration::from_secs_f64(args.interval_s.clamp(0.2, 3600.0));
     loop {
         for (i, stage) in view.stages.iter().enumerate() {
             if shown.len() <= i {
@@ -65,7 +95,7 @@ pub async fn run(_ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             break;
         }
         tokio::time::sleep(interval).await;
-        view = client.status(&args.id).await.map_err(api_error)?;
+        view = poll().await?;
     }
     print_view(&view);
     Ok(match view.campaign.status {

@@ -257,14 +257,23 @@ async fn an_s3_outage_while_tiles_and_the_adjustment_run_is_retried_to_the_same_
     let proxy = FlakyProxy::start(&rig.moto.endpoint().replace("http://", ""));
     let (adjuster, worker) = rig.roles(&proxy.endpoint());
     rig.submit().await;
+    // `status --watch` through a proxy of the job API that goes down with the store: it polls through.
+    let api = FlakyProxy::start(rig.scheduler.server.trim_start_matches("http://"));
+    let token = support::write(&rig.dir, "token", TOKEN);
+    let (id, server) = (shared().id.clone(), api.endpoint());
+    let args = ["status", &id, "--watch", "--interval-s", "0.5", "--server", &server, "--token-file", &token];
+    let args: Vec<String> = args.iter().map(|a| (*a).to_owned()).collect();
+    let watcher = std::thread::spawn(move || plumbline(&args.iter().map(String::as_str).collect::<Vec<_>>()).run());
     // Outage 1: while the first tile reads its inputs, until the worker has given the attempt up for later.
     worker.wait_for("tile inputs being read", 1, LIMIT);
     proxy.down();
+    api.down();
     let log = worker.log();
     assert!(log.matches("tile started").count() > log.matches("tile written").count(), "no tile in progress");
     worker.wait_for("retrying later", 1, LIMIT);
     let refused = proxy.refused();
     proxy.up();
+    api.up();
     // Outage 2: as soon as the adjustment starts, until the adjuster has deferred it.
     adjuster.wait_for("adjustment started", 1, LIMIT);
     proxy.down();
@@ -278,6 +287,10 @@ async fn an_s3_outage_while_tiles_and_the_adjustment_run_is_retried_to_the_same_
     assert!(worker.log().contains("input(s) could not be read from the store"), "{}", worker.log());
     assert!(adjuster.log().matches("adjustment started").count() >= 2, "{}", adjuster.log());
     rig.assert_same_trajectory(&view, "after S3 outages").await;
+    let watched = watcher.join().unwrap();
+    watched.success();
+    assert!(api.refused() > 0, "the job API's outage refused no poll");
+    assert!(watched.stderr.contains("still watching") && watched.stdout.contains(": done"), "{}", watched.stderr);
     let retry = worker.log().lines().find(|l| l.contains("retrying later")).unwrap_or_default().to_owned();
     eprintln!("S3 outages: {} connections refused, {} cut; worker: {retry}", proxy.refused(), proxy.cut());
 }

@@ -46,6 +46,12 @@ impl ClientError {
             Self::Transport { .. } => None,
         }
     }
+
+    /// Whether asking again later may succeed: no answer, too many requests, or a server-side error (the
+    /// server's NATS or store unavailable, a restart). 4xx answers are the request's fault.
+    pub fn is_transient(&self) -> bool {
+        self.status().is_none_or(|s| s == StatusCode::TOO_MANY_REQUESTS || s.is_server_error())
+    }
 }
 
 /// The job API of one server, as one agency.

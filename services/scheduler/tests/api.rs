@@ -128,6 +128,29 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     }
     let ready = reqwest::get(format!("{}/readyz", h.server)).await.unwrap();
     assert_eq!(ready.status(), StatusCode::OK);
+
+    // Whoever can write the KV bucket cannot redirect the report: its location is derived from the agency
+    // and the id, not read from the state, and a state handed to another agency serves that agency nothing.
+    let tamper = |f: fn(&mut plumbline_scheduler::messages::CampaignState)| {
+        let bus = h.scheduler.bus();
+        async move {
+            bus.campaigns
+                .modify(&state.id, |c| {
+                    f(c);
+                    true
+                })
+                .await
+                .unwrap()
+                .unwrap()
+        }
+    };
+    tamper(|c| c.report = Some("file:///etc/hostname".into())).await;
+    assert_eq!(hh.report("tiny-1").await.unwrap()["summary"]["epochs"], 601);
+    tamper(|c| c.agency = "bremen".into()).await;
+    assert_eq!(status_of(&hh.report("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
+    let e = hb.report("tiny-1").await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::INTERNAL_SERVER_ERROR, "{e}");
+    assert!(!e.to_string().contains("601"), "{e}");
 }
 
 /// Submit `text` as Hamburg and return the status and the problems' fields.

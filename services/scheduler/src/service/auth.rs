@@ -91,10 +91,14 @@ impl Tokens {
         found
     }
 
-    /// The agency of an `Authorization` header value (`Bearer <token>`).
+    /// The agency of an `Authorization` header value (`Bearer <token>`; the scheme is case-insensitive, as
+    /// HTTP auth schemes are).
     pub fn authorize(&self, header: Option<&str>) -> Option<Agency> {
-        let token = header?.strip_prefix("Bearer ")?.trim();
-        self.agency(token)
+        let (scheme, token) = header?.trim_start().split_once(' ')?;
+        if !scheme.eq_ignore_ascii_case("bearer") {
+            return None;
+        }
+        self.agency(token.trim())
     }
 }
 
@@ -116,6 +120,9 @@ mod tests {
         let tokens = Tokens::from_toml("tokens.toml", FILE).unwrap();
         assert_eq!(tokens.agency("hh-0123456789abcdef").unwrap().as_str(), "hamburg");
         assert_eq!(tokens.authorize(Some("Bearer hb-0123456789abcdef")).unwrap().as_str(), "bremen");
+        assert_eq!(tokens.authorize(Some("bearer hb-0123456789abcdef")).unwrap().as_str(), "bremen");
+        assert_eq!(tokens.authorize(Some("BEARER  hb-0123456789abcdef")).unwrap().as_str(), "bremen");
+        assert_eq!(tokens.authorize(Some("Basic hb-0123456789abcdef")), None);
         assert_eq!(tokens.authorize(Some("Bearer hb-0123456789abcdeX")), None);
         assert_eq!(tokens.authorize(Some("hb-0123456789abcdef")), None, "scheme required");
         assert_eq!(tokens.authorize(None), None);

@@ -15,6 +15,7 @@ use tracing::Instrument as _;
 
 use super::auth::Agency;
 use super::error::ApiError;
+use super::prefix::check_locations;
 use super::{MAX_MANIFEST_BYTES, Scheduler, submit};
 use crate::api::{CampaignList, CampaignView};
 use crate::messages::{CampaignState, CampaignStatus};
@@ -96,15 +97,39 @@ async fn show(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) -> R
 async fn report(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) -> Result<Response, ApiError> {
     let agency = agency(&s, &headers)?;
     let state = owned(&s, &agency, &id).await?;
-    let url = match (&state.status, &state.report) {
-        (CampaignStatus::Done, Some(url)) => url.clone(),
-        (status, _) => {
-            let message = format!("campaign {id:?} is {}: the report exists once it is done", status.as_str());
-            return Err(ApiError::new(StatusCode::CONFLICT, message));
-        }
-    };
+    if state.status != CampaignStatus::Done {
+        let message = format!("campaign {id:?} is {}: the report exists once it is done", state.status.as_str());
+        return Err(ApiError::new(StatusCode::CONFLICT, message));
+    }
+    let url = report_url(&s, &agency, &state).await?;
     let bytes = s.files.read(&url).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
     Ok(([(header::CONTENT_TYPE, "application/json")], bytes).into_response())
+}
+
+/// Where a campaign's report is, derived from the agency and the campaign id, never taken from the state
+/// (whose `report` and `manifest` fields anyone who can write the bus could point anywhere): the manifest
+/// stored under the agency's prefix for this id, its `output` resolved and checked to stay under that prefix,
+/// then `report.json`.
+async fn report_url(s: &Scheduler, agency: &Agency, state: &CampaignState) -> Result<String, ApiError> {
+    let tampered = |what: &str| {
+        tracing::error!(campaign = state.id.as_str(), agency = agency.as_str(), what, "campaign state tampered with");
+        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, format!("campaign {:?}: {what}", state.id.as_str()))
+    };
+    let manifest_url = [false, true]
+        .map(|json| s.layout.manifest_url(agency, &state.id, json))
+        .into_iter()
+        .find(|u| *u == state.manifest)
+        .ok_or_else(|| tampered("its state names a manifest that is not the agency's stored one"))?;
+    let bytes = s.files.read(&manifest_url).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
+    let manifest = crate::parse_manifest(plumbline_runtime::file_name(&manifest_url), &bytes)
+        .map_err(|_| tampered("its stored manifest no longer parses"))?
+        .into_latest();
+    if !check_locations(&manifest, &manifest_url, &s.layout.agency_prefix(agency)).is_empty() {
+        return Err(tampered("its stored manifest names locations outside the agency's prefix"));
+    }
+    let output = plumbline_campaign::resolve(&crate::manifest_base(&manifest_url), manifest.output.as_str())
+        .map_err(|_| tampered("its output cannot be resolved"))?;
+    Ok(format!("{}/report.json", output.trim_end_matches('/')))
 }
 
 async fn cancel(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) -> Result<Json<CampaignView>, ApiError> {
