@@ -89,6 +89,12 @@ pub struct AerialConfig {
     pub frame_margin_px: f64,
     /// Aerial frames that must pass the initial transformation and the matching (paper 000 §3.7: two).
     pub min_images: usize,
+    /// When a single frame keeps correspondences (a block flown at 60 % / 30 % overlap shows many street
+    /// points in two frames only, and one of them may fail), its points are still output, each as its one
+    /// aerial ray: the point where the ray meets the patch's ground height, with a covariance of the pixel σ
+    /// across the ray and this σ (metres) along it, so the adjustment learns the two directions across the
+    /// ray and nothing along it. `None`: such patches are discarded (paper 000's two images).
+    pub single_ray_sigma_m: Option<f64>,
     /// Half-size of the NCC/LSM template, aerial pixels (paper 000 §3.8: a small window).
     pub template_half: usize,
     /// NCC search radius around the transferred point, aerial pixels.
@@ -148,6 +154,7 @@ impl Default for AerialConfig {
             plausibility: Plausibility::default(),
             frame_margin_px: 10.0,
             min_images: 2,
+            single_ray_sigma_m: Some(10.0),
             template_half: 6,
             search_radius: SEARCH_RADIUS,
             min_ncc: 0.7,

@@ -1,5 +1,8 @@
 //! Step 8 of paper 000 (§3.9) over a patch's correspondences: multi-image triangulation of every point seen
-//! in at least two frames, or the orthophoto + terrain lookup.
+//! in at least two frames, single rays where only one frame kept correspondences, or the orthophoto +
+//! terrain lookup.
+
+use nalgebra::Matrix3;
 
 use super::config::AerialConfig;
 use super::image::ImageResult;
@@ -49,6 +52,54 @@ pub(super) fn triangulate_points(
                 position: t.position,
                 covariance: t.covariance,
                 observations,
+            })
+        })
+        .collect()
+}
+
+/// The points of a patch only one frame kept correspondences for: each its aerial ray, as the point where
+/// the ray meets the patch's ground height `height` with a covariance of `pixel_sigma` (at the ray's range)
+/// across the ray and `along` metres along it. The adjustment thus learns the point's position across the
+/// ray — horizontal, for a near-nadir ray — and takes the height from the panoramas. Edges are left out as
+/// in [`triangulate_points`].
+pub(super) fn single_ray_points(
+    patch: &MmPatch<'_>,
+    results: &[ImageResult],
+    views: &[View<'_>],
+    height: f64,
+    along: f64,
+    config: &AerialConfig,
+) -> Vec<AerialPointResult> {
+    let Some((i, result)) = results.iter().enumerate().find(|(_, r)| !r.matches.is_empty()) else {
+        return Vec::new();
+    };
+    let View::Frame(frame) = views[i] else { return Vec::new() };
+    result
+        .matches
+        .iter()
+        .filter(|m| roundness(results, m.0) >= config.min_roundness)
+        .filter_map(|&(slot, pixel)| {
+            let ray = Ray { camera: frame.camera, pose: frame.pose, pixel };
+            let (origin, d) = ray.line()?;
+            // Only a ray that looks down meets the ground in front of the camera.
+            if d.z > -0.1 {
+                return None;
+            }
+            let range = (height - origin.z) / d.z;
+            if !(range.is_finite() && range > 0.0) {
+                return None;
+            }
+            let position = origin + d * range;
+            // σ across the ray: the angle one pixel subtends, at the ray's range.
+            let beside = Ray { pixel: [pixel[0] + 1.0, pixel[1]], ..ray }.line()?.1;
+            let across = config.pixel_sigma * d.angle(&beside) * range;
+            let dd = d * d.transpose();
+            let covariance = (Matrix3::identity() - dd) * across.powi(2) + dd * along.powi(2);
+            Some(AerialPointResult {
+                index: patch.points[slot].index,
+                position: position.into(),
+                covariance: covariance.into(),
+                observations: vec![AerialObservation { frame: views[i].id().to_string(), pixel }],
             })
         })
         .collect()

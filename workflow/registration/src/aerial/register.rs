@@ -10,7 +10,7 @@ use super::diagnostics::{AerialDiscard, AerialImageDiagnostic, ImageRejection};
 use super::image::{ImageResult, MmSide, Opened, match_image, open_image};
 use super::initial::mm_features;
 use super::joint;
-use super::points::{ortho_points, triangulate_points};
+use super::points::{ortho_points, single_ray_points, triangulate_points};
 use super::pooled::{WindowMatches, pooled_offsets};
 use super::prepare::{BlurredPatch, blur_patch, prepare};
 use super::trace::ImageTrace;
@@ -82,6 +82,9 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
             Err(done) => *done,
         })
         .collect();
+    // One frame is enough where its points may enter as single rays (`AerialConfig::single_ray_sigma_m`).
+    let single_rays = matches!(reference, AerialReference::Frames(_)) && config.single_ray_sigma_m.is_some();
+    let needed = if single_rays { 1 } else { needed };
     let passed = results.iter().filter(|r| r.diagnostic.passed).count();
     if passed < needed {
         return discard(results, AerialDiscard::TooFewPlausible { passed, needed });
@@ -102,9 +105,12 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
         };
         return discard(results, why);
     }
-    let points = match reference {
-        AerialReference::Frames(_) => triangulate_points(patch, &results, &views, height, config),
-        AerialReference::Orthophoto(o) => ortho_points(patch, &results, &views[0], o, height, config),
+    let points = match (reference, config.single_ray_sigma_m) {
+        (AerialReference::Frames(_), Some(along)) if images == 1 => {
+            single_ray_points(patch, &results, &views, height, along, config)
+        }
+        (AerialReference::Frames(_), _) => triangulate_points(patch, &results, &views, height, config),
+        (AerialReference::Orthophoto(o), _) => ortho_points(patch, &results, &views[0], o, height, config),
     };
     let discarded = points.is_empty().then_some(AerialDiscard::NoTriangulatedPoints);
     let (images, trace) = split(results);

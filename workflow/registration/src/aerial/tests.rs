@@ -202,6 +202,26 @@ fn frames_recover_the_true_positions_and_the_dg_offset() {
 }
 
 #[test]
+fn one_frame_gives_single_rays_that_hold_the_position_across_the_ray() {
+    // Only one frame sees the patch (or only one passes): its points enter as single rays.
+    let f = fixture();
+    let one = AerialReference::Frames(f.frames[..1].to_vec());
+    let outcome = register_patch(&f.patch(), &one, &AerialConfig::default());
+    f.check_matched(&outcome, f.points.len() / 3, AT_TOLERANCE);
+    for p in &outcome.points {
+        assert_eq!(p.observations.len(), 1, "{p:?}");
+        let mut sigmas: Vec<f64> =
+            nalgebra::Matrix3::from(p.covariance).symmetric_eigen().eigenvalues.iter().map(|v| v.sqrt()).collect();
+        sigmas.sort_by(f64::total_cmp);
+        assert!(sigmas[1] < 0.05 && (sigmas[2] - 10.0).abs() < 1e-6, "σ across, across, along: {sigmas:?}");
+    }
+    // Paper 000's rule, two frames at least: the patch is discarded.
+    let two = AerialConfig { single_ray_sigma_m: None, ..AerialConfig::default() };
+    let outcome = register_patch(&f.patch(), &one, &two);
+    assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewPlausible { passed: 1, needed: 2 }));
+}
+
+#[test]
 fn frames_with_their_true_orientations_recover_the_offset_to_a_centimetre() {
     // Without AT errors nothing but matching noise remains: the pipeline itself adds no bias.
     let f = fixture();
@@ -250,7 +270,7 @@ fn a_dg_offset_beyond_the_plausibility_bound_discards_the_patch() {
     let trusting = Plausibility { min_position_sigma: 0.0, ..Plausibility::default() };
     let config = AerialConfig { plausibility: trusting, ..AerialConfig::default() };
     let outcome = register_patch(&f.patch_with_sigma(0.05), &AerialReference::Frames(f.frames.clone()), &config);
-    assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }));
+    assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 1 }));
     assert!(outcome.points.is_empty());
     for d in &outcome.images {
         let Some(ImageRejection::Implausible { offset_m, bound_m, .. }) = d.rejection else { panic!("{d:?}") };
@@ -269,7 +289,7 @@ fn a_patch_with_too_few_correspondences_in_all_images_together_is_discarded() {
     let needed = f.frames.len() * f.points.len() + 1;
     let config = AerialConfig { min_correspondences: needed, ..AerialConfig::default() };
     let outcome = register_patch(&f.patch(), &AerialReference::Frames(f.frames.clone()), &config);
-    let Some(AerialDiscard::TooFewCorrespondences { images: 0, needed: 2, correspondences, needed_correspondences }) =
+    let Some(AerialDiscard::TooFewCorrespondences { images: 0, needed: 1, correspondences, needed_correspondences }) =
         outcome.discarded
     else {
         panic!("{:?}", outcome.discarded)
@@ -394,7 +414,7 @@ fn without_kaze_features_the_whole_patch_correlation_finds_the_translation() {
     // Without the fallback (and without the DG-bounded search) the same images fail for want of features.
     let off =
         register_patch(&f.patch(), &frames, &AerialConfig { correlation_fallback: false, dg_search: false, ..config });
-    assert_eq!(off.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }));
+    assert_eq!(off.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 1 }));
     assert!(off.images.iter().all(|d| matches!(d.rejection, Some(ImageRejection::FewFeatures { mm: 0, aerial: 0 }))));
 }
 
@@ -417,7 +437,7 @@ fn without_an_initial_transformation_the_dg_bounded_search_finds_the_offset_and_
     // reaches the true matches, but their transformation fails the plausibility check like a KAZE one would.
     let trusting = Plausibility { min_position_sigma: 0.0, ..Plausibility::default() };
     let short = register_patch(&f.patch_with_sigma(0.05), &frames, &AerialConfig { plausibility: trusting, ..config });
-    assert_eq!(short.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 2 }), "{:?}", short.images);
+    assert_eq!(short.discarded, Some(AerialDiscard::TooFewPlausible { passed: 0, needed: 1 }), "{:?}", short.images);
     for d in &short.images {
         let Some(ImageRejection::Implausible { offset_m, bound_m, .. }) = d.rejection else { panic!("{d:?}") };
         assert!((offset_m - 0.8).abs() < 0.15 && (bound_m - 0.65).abs() < 1e-12, "{d:?}");

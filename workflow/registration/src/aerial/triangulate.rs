@@ -29,7 +29,7 @@ impl Ray {
     }
 
     /// Origin and unit direction in the map frame.
-    fn line(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
+    pub(super) fn line(&self) -> Option<(Vector3<f64>, Vector3<f64>)> {
         let d = self.camera.unproject(Pixel::new(self.pixel[0], self.pixel[1]))?;
         Some((self.pose.translation.p, self.pose.rotation.apply(&d).v))
     }

@@ -43,7 +43,9 @@ pub(crate) fn assemble(
             out.dropped += 1;
             continue;
         }
-        if let Some(r) = matched {
+        // A single aerial ray belongs to no frame set: a set's height bias would slide it along the vertical
+        // plane of the ray, taking away half of what it measures.
+        if let Some(r) = matched.filter(|r| r.observations.len() > 1) {
             out.frames.push(TieFrames { tie: tie.id.0.clone(), frames: frames_of(r) });
         }
         out.ties.push(tie);
