@@ -159,7 +159,15 @@ mod tests {
     /// aerial0025) as a tile output.
     fn output(result: TileResultV1) -> TileOutputV1 {
         let (tile, registration) = (result.tile, Some(result));
-        TileOutputV1 { tile, registration, poles: vec![], pole_frames: vec![], skipped: vec![], seconds: vec![] }
+        TileOutputV1 {
+            tile,
+            registration,
+            poles: vec![],
+            pole_frames: vec![],
+            skipped: vec![],
+            seconds: vec![],
+            fingerprint: None,
+        }
     }
 
     fn golden() -> TileResultV1 {

@@ -1,7 +1,8 @@
 //! End-to-end test of `plumbline run` on the simulated `tiny` campaign: the corrected trajectory is much
 //! closer to the truth than the DG one, every output is readable (the trajectory parsed back, the
 //! GeoPackage opened through GDAL, the report's JSON), a corrupted panorama and a broken cadastre feature
-//! are skipped and reported without sinking the campaign, and a re-run resumes from the finished tiles.
+//! are skipped and reported without sinking the campaign, and a re-run resumes from the finished tiles of the
+//! same inputs and parameters only.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -138,6 +139,18 @@ fn run_corrects_tiny_writes_every_output_skips_broken_inputs_and_resumes() {
     assert!(again.stdout.contains("reused from an earlier run"), "{}", again.stdout);
     let rerun = std::fs::read(results.join("trajectory.sbet")).unwrap();
     assert_eq!(formats::parse_sbet(&rerun, "trajectory.sbet").unwrap(), corrected);
+
+    // Changed registration parameters: no tile is reused, every one is computed again; running the changed
+    // manifest once more reuses them.
+    let text = std::fs::read_to_string(&manifest).unwrap();
+    assert!(!text.contains("[parameters"), "the simulated manifest sets no parameters");
+    std::fs::write(&manifest, format!("{text}\n[parameters.registration]\nmin_correspondences = 12\n")).unwrap();
+    let changed = plumbline(&["run", "--quiet", manifest.to_str().unwrap()]).run();
+    changed.success();
+    assert!(!changed.stdout.contains("reused from an earlier run"), "{}", changed.stdout);
+    let same_again = plumbline(&["run", "--quiet", manifest.to_str().unwrap()]).run();
+    same_again.success();
+    assert!(same_again.stdout.contains("reused from an earlier run"), "{}", same_again.stdout);
 }
 
 #[test]

@@ -153,6 +153,55 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     assert!(!e.to_string().contains("601"), "{e}");
 }
 
+/// Clients that never finish their headers are closed after the header-read timeout, and connections beyond
+/// the limit are closed when accepted, so slow clients cannot hold the API.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn slow_and_surplus_connections_are_closed() {
+    use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
+    let limits = plumbline_scheduler::service::HttpLimits {
+        header_read: Duration::from_secs(1),
+        request: Duration::from_secs(5),
+        connection: Duration::from_secs(60),
+        max_connections: 3,
+    };
+    let h = Harness::local_with(limits).await;
+    let addr = h.server.trim_start_matches("http://").to_owned();
+    let connect = || async { tokio::net::TcpStream::connect(&addr).await.unwrap() };
+    /// Read until the server closes (EOF or reset); `None` if it is still open after `limit`.
+    async fn closed_within(s: &mut tokio::net::TcpStream, limit: Duration) -> Option<Duration> {
+        let started = Instant::now();
+        let mut buf = [0u8; 256];
+        loop {
+            match tokio::time::timeout(limit.saturating_sub(started.elapsed()), s.read(&mut buf)).await {
+                Err(_) => return None,
+                Ok(Ok(0) | Err(_)) => return Some(started.elapsed()),
+                Ok(Ok(_)) => {}
+            }
+        }
+    }
+    let mut slow = Vec::new();
+    for _ in 0..3 {
+        let mut s = connect().await;
+        s.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n").await.unwrap();
+        slow.push(s);
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    // Every slot is held: a fourth connection is closed at once, its complete request unanswered.
+    let mut extra = connect().await;
+    let _ = extra.write_all(b"GET /healthz HTTP/1.1\r\nHost: x\r\n\r\n").await;
+    let mut answer = Vec::new();
+    let _ =
+        tokio::time::timeout(Duration::from_secs(3), extra.read_to_end(&mut answer)).await.expect("closed, not held");
+    assert!(answer.is_empty(), "{}", String::from_utf8_lossy(&answer));
+    // The slow ones are closed by the header-read timeout (1 s after their first byte), freeing the slots.
+    for s in &mut slow {
+        let after = closed_within(s, Duration::from_secs(4)).await.expect("a slow client was held open");
+        assert!(after < Duration::from_secs(3), "closed after {after:?}");
+    }
+    let ok = reqwest::get(format!("{}/healthz", h.server)).await.unwrap();
+    assert_eq!(ok.status(), StatusCode::OK);
+}
+
 /// Submit `text` as Hamburg and return the status and the problems' fields.
 async fn rejected(h: &Harness, text: &str) -> (StatusCode, Vec<String>, String) {
     let e = h.client(HAMBURG).submit(text.as_bytes().to_vec(), false).await.unwrap_err();

@@ -36,6 +36,9 @@ impl WorkerConfig {
         let registration = &mut config.registration;
         registration.mm.gsd = r.mm_gsd_m; // paper 000 §3.2
         registration.aerial.min_images = r.min_aerial_images as usize; // paper 000 §3.7
+        if !r.single_aerial_rays {
+            registration.aerial.single_ray_sigma_m = None;
+        }
         registration.aerial.min_correspondences = r.min_correspondences as usize; // paper 000 §3.8
         // A patch with fewer triangulated points cannot reach the correspondences an image needs.
         registration.min_mm_points = r.min_correspondences as usize;

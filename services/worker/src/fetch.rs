@@ -22,8 +22,10 @@ use plumbline_scheduler::SkippedInput;
 pub(crate) enum SkipReason {
     /// The file does not exist (the store said so).
     Missing,
-    /// The store failed to deliver the file (network, permissions, outage).
+    /// The store failed to deliver the file (network, server, outage): a later attempt may succeed.
     Read,
+    /// The store refuses the file for good (unsupported scheme, permissions, an invalid key).
+    Refused,
     /// The bytes are not a readable image.
     Decode,
     /// The image has another size than expected, or its header claims more pixels than the budget.
@@ -44,9 +46,10 @@ pub(crate) enum SkipReason {
 
 impl SkipReason {
     /// Every reason, for reading names back.
-    pub(crate) const ALL: [Self; 10] = [
+    pub(crate) const ALL: [Self; 11] = [
         Self::Missing,
         Self::Read,
+        Self::Refused,
         Self::Decode,
         Self::Size,
         Self::Url,
@@ -62,6 +65,7 @@ impl SkipReason {
         match self {
             Self::Missing => "missing",
             Self::Read => "read",
+            Self::Refused => "refused",
             Self::Decode => "decode",
             Self::Size => "size",
             Self::Url => "url",
@@ -76,6 +80,21 @@ impl SkipReason {
     /// The reason a skipped item's `reason` names, if it is one of these.
     pub(crate) fn of(name: &str) -> Option<Self> {
         Self::ALL.into_iter().find(|r| r.name() == name)
+    }
+
+    /// Why the store did not deliver a file: missing (the store says it is not there, or the input is
+    /// invalid), refused (the store will refuse it again: a bad scheme or URL, permissions), or a read failure
+    /// a later attempt may get past (network, server, outage; also any error that is no store error).
+    pub(crate) fn of_store(e: &anyhow::Error) -> Self {
+        use plumbline_runtime::{StoreError, StoreErrorKind};
+        if is_invalid(e) {
+            return Self::Missing;
+        }
+        match e.chain().find_map(|c| c.downcast_ref::<StoreError>()).map(StoreError::kind) {
+            Some(StoreErrorKind::NotFound) => Self::Missing,
+            Some(StoreErrorKind::Permanent | StoreErrorKind::Config) => Self::Refused,
+            Some(StoreErrorKind::Retryable | StoreErrorKind::Conflict) | None => Self::Read,
+        }
     }
 
     /// Whether a later attempt may succeed: the store failed to deliver, the input itself may be fine.
@@ -110,13 +129,12 @@ pub(crate) async fn read_all(
         .await
 }
 
-/// Read one file; a missing or unreadable one becomes a skipped item of `stage` ([`SkipReason::Missing`] or
-/// [`SkipReason::Read`]).
+/// Read one file; a missing or unreadable one becomes a skipped item of `stage` ([`SkipReason::of_store`]).
 pub(crate) async fn read_one(files: &Files, url: &str, stage: &str) -> Result<Bytes, SkippedInput> {
-    files.read(url).await.map_err(|e| {
-        let reason = if is_invalid(&e) { SkipReason::Missing } else { SkipReason::Read };
-        skipped(stage, url, reason, format!("{url}: cannot be read: {e:#}"))
-    })
+    files
+        .read(url)
+        .await
+        .map_err(|e| skipped(stage, url, SkipReason::of_store(&e), format!("{url}: cannot be read: {e:#}")))
 }
 
 /// Run CPU-bound work on rayon's pool (where the workflow crates' own parallel loops run, so that a tile's
@@ -217,7 +235,8 @@ mod tests {
     #[test]
     fn skip_reasons_keep_their_names_and_read_back() {
         let names = SkipReason::ALL.map(SkipReason::name);
-        let expected = ["missing", "read", "decode", "size", "url", "time", "frame", "camera", "open", "outside"];
+        let expected =
+            ["missing", "read", "refused", "decode", "size", "url", "time", "frame", "camera", "open", "outside"];
         assert_eq!(names, expected);
         for r in SkipReason::ALL {
             assert_eq!(SkipReason::of(r.name()), Some(r));

@@ -9,6 +9,7 @@
 mod aerial;
 mod config;
 mod fetch;
+mod fingerprint;
 mod output;
 mod panoramas;
 mod poles;
@@ -19,6 +20,7 @@ mod tile;
 
 pub use aerial::{frame_camera, frame_pose};
 pub use config::{DEFAULT_CONCURRENCY, WorkerConfig};
+pub use fingerprint::fingerprint;
 pub use output::{TileOutput, TileOutputV1, tile_key};
 pub use tile::{
     POLES, REGISTRATION, process_tile, process_tile_reporting, run_tile, run_tile_reporting, tile_camera_height,

@@ -43,6 +43,10 @@ pub struct TileOutputV1 {
     pub skipped: Vec<SkippedInput>,
     /// Seconds spent per stage (thread-seconds for parallel stages), by stage name.
     pub seconds: Vec<(String, f64)>,
+    /// SHA-256 of the inputs and parameters the tile was computed from ([`crate::fingerprint`]): an output
+    /// is reused only while it matches. Absent in outputs written before it existed (never reused).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fingerprint: Option<String>,
 }
 
 /// The object key of a tile's output under the campaign's output prefix.

@@ -222,7 +222,7 @@ async fn cadastre_features(
         let bytes = match files.read(&url).await {
             Ok(b) => b,
             Err(e) => {
-                let reason = if plumbline_runtime::is_invalid(&e) { SkipReason::Missing } else { SkipReason::Read };
+                let reason = SkipReason::of_store(&e);
                 skipped_items.push(skipped("cadastre", &url, reason, format!("{url}: cannot be read: {e:#}")));
                 continue;
             }

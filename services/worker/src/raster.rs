@@ -11,7 +11,7 @@ use plumbline_registration::aerial::Terrain;
 use plumbline_runtime::gdal_read::{MapBox, RasterSource, Tiles};
 use plumbline_runtime::gdal_write::{Raster, RasterData};
 use plumbline_runtime::vrt::{VrtMosaic, is_xml};
-use plumbline_runtime::{Files, invalid, is_invalid};
+use plumbline_runtime::{Files, invalid};
 
 use crate::fetch::{SkipReason, blocking};
 
@@ -40,8 +40,7 @@ impl WindowError {
     /// is a read failure (a later attempt may succeed), anything GDAL rejects is undecodable.
     pub(crate) fn reason(&self) -> SkipReason {
         match self {
-            Self::Store(e) if is_invalid(e) => SkipReason::Missing,
-            Self::Store(_) => SkipReason::Read,
+            Self::Store(e) => SkipReason::of_store(e),
             Self::Raster(_) => SkipReason::Decode,
         }
     }
@@ -249,6 +248,11 @@ mod tests {
     #[tokio::test]
     async fn window_failures_say_whether_a_retry_can_help() {
         assert_eq!(WindowError::Store(anyhow::anyhow!("connection reset")).reason(), SkipReason::Read);
+        // A scheme no store serves is refused for good, not retried as an outage.
+        let files = Files::new(plumbline_runtime::S3Options::default());
+        let e = files.read("gs://bucket/ortho.tif").await.unwrap_err();
+        assert_eq!(WindowError::Store(e).reason(), SkipReason::Refused);
+        assert!(!SkipReason::Refused.retryable());
         assert!(SkipReason::Read.retryable() && !SkipReason::Missing.retryable() && !SkipReason::Decode.retryable());
         let dir = tempfile::tempdir().unwrap();
         let files = Files::new(plumbline_runtime::S3Options::default());

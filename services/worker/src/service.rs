@@ -10,8 +10,10 @@
 //! - invalid input ([`plumbline_runtime::is_invalid`]), or any error on the last delivery
 //!   ([`MAX_DELIVER`]): [`TileFailed`] to results and dead letters, then `AckKind::Term`;
 //! - other errors (store, NATS): `AckKind::Nak` with [`ServiceConfig::retry_delay`]. Inputs the store failed
-//!   to deliver (skipped with reason `read`) count as such an error on every delivery but the last, so a
-//!   store outage delays a tile instead of leaving holes in it (see `attempt`).
+//!   to deliver (skipped with reason `read`) count as such an error, so a store outage delays a tile, and one
+//!   longer than the deliveries dead-letters it naming the unread input, instead of leaving holes in it (see
+//!   `attempt`). Inputs the store refuses for good (unsupported scheme, permissions: reason `refused`) are
+//!   skipped and reported at once like missing ones.
 //!
 //! [`ServiceConfig::concurrency`] slots each fetch one task at a time, so a worker never holds tasks it
 //! is not working on. With an [`Ops`] listener the worker answers `/healthz`, `/readyz` and `/metrics`
@@ -176,8 +178,7 @@ impl Worker {
     async fn finish_task(&self, message: &jetstream::Message, task: &TileTask, delivered: i64) {
         const IN_FLIGHT: &str = "plumbline_worker_tasks_in_flight";
         self.metrics.add(IN_FLIGHT, &[], 1.0);
-        let outcome =
-            with_heartbeat(message, self.config.heartbeat, self.process(task, delivered >= MAX_DELIVER)).await;
+        let outcome = with_heartbeat(message, self.config.heartbeat, self.process(task)).await;
         let attempts = u32::try_from(delivered).unwrap_or(u32::MAX);
         match outcome {
             Ok(Handled::Skipped(why)) => {
@@ -256,7 +257,7 @@ impl Worker {
     }
 
     /// Check the state, load the campaign, process (or read back) the tile.
-    async fn process(&self, task: &TileTask, last: bool) -> anyhow::Result<Handled> {
+    async fn process(&self, task: &TileTask) -> anyhow::Result<Handled> {
         let Some((mut state, revision)) = self.bus.campaigns.get(&task.campaign).await? else {
             return Ok(Handled::Skipped("unknown campaign"));
         };
@@ -281,7 +282,7 @@ impl Worker {
         // The current span goes along, so the tile's spans stay children of this task's span.
         let (runtime, span) = (tokio::runtime::Handle::current(), tracing::Span::current());
         let done = tokio::task::spawn_blocking(move || {
-            span.in_scope(|| runtime.block_on(attempt::attempt(&files, &owned, &tile, &config, last)))
+            span.in_scope(|| runtime.block_on(attempt::attempt(&files, &owned, &tile, &config)))
         })
         .await
         .map_err(|e| anyhow::anyhow!("tile task: {e}"))??;

@@ -169,6 +169,7 @@ pub async fn process_tile_reporting(
         pole_frames: poles.reports,
         skipped,
         seconds,
+        fingerprint: Some(crate::fingerprint(campaign, tile, config)),
     })
 }
 
@@ -286,8 +287,8 @@ fn summarised(tile: TileId, images: Vec<ImageDiagnostic>, ties: Vec<plumbline_ad
     TileResultV1 { tile, ties, images, summary }
 }
 
-/// [`process_tile`] with resuming: when `{output}tiles/{col}_{row}.json` already holds this tile's output,
-/// return it and `true`; otherwise process, write the output (pretty JSON) and return it with `false`. An
+/// [`process_tile`] with resuming: when `{output}tiles/{col}_{row}.json` already holds this tile's output
+/// with the [`crate::fingerprint`] of its current inputs and parameters, return it and `true`; otherwise process, write the output (pretty JSON) and return it with `false`. An
 /// existing file that does not parse, or holds another tile, is logged and replaced.
 pub async fn run_tile(
     files: &Files,
@@ -310,10 +311,14 @@ pub async fn run_tile_reporting(
     let url = format!("{}{}", campaign.output, tile_key(tile));
     if files.exists(&url).await? {
         let bytes = files.read(&url).await?;
+        let fingerprint = crate::fingerprint(campaign, tile, config);
         match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
-            Ok(done) if done.tile == *tile => {
+            Ok(done) if done.tile == *tile && done.fingerprint.as_ref() == Some(&fingerprint) => {
                 report_resumed(campaign, &done, progress);
                 return Ok((done, true));
+            }
+            Ok(done) if done.tile == *tile => {
+                tracing::info!(file = %url, "tile output of other inputs or parameters; reprocessing")
             }
             Ok(other) => {
                 tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing")

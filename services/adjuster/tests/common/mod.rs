@@ -203,6 +203,7 @@ pub fn tiles(s: &Scenario, poles: &[PoleUpdate]) -> Vec<TileOutputV1> {
                 detail: format!("depth-{c}.png: not a PNG"),
             }],
             seconds: vec![("registration".into(), 1.5), ("poles".into(), 0.5)],
+            fingerprint: None,
         })
     }
     out

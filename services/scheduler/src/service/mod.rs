@@ -104,11 +104,100 @@ pub fn router(scheduler: Arc<Scheduler>) -> Router {
     routes::router(scheduler)
 }
 
-/// Serve the API on `listener` until `shutdown` completes.
+/// Limits of the job API's HTTP server against slow or greedy clients.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct HttpLimits {
+    /// A request's headers must arrive within this, or the connection is closed (slow-loris clients).
+    pub header_read: Duration,
+    /// A request, its body included, must be answered within this: 408 otherwise (a body sent byte by byte).
+    pub request: Duration,
+    /// A connection lives at most this long, keep-alive included.
+    pub connection: Duration,
+    /// Connections served at once; more are closed when accepted.
+    pub max_connections: usize,
+}
+
+impl Default for HttpLimits {
+    fn default() -> Self {
+        Self {
+            header_read: Duration::from_secs(10),
+            request: Duration::from_secs(300),
+            connection: Duration::from_secs(900),
+            max_connections: 512,
+        }
+    }
+}
+
+/// Serve the API on `listener` with the default [`HttpLimits`] until `shutdown` completes.
 pub async fn serve(
     listener: tokio::net::TcpListener,
     scheduler: Arc<Scheduler>,
     shutdown: impl Future<Output = ()> + Send + 'static,
 ) -> std::io::Result<()> {
-    axum::serve(listener, router(scheduler)).with_graceful_shutdown(shutdown).await
+    serve_with(listener, scheduler, HttpLimits::default(), shutdown).await
+}
+
+/// Serve the API on `listener` within `limits` until `shutdown` completes; then stop accepting and give the
+/// open connections 30 s to finish their requests.
+pub async fn serve_with(
+    listener: tokio::net::TcpListener,
+    scheduler: Arc<Scheduler>,
+    limits: HttpLimits,
+    shutdown: impl Future<Output = ()> + Send + 'static,
+) -> std::io::Result<()> {
+    use hyper_util::rt::{TokioIo, TokioTimer};
+    let request = limits.request;
+    let app = router(scheduler).layer(axum::middleware::from_fn(
+        move |req: axum::extract::Request, next: axum::middleware::Next| async move {
+            match tokio::time::timeout(request, next.run(req)).await {
+                Ok(response) => response,
+                Err(_) => {
+                    let message = format!("the request was not complete within {} s", request.as_secs());
+                    axum::response::IntoResponse::into_response(error::ApiError::new(
+                        axum::http::StatusCode::REQUEST_TIMEOUT,
+                        message,
+                    ))
+                }
+            }
+        },
+    ));
+    let service = hyper_util::service::TowerToHyperService::new(app);
+    let slots = Arc::new(tokio::sync::Semaphore::new(limits.max_connections));
+    let graceful = hyper_util::server::graceful::GracefulShutdown::new();
+    let mut shutdown = std::pin::pin!(shutdown);
+    loop {
+        let (stream, peer) = tokio::select! {
+            accepted = listener.accept() => match accepted {
+                Ok(accepted) => accepted,
+                Err(e) => {
+                    // Out of file descriptors and the like: wait a moment rather than spin.
+                    tracing::warn!(error = %e, "accepting a connection failed");
+                    tokio::time::sleep(Duration::from_millis(100)).await;
+                    continue;
+                }
+            },
+            () = &mut shutdown => break,
+        };
+        let Ok(slot) = slots.clone().try_acquire_owned() else {
+            tracing::warn!(%peer, limit = limits.max_connections, "connection closed: too many open");
+            continue;
+        };
+        let mut http = hyper::server::conn::http1::Builder::new();
+        http.timer(TokioTimer::new()).header_read_timeout(limits.header_read);
+        let connection = graceful.watch(http.serve_connection(TokioIo::new(stream), service.clone()));
+        let lifetime = limits.connection;
+        tokio::spawn(async move {
+            match tokio::time::timeout(lifetime, connection).await {
+                Ok(Err(e)) => tracing::debug!(%peer, error = %e, "connection ended with an error"),
+                Err(_) => tracing::debug!(%peer, "connection closed: open too long"),
+                Ok(Ok(())) => {}
+            }
+            drop(slot);
+        });
+    }
+    drop(listener);
+    if tokio::time::timeout(Duration::from_secs(30), graceful.shutdown()).await.is_err() {
+        tracing::warn!("connections still open 30 s after shutdown; closing them");
+    }
+    Ok(())
 }

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use plumbline_runtime::{Files, S3Options, Secret};
 use plumbline_scheduler::client::Client;
-use plumbline_scheduler::service::{self, Scheduler, Tokens};
+use plumbline_scheduler::service::{self, HttpLimits, Scheduler, Tokens};
 use plumbline_testkit::{MotoServer, NatsServer};
 
 pub const HAMBURG: &str = "hh-token-0123456789abcdef";
@@ -39,17 +39,28 @@ impl Harness {
             secret_access_key: Some(Secret::new("test")),
             ..S3Options::default()
         };
-        Self::start(Files::new(s3), "s3://plumbline/pl".into(), Some(moto), None).await
+        Self::start(Files::new(s3), "s3://plumbline/pl".into(), Some(moto), None, HttpLimits::default()).await
     }
 
     /// Scheduler on a temporary directory.
     pub async fn local() -> Self {
-        let dir = tempfile::tempdir().unwrap();
-        let store = format!("file://{}", dir.path().display());
-        Self::start(Files::default(), store, None, Some(dir)).await
+        Self::local_with(HttpLimits::default()).await
     }
 
-    async fn start(files: Files, store: String, moto: Option<MotoServer>, dir: Option<tempfile::TempDir>) -> Self {
+    /// Scheduler on a temporary directory, its HTTP server within `limits`.
+    pub async fn local_with(limits: HttpLimits) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let store = format!("file://{}", dir.path().display());
+        Self::start(Files::default(), store, None, Some(dir), limits).await
+    }
+
+    async fn start(
+        files: Files,
+        store: String,
+        moto: Option<MotoServer>,
+        dir: Option<tempfile::TempDir>,
+        limits: HttpLimits,
+    ) -> Self {
         let nats = NatsServer::start();
         let tokens = Tokens::from_pairs(&[(HAMBURG, "hamburg"), (BREMEN, "bremen")]).unwrap();
         let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
@@ -57,7 +68,7 @@ impl Harness {
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let server = format!("http://{}", listener.local_addr().unwrap());
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
-        tokio::spawn(service::serve(listener, scheduler.clone(), async {
+        tokio::spawn(service::serve_with(listener, scheduler.clone(), limits, async {
             let _ = rx.await;
         }));
         Self { nats, moto, dir, files, store, server, scheduler, shutdown: Some(tx) }

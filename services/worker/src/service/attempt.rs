@@ -1,6 +1,7 @@
 //! One attempt at a tile in the service: read back an output already written, else process the tile and
-//! write its output — unless inputs were skipped because the store failed to deliver them, which on any but
-//! the last delivery is a retryable error rather than a tile with holes.
+//! write its output — unless inputs were skipped because the store failed to deliver them, which is a
+//! retryable error rather than a tile with holes: retried while deliveries are left, then the tile is
+//! dead-lettered naming the first unread input. A tile is never written as complete while its reads fail.
 
 use std::collections::HashMap;
 
@@ -72,23 +73,23 @@ impl Attempt {
     }
 }
 
-/// Read back, or process and write, the tile's output. `last`: this is the task's last delivery, so inputs
-/// the store did not deliver are skipped and listed (as `plumbline run` does) instead of failing the attempt.
+/// Read back, or process and write, the tile's output; inputs the store did not deliver fail the attempt
+/// ([`UnreadInputs`]).
 pub(crate) async fn attempt(
     files: &Files,
     campaign: &Campaign,
     tile: &TileId,
     config: &WorkerConfig,
-    last: bool,
 ) -> anyhow::Result<Attempt> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
-    if let Some(output) = read_back(files, &url, tile).await? {
+    let fingerprint = crate::fingerprint(campaign, tile, config);
+    if let Some(output) = read_back(files, &url, tile, &fingerprint).await? {
         return Ok(Attempt { output, resumed: true, write_s: 0.0 });
     }
     tracing::info!("tile inputs being read");
     let output = process_tile(files, campaign, tile, config).await?;
     let undelivered = unread(&output.skipped);
-    if let (false, Some(first)) = (last, undelivered.first()) {
+    if let Some(first) = undelivered.first() {
         return Err(UnreadInputs { tile: *tile, count: undelivered.len(), first: first.detail.clone() }.into());
     }
     let started = std::time::Instant::now();
@@ -103,15 +104,20 @@ fn unread(skipped: &[SkippedInput]) -> Vec<&SkippedInput> {
     skipped.iter().filter(|s| SkipReason::of(&s.reason).is_some_and(SkipReason::retryable)).collect()
 }
 
-/// The output at `url` when it exists and holds `tile`; one that does not parse or holds another tile is
-/// logged and ignored (it is overwritten).
-async fn read_back(files: &Files, url: &str, tile: &TileId) -> anyhow::Result<Option<TileOutputV1>> {
+/// The output at `url` when it exists and holds `tile` computed from the inputs and parameters `fingerprint`
+/// stands for; one of other inputs, one that does not parse or holds another tile is logged and ignored (it
+/// is overwritten).
+async fn read_back(files: &Files, url: &str, tile: &TileId, fingerprint: &str) -> anyhow::Result<Option<TileOutputV1>> {
     if !files.exists(url).await? {
         return Ok(None);
     }
     let bytes = files.read(url).await?;
     match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
-        Ok(done) if done.tile == *tile => Ok(Some(done)),
+        Ok(done) if done.tile == *tile && done.fingerprint.as_deref() == Some(fingerprint) => Ok(Some(done)),
+        Ok(done) if done.tile == *tile => {
+            tracing::info!(file = %url, "tile output of other inputs or parameters; reprocessing");
+            Ok(None)
+        }
         Ok(other) => {
             tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing");
             Ok(None)
@@ -128,14 +134,15 @@ mod tests {
     use super::*;
     use crate::fetch::skipped;
 
-    /// Only what the store failed to deliver makes the attempt retryable; a missing or broken input, or a
-    /// reason of another crate's vocabulary, is skipped for good.
+    /// Only what the store failed to deliver makes the attempt retryable; a missing, refused or broken input,
+    /// or a reason of another crate's vocabulary, is skipped for good.
     #[test]
     fn only_undelivered_inputs_make_the_attempt_retryable() {
         let items = [
             skipped("registration", "p1.jpg", SkipReason::Read, "p1.jpg: cannot be read: timeout".into()),
             skipped("registration", "p2.jpg", SkipReason::Missing, "p2.jpg: not found".into()),
             skipped("registration", "p3.jpg", SkipReason::Decode, "p3.jpg: not a readable image".into()),
+            skipped("registration", "gs://b/p4.jpg", SkipReason::Refused, "unsupported scheme `gs`".into()),
             skipped("cadastre", "poles.gpkg", SkipReason::Read, "poles.gpkg: cannot be read: reset".into()),
             skipped("cadastre", "poles.gpkg:7", "unknown_class", "feature 7".into()),
         ];
@@ -157,6 +164,7 @@ mod tests {
             pole_frames: Vec::new(),
             skipped: Vec::new(),
             seconds,
+            fingerprint: None,
         };
         let done = Attempt { output, resumed: false, write_s: 0.5 };
         let expected = [

@@ -32,9 +32,16 @@ pub struct Registration {
     /// Ground sampling distance for MM↔aerial matching, metres; by default `aerial.frames.gsd_m`,
     /// else 0.12 (§3.2).
     pub aerial_gsd_m: Option<f64>,
-    /// Aerial images a transformation must be plausible in before an MM image is kept (§3.7).
+    /// Aerial images a transformation must be plausible in before an MM image is kept (§3.7), unless
+    /// `single_aerial_rays` lets one do.
     #[serde(default = "default_min_aerial_images")]
     pub min_aerial_images: u32,
+    /// Where only one aerial frame passes (a block flown at 60 % / 30 % overlap shows many street points in
+    /// two frames only), its points still count, each as its single aerial ray: the adjustment takes the
+    /// position across the ray from it and the height from the panoramas (§3.9 triangulates from two).
+    /// `false`: `min_aerial_images` frames are required.
+    #[serde(default = "default_true")]
+    pub single_aerial_rays: bool,
     /// Correspondences an MM↔aerial image pair needs to count (§3.8).
     #[serde(default = "default_min_correspondences")]
     pub min_correspondences: u32,
@@ -107,12 +114,17 @@ fn default_image_motions() -> bool {
     true
 }
 
+fn default_true() -> bool {
+    true
+}
+
 impl Default for Registration {
     fn default() -> Self {
         Self {
             mm_gsd_m: default_mm_gsd_m(),
             aerial_gsd_m: None,
             min_aerial_images: default_min_aerial_images(),
+            single_aerial_rays: true,
             min_correspondences: default_min_correspondences(),
         }
     }

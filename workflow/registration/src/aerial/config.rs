@@ -87,7 +87,8 @@ pub struct AerialConfig {
     pub plausibility: Plausibility,
     /// The patch centre must project at least this far inside an aerial frame, pixels.
     pub frame_margin_px: f64,
-    /// Aerial frames that must pass the initial transformation and the matching (paper 000 §3.7: two).
+    /// Aerial frames that must pass the initial transformation and the matching (paper 000 §3.7: two) when
+    /// `single_ray_sigma_m` is `None`; with single rays one frame is enough.
     pub min_images: usize,
     /// When a single frame keeps correspondences (a block flown at 60 % / 30 % overlap shows many street
     /// points in two frames only, and one of them may fail), its points are still output, each as its one
