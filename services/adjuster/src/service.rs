@@ -30,9 +30,10 @@ use futures::StreamExt as _;
 use plumbline_campaign::progress::NoProgress;
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::{Files, StoreError};
+use plumbline_scheduler::SkippedInput;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
-use plumbline_scheduler::{SkippedInput, load_campaign};
+use plumbline_scheduler::service::load_agency_campaign;
 use plumbline_worker::service::metrics::Registry;
 use plumbline_worker::service::ops::{Probe, serve_ops};
 use plumbline_worker::service::{Ops, reply, with_heartbeat};
@@ -337,7 +338,7 @@ impl Adjuster {
             Some(e) => serde_json::from_slice(&e.value)?,
             None => Tally::default(),
         };
-        let mut campaign = load_campaign(&self.files, &state.manifest).await?;
+        let mut campaign = load_agency_campaign(&self.files, &state.manifest, &state.agency, &state.id).await?;
         let mut outputs = Vec::with_capacity(tally.done.len());
         for tile in &tally.done {
             outputs.push(read_output(&self.files, &format!("{}{}", campaign.output, tile_key(tile))).await?);

@@ -251,6 +251,44 @@ async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
     assert!(watched.stdout.contains(&format!("dead-lettered tile {tile}: ")), "{}", watched.stdout);
 }
 
+/// Whoever can publish on NATS (it has no authentication yet) rewrites the campaign's state and publishes a
+/// task naming a manifest the job API never stored: the worker does not follow it. Tasks still naming the
+/// real manifest no longer match the state and are dropped; the forged task's tile fails as invalid input,
+/// naming why, and nothing is read from the forged location.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_manifest_forged_on_the_bus_is_not_followed() {
+    use plumbline_scheduler::messages::TileTask;
+    let rig = Rig::start(|_| {}).await;
+    rig.submit().await;
+    let client = service::connect(&rig.nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let bus = plumbline_scheduler::bus::ensure(async_nats::jetstream::new(client)).await.unwrap();
+    let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
+    let (state, _) = bus.campaigns.get(&id).await.unwrap().unwrap();
+    // Another agency's folder: the manifest there is not this agency's stored one.
+    let forged = state.manifest.replace("/agencies/hamburg/", "/agencies/bremen/");
+    assert_ne!(forged, state.manifest);
+    let text = std::fs::read(rig.dir.path().join("campaign/campaign.toml")).unwrap();
+    rig.files.write(&forged, text).await.unwrap();
+    let set = forged.clone();
+    bus.campaigns
+        .modify(&id, move |c| {
+            c.manifest = set.clone();
+            true
+        })
+        .await
+        .unwrap()
+        .unwrap();
+    let tile = plumbline_geo::tiling::TileId { col: 9_999, row: 9_999 };
+    let task = TileTask { campaign: id.clone(), run: state.run, manifest: forged, tile, output: state.output };
+    assert!(bus.publish_task(&task).await.unwrap());
+    let (_adjuster, worker) = rig.roles(&rig.moto.endpoint());
+    worker.wait_for("tile given up", 1, LIMIT);
+    let log = worker.log();
+    assert!(log.contains("is not where the job API stores agency hamburg's manifest"), "{log}");
+    assert!(log.contains("another manifest than its campaign's state"), "{log}");
+    assert!(!log.contains("tile started"), "a tile was processed from a forged manifest: {log}");
+}
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn an_s3_outage_while_tiles_and_the_adjustment_run_is_retried_to_the_same_trajectory() {
     let rig = Rig::start(|_| {}).await;

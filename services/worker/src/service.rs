@@ -1,9 +1,11 @@
 //! The worker service (`plumbline serve worker`): pulls [`TileTask`]s from the durable `workers` consumer
 //! and processes them with [`crate::run_tile`], following the protocol of [`plumbline_scheduler::bus`]:
 //!
-//! - a task of a cancelled or failed campaign, of a run other than the state's, or of an unknown campaign
-//!   is acked and dropped;
-//! - otherwise the campaign is loaded (cached per campaign and run), set `running` if still `queued`, and
+//! - a task of a cancelled or failed campaign, of a run other than the state's, of an unknown campaign, or
+//!   naming another manifest than the state's is acked and dropped;
+//! - otherwise the campaign is loaded (cached per campaign and run) through `load_agency_campaign`: nothing
+//!   read from the bus is trusted as a location — the manifest must be the agency's stored one and name only
+//!   locations under the agency's prefix, or the tile fails as invalid input — set `running` if still `queued`, and
 //!   the tile is processed while an in-progress ack goes out every [`ServiceConfig::heartbeat`]; the output
 //!   is written at its deterministic key (a redelivered, already finished tile is read back, not
 //!   recomputed), [`TileDone`] is published to the results stream, and the task is acked;
@@ -29,9 +31,10 @@ use futures::StreamExt as _;
 use futures::future::BoxFuture;
 use plumbline_campaign::CampaignId;
 use plumbline_runtime::Files;
+use plumbline_scheduler::Campaign;
 use plumbline_scheduler::bus::{self, Bus, BusError, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
 use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
-use plumbline_scheduler::{Campaign, load_campaign};
+use plumbline_scheduler::service::load_agency_campaign;
 use tracing::Instrument as _;
 
 use crate::{WorkerConfig, tile_key};
@@ -273,7 +276,10 @@ impl Worker {
             state.updated = bus::unix_now();
             self.bus.campaigns.update(&state, revision).await?;
         }
-        let campaign = self.campaign(task).await?;
+        if task.manifest != state.manifest {
+            return Ok(Handled::Skipped("the task names another manifest than its campaign's state"));
+        }
+        let campaign = self.campaign(task, &state.agency).await?;
         tracing::info!("tile started");
         let config = WorkerConfig::from_manifest(&campaign.manifest);
         let (files, owned, tile) = (self.files.clone(), campaign.clone(), task.tile);
@@ -302,12 +308,13 @@ impl Worker {
     }
 
     /// The task's campaign, loaded once per campaign and run.
-    async fn campaign(&self, task: &TileTask) -> anyhow::Result<Arc<Campaign>> {
+    async fn campaign(&self, task: &TileTask, agency: &str) -> anyhow::Result<Arc<Campaign>> {
         let key = (task.campaign.clone(), task.run);
         if let Some(found) = self.campaigns.lock().ok().and_then(|c| c.get(&key).cloned()) {
             return Ok(found);
         }
-        let campaign = Arc::new(load_campaign(&self.files, &task.manifest).await?);
+        let loaded = load_agency_campaign(&self.files, &task.manifest, agency, &task.campaign).await?;
+        let campaign = Arc::new(loaded);
         if let Ok(mut cache) = self.campaigns.lock() {
             cache.retain(|(id, _), _| *id != task.campaign);
             cache.insert(key, campaign.clone());

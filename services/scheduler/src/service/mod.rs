@@ -35,7 +35,7 @@ use plumbline_runtime::{Files, Secret};
 
 pub use auth::{Agency, MIN_TOKEN_LEN, Tokens};
 pub use openapi::openapi;
-pub use prefix::{Layout, PrefixProblem, check_locations};
+pub use prefix::{Layout, PrefixProblem, check_locations, load_agency_campaign, stored_manifest_prefix};
 
 use crate::bus::{Bus, BusError, ensure};
 use metrics::Metrics;
