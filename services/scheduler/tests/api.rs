@@ -153,6 +153,42 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     assert!(!e.to_string().contains("601"), "{e}");
 }
 
+/// One agency's backlog and submission rate are bounded (429 naming the quota); another agency is not held
+/// up by them, and a cancelled campaign frees its place.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn quotas_bound_an_agencys_backlog_and_submission_rate() {
+    use plumbline_scheduler::service::Quotas;
+    let quotas = Quotas { campaigns_in_flight: 1, tiles_queued: 10 * TINY_TILES, submissions_per_minute: 4 };
+    let h = Harness::local_with_quotas(quotas).await;
+    for (agency, id) in [("hamburg", "q-1"), ("hamburg", "q-2"), ("bremen", "q-3")] {
+        h.upload_inputs(agency, id).await;
+    }
+    let (hh, hb) = (h.client(HAMBURG), h.client(BREMEN));
+    let text = |id: &str| manifest(id, "nav/dg.csv", "results/").into_bytes();
+    hh.submit(text("q-1"), false).await.unwrap();
+    let e = hh.submit(text("q-2"), false).await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::TOO_MANY_REQUESTS, "{e}");
+    assert!(e.to_string().contains("1 campaigns in flight"), "{e}");
+    hb.submit(text("q-3"), false).await.unwrap();
+    hh.cancel("q-1").await.unwrap();
+    hh.submit(text("q-2"), false).await.unwrap();
+    // The same manifest again (a resubmission, answered 200) is the fourth submission of the minute.
+    hh.submit(text("q-2"), false).await.unwrap();
+    let e = hh.submit(text("q-2"), false).await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::TOO_MANY_REQUESTS, "{e}");
+    assert!(e.to_string().contains("4 submissions in the last minute"), "{e}");
+    assert_eq!(hb.list().await.unwrap().campaigns.len(), 1);
+
+    // Tiles: a campaign that alone passes the agency's quota of queued tiles is refused before it is queued.
+    let small = Quotas { tiles_queued: TINY_TILES - 1, ..Quotas::default() };
+    let h = Harness::local_with_quotas(small).await;
+    h.upload_inputs("hamburg", "q-1").await;
+    let e = h.client(HAMBURG).submit(text("q-1"), false).await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::TOO_MANY_REQUESTS, "{e}");
+    assert!(e.to_string().contains(&format!("0 tiles queued; {TINY_TILES} more")), "{e}");
+    assert!(h.client(HAMBURG).list().await.unwrap().campaigns.is_empty());
+}
+
 /// Clients that never finish their headers are closed after the header-read timeout, and connections beyond
 /// the limit are closed when accepted, so slow clients cannot hold the API.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -43,6 +43,24 @@ use metrics::Metrics;
 /// Largest manifest accepted.
 pub const MAX_MANIFEST_BYTES: usize = 1 << 20;
 
+/// Per-agency limits of the job API: one agency's backlog cannot fill the queue nor its client flood the
+/// scheduler. A submission over a limit is refused with 429 naming the limit.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Quotas {
+    /// Campaigns of one agency that are neither done, failed nor cancelled.
+    pub campaigns_in_flight: usize,
+    /// Tiles of one agency's campaigns in flight not yet handled, the new submission's included.
+    pub tiles_queued: u64,
+    /// Submissions (`POST /v1/campaigns`) one agency may make in any minute.
+    pub submissions_per_minute: usize,
+}
+
+impl Default for Quotas {
+    fn default() -> Self {
+        Self { campaigns_in_flight: 8, tiles_queued: 5_000, submissions_per_minute: 30 }
+    }
+}
+
 /// The scheduler's shared state.
 #[derive(Debug)]
 pub struct Scheduler {
@@ -52,20 +70,51 @@ pub struct Scheduler {
     layout: Layout,
     tokens: Tokens,
     metrics: Metrics,
+    quotas: Quotas,
+    /// Each agency's submissions of the last minute.
+    recent: std::sync::Mutex<std::collections::HashMap<String, std::collections::VecDeque<std::time::Instant>>>,
 }
 
 impl Scheduler {
-    /// Bind (or create) the JetStream resources and serve campaigns stored under `store`.
+    /// Bind (or create) the JetStream resources and serve campaigns stored under `store`, with the default
+    /// [`Quotas`].
     pub async fn start(
         client: async_nats::Client,
         files: Files,
         store: &str,
         tokens: Tokens,
     ) -> Result<Arc<Self>, BusError> {
+        Self::start_with(client, files, store, tokens, Quotas::default()).await
+    }
+
+    /// [`Self::start`] with other quotas.
+    pub async fn start_with(
+        client: async_nats::Client,
+        files: Files,
+        store: &str,
+        tokens: Tokens,
+        quotas: Quotas,
+    ) -> Result<Arc<Self>, BusError> {
         let bus = ensure(async_nats::jetstream::new(client.clone())).await?;
         let layout = Layout::new(store);
-        tracing::info!(store = layout.root(), "scheduler ready");
-        Ok(Arc::new(Self { bus, client, files, layout, tokens, metrics: Metrics::default() }))
+        tracing::info!(store = layout.root(), ?quotas, "scheduler ready");
+        let recent = std::sync::Mutex::default();
+        Ok(Arc::new(Self { bus, client, files, layout, tokens, metrics: Metrics::default(), quotas, recent }))
+    }
+
+    /// Count a submission of `agency`; false when it made `submissions_per_minute` already in the last minute.
+    fn admit_submission(&self, agency: &str) -> bool {
+        let now = std::time::Instant::now();
+        let Ok(mut recent) = self.recent.lock() else { return true };
+        let times = recent.entry(agency.to_owned()).or_default();
+        while times.front().is_some_and(|t| now.duration_since(*t) >= Duration::from_secs(60)) {
+            times.pop_front();
+        }
+        if times.len() >= self.quotas.submissions_per_minute {
+            return false;
+        }
+        times.push_back(now);
+        true
     }
 
     /// The bound JetStream resources.

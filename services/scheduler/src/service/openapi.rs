@@ -91,6 +91,7 @@ fn paths() -> Value {
                     "409": answer("The id belongs to another agency, or the campaign is active with another manifest.", "ErrorBody"),
                     "413": { "description": "The manifest is larger than 1 MiB." },
                     "422": answer("The manifest cannot be parsed, is invalid, or its inputs cannot be read; problems name the fields.", "ErrorBody"),
+                    "429": answer("Over one of the agency's quotas: submissions per minute, campaigns in flight, tiles queued.", "ErrorBody"),
                     "503": error("Unavailable"),
                 }
             },

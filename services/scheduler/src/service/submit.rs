@@ -2,7 +2,7 @@
 //! and plan the campaign, write `plan.json`, set the KV state and publish one task per tile.
 
 use axum::http::StatusCode;
-use plumbline_campaign::{Manifest, ManifestV1, ParseError, Problem};
+use plumbline_campaign::{CampaignId, Manifest, ManifestV1, ParseError, Problem};
 use tracing::field::Empty;
 
 use super::Scheduler;
@@ -28,6 +28,12 @@ pub(super) async fn submit(
     json: bool,
     body: Vec<u8>,
 ) -> Result<(StatusCode, CampaignState), ApiError> {
+    if !s.admit_submission(agency.as_str()) {
+        let limit = s.quotas.submissions_per_minute;
+        let message =
+            format!("agency {} made {limit} submissions in the last minute, the most it may", agency.as_str());
+        return Err(ApiError::new(StatusCode::TOO_MANY_REQUESTS, message));
+    }
     let sub = parse(s, agency, json, body)?;
     let id = sub.manifest.campaign.id.clone();
     let span = tracing::Span::current();
@@ -42,12 +48,31 @@ pub(super) async fn submit(
         None => (1, None),
     };
     span.record("run", run);
+    let in_flight = in_flight(s, agency, &id).await?;
+    if in_flight.len() >= s.quotas.campaigns_in_flight {
+        let message = format!(
+            "agency {} has {} campaigns in flight, the most it may; wait for one to finish or cancel one",
+            agency.as_str(),
+            in_flight.len()
+        );
+        return Err(ApiError::new(StatusCode::TOO_MANY_REQUESTS, message));
+    }
     s.files.write(&sub.url, sub.bytes.clone()).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
     let campaign = load(s, &sub.url).await?;
     let plan_url = format!("{}plan.json", campaign.output);
     s.files.write(&plan_url, campaign.plan.to_json()).await.map_err(|e| ApiError::unavailable("store", &e))?;
     let state = initial_state(agency, run, &sub.url, &campaign);
     span.record("tiles", state.tiles_total);
+    let queued: u64 = in_flight.iter().map(|c| c.tiles_total.saturating_sub(c.tiles_handled())).sum();
+    if queued + state.tiles_total > s.quotas.tiles_queued {
+        let message = format!(
+            "agency {} has {queued} tiles queued; {} more would pass its quota of {}",
+            agency.as_str(),
+            state.tiles_total,
+            s.quotas.tiles_queued
+        );
+        return Err(ApiError::new(StatusCode::TOO_MANY_REQUESTS, message));
+    }
     let written = match revision {
         None => s.bus.campaigns.create(&state).await,
         Some(revision) => s.bus.campaigns.update(&state, revision).await,
@@ -59,6 +84,12 @@ pub(super) async fn submit(
     publish(s, &state, &campaign).await?;
     tracing::info!(campaign = id.as_str(), agency = agency.as_str(), run, tiles = state.tiles_total, "campaign queued");
     Ok((StatusCode::CREATED, state))
+}
+
+/// The agency's campaigns in flight (neither done, failed nor cancelled), `id`'s own earlier run left out.
+async fn in_flight(s: &Scheduler, agency: &Agency, id: &CampaignId) -> Result<Vec<CampaignState>, ApiError> {
+    let all = s.bus.campaigns.list().await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
+    Ok(all.into_iter().filter(|c| c.agency == agency.as_str() && c.id != *id && !c.status.is_terminal()).collect())
 }
 
 /// Parse, validate and check the prefixes of a submitted manifest.

@@ -7,7 +7,7 @@ use std::time::Duration;
 
 use plumbline_runtime::{Files, S3Options, Secret};
 use plumbline_scheduler::client::Client;
-use plumbline_scheduler::service::{self, HttpLimits, Scheduler, Tokens};
+use plumbline_scheduler::service::{self, HttpLimits, Quotas, Scheduler, Tokens};
 use plumbline_testkit::{MotoServer, NatsServer};
 
 pub const HAMBURG: &str = "hh-token-0123456789abcdef";
@@ -39,7 +39,15 @@ impl Harness {
             secret_access_key: Some(Secret::new("test")),
             ..S3Options::default()
         };
-        Self::start(Files::new(s3), "s3://plumbline/pl".into(), Some(moto), None, HttpLimits::default()).await
+        Self::start(
+            Files::new(s3),
+            "s3://plumbline/pl".into(),
+            Some(moto),
+            None,
+            HttpLimits::default(),
+            Quotas::default(),
+        )
+        .await
     }
 
     /// Scheduler on a temporary directory.
@@ -51,7 +59,14 @@ impl Harness {
     pub async fn local_with(limits: HttpLimits) -> Self {
         let dir = tempfile::tempdir().unwrap();
         let store = format!("file://{}", dir.path().display());
-        Self::start(Files::default(), store, None, Some(dir), limits).await
+        Self::start(Files::default(), store, None, Some(dir), limits, Quotas::default()).await
+    }
+
+    /// Scheduler on a temporary directory with other quotas.
+    pub async fn local_with_quotas(quotas: Quotas) -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let store = format!("file://{}", dir.path().display());
+        Self::start(Files::default(), store, None, Some(dir), HttpLimits::default(), quotas).await
     }
 
     async fn start(
@@ -60,11 +75,12 @@ impl Harness {
         moto: Option<MotoServer>,
         dir: Option<tempfile::TempDir>,
         limits: HttpLimits,
+        quotas: Quotas,
     ) -> Self {
         let nats = NatsServer::start();
         let tokens = Tokens::from_pairs(&[(HAMBURG, "hamburg"), (BREMEN, "bremen")]).unwrap();
         let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
-        let scheduler = Scheduler::start(client, files.clone(), &store, tokens).await.unwrap();
+        let scheduler = Scheduler::start_with(client, files.clone(), &store, tokens, quotas).await.unwrap();
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let server = format!("http://{}", listener.local_addr().unwrap());
         let (tx, rx) = tokio::sync::oneshot::channel::<()>();
