@@ -460,7 +460,7 @@ fn check_mosaic(m: &Mosaic) -> Result<(), GdalWriteError> {
         if t.col + m.tile_size.0 > m.width || t.row + m.tile_size.1 > m.height {
             return Err(invalid("tiles", format!("{} at column {}, row {} reaches outside", t.path, t.col, t.row)));
         }
-        if t.path.is_empty() || t.path.starts_with('/') || t.path.contains("..") {
+        if crate::vrt::relative_below(&t.path).is_err() {
             return Err(invalid("tiles", format!("`{}` is not a path below the VRT's directory", t.path)));
         }
     }

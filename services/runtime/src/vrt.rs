@@ -429,7 +429,7 @@ fn source(node: &Node, at: &str) -> Result<VrtSource, String> {
 }
 
 /// A path below the VRT's directory: relative, no `..`, no scheme or GDAL prefix, no back slashes.
-fn relative_below(path: &str) -> Result<String, &'static str> {
+pub(crate) fn relative_below(path: &str) -> Result<String, &'static str> {
     if path.is_empty() || path.len() > 1024 {
         return Err("is not a file name of 1 to 1024 bytes");
     }

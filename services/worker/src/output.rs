@@ -49,6 +49,36 @@ pub struct TileOutputV1 {
     pub fingerprint: Option<String>,
 }
 
+/// The finished output of `tile` at `url`, when it exists and was computed from the inputs and parameters
+/// `fingerprint` stands for ([`crate::fingerprint`]); one of other inputs, one that does not parse or holds
+/// another tile is logged and ignored (the caller processes the tile and overwrites it).
+pub(crate) async fn read_finished(
+    files: &plumbline_runtime::Files,
+    url: &str,
+    tile: &TileId,
+    fingerprint: &str,
+) -> anyhow::Result<Option<TileOutputV1>> {
+    if !files.exists(url).await? {
+        return Ok(None);
+    }
+    let bytes = files.read(url).await?;
+    match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
+        Ok(done) if done.tile == *tile && done.fingerprint.as_deref() == Some(fingerprint) => Ok(Some(done)),
+        Ok(done) if done.tile == *tile => {
+            tracing::info!(file = %url, "tile output of other inputs or parameters; reprocessing");
+            Ok(None)
+        }
+        Ok(other) => {
+            tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing");
+            Ok(None)
+        }
+        Err(e) => {
+            tracing::warn!(file = %url, error = %e, "tile output does not parse; reprocessing");
+            Ok(None)
+        }
+    }
+}
+
 /// The object key of a tile's output under the campaign's output prefix.
 pub fn tile_key(tile: &TileId) -> String {
     format!("tiles/{}_{}.json", tile.col, tile.row)

@@ -16,7 +16,7 @@ use plumbline_scheduler::{Campaign, SkippedInput};
 use tracing::Instrument as _;
 
 use crate::config::WorkerConfig;
-use crate::output::{TileOutput, TileOutputV1, tile_key};
+use crate::output::{TileOutput, TileOutputV1, read_finished, tile_key};
 use crate::{aerial, panoramas, poles, prepare};
 
 /// Progress stage of the panoramas registered (one item per owned panorama).
@@ -288,8 +288,9 @@ fn summarised(tile: TileId, images: Vec<ImageDiagnostic>, ties: Vec<plumbline_ad
 }
 
 /// [`process_tile`] with resuming: when `{output}tiles/{col}_{row}.json` already holds this tile's output
-/// with the [`crate::fingerprint`] of its current inputs and parameters, return it and `true`; otherwise process, write the output (pretty JSON) and return it with `false`. An
-/// existing file that does not parse, or holds another tile, is logged and replaced.
+/// with the [`crate::fingerprint`] of its current inputs and parameters, return it and `true`; otherwise
+/// process, write the output (pretty JSON) and return it with `false`. An existing file of other inputs, one
+/// that does not parse or holds another tile is logged and replaced.
 pub async fn run_tile(
     files: &Files,
     campaign: &Campaign,
@@ -309,22 +310,10 @@ pub async fn run_tile_reporting(
     progress: &dyn Progress,
 ) -> anyhow::Result<(TileOutputV1, bool)> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
-    if files.exists(&url).await? {
-        let bytes = files.read(&url).await?;
-        let fingerprint = crate::fingerprint(campaign, tile, config);
-        match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
-            Ok(done) if done.tile == *tile && done.fingerprint.as_ref() == Some(&fingerprint) => {
-                report_resumed(campaign, &done, progress);
-                return Ok((done, true));
-            }
-            Ok(done) if done.tile == *tile => {
-                tracing::info!(file = %url, "tile output of other inputs or parameters; reprocessing")
-            }
-            Ok(other) => {
-                tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing")
-            }
-            Err(e) => tracing::warn!(file = %url, error = %e, "tile output does not parse; reprocessing"),
-        }
+    let fingerprint = crate::fingerprint(campaign, tile, config);
+    if let Some(done) = read_finished(files, &url, tile, &fingerprint).await? {
+        report_resumed(campaign, &done, progress);
+        return Ok((done, true));
     }
     let output = process_tile_reporting(files, campaign, tile, config, progress).await?;
     let json = serde_json::to_vec_pretty(&TileOutput::V1(output.clone()))?;

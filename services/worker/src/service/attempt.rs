@@ -12,6 +12,7 @@ use plumbline_scheduler::Campaign;
 use plumbline_scheduler::SkippedInput;
 
 use crate::fetch::SkipReason;
+use crate::output::read_finished;
 use crate::tile::Timed;
 use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
 
@@ -83,7 +84,7 @@ pub(crate) async fn attempt(
 ) -> anyhow::Result<Attempt> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
     let fingerprint = crate::fingerprint(campaign, tile, config);
-    if let Some(output) = read_back(files, &url, tile, &fingerprint).await? {
+    if let Some(output) = read_finished(files, &url, tile, &fingerprint).await? {
         return Ok(Attempt { output, resumed: true, write_s: 0.0 });
     }
     tracing::info!("tile inputs being read");
@@ -102,31 +103,6 @@ pub(crate) async fn attempt(
 /// missing or broken ones.
 fn unread(skipped: &[SkippedInput]) -> Vec<&SkippedInput> {
     skipped.iter().filter(|s| SkipReason::of(&s.reason).is_some_and(SkipReason::retryable)).collect()
-}
-
-/// The output at `url` when it exists and holds `tile` computed from the inputs and parameters `fingerprint`
-/// stands for; one of other inputs, one that does not parse or holds another tile is logged and ignored (it
-/// is overwritten).
-async fn read_back(files: &Files, url: &str, tile: &TileId, fingerprint: &str) -> anyhow::Result<Option<TileOutputV1>> {
-    if !files.exists(url).await? {
-        return Ok(None);
-    }
-    let bytes = files.read(url).await?;
-    match serde_json::from_slice::<TileOutput>(&bytes).map(TileOutput::into_latest) {
-        Ok(done) if done.tile == *tile && done.fingerprint.as_deref() == Some(fingerprint) => Ok(Some(done)),
-        Ok(done) if done.tile == *tile => {
-            tracing::info!(file = %url, "tile output of other inputs or parameters; reprocessing");
-            Ok(None)
-        }
-        Ok(other) => {
-            tracing::warn!(file = %url, found = ?other.tile, "tile output holds another tile; reprocessing");
-            Ok(None)
-        }
-        Err(e) => {
-            tracing::warn!(file = %url, error = %e, "tile output does not parse; reprocessing");
-            Ok(None)
-        }
-    }
 }
 
 #[cfg(test)]
