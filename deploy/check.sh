@@ -46,7 +46,9 @@ fi
 
 # --- NATS ------------------------------------------------------------------------------------------------
 if command -v nats-server >/dev/null 2>&1; then
-    run "deploy/nats.conf is a valid nats-server config" nats-server -t -c deploy/nats.conf
+    # The file reads the roles' passwords from the environment.
+    run "deploy/nats.conf is a valid nats-server config" env PLUMBLINE_NATS_SCHEDULER_PASSWORD=x \
+        PLUMBLINE_NATS_WORKER_PASSWORD=x PLUMBLINE_NATS_ADJUSTER_PASSWORD=x nats-server -t -c deploy/nats.conf
 else
     echo "  skip  nats-server -t (no nats-server; .ci/run installs it)"
 fi

@@ -141,8 +141,44 @@ def check_k8s(roles, bus):
     nats_conf = [d for _, d in objects if d.get("kind") == "ConfigMap" and d["metadata"]["name"] == "nats-config"]
     if not nats_conf or "http_port: 8222" not in nats_conf[0]["data"]["nats.conf"]:
         problem("deploy/k8s: nats-config does not enable the monitoring port 8222 (KEDA reads /jsz there)")
-    if "http_port: 8222" not in (DEPLOY / "nats.conf").read_text():
+    compose_conf = (DEPLOY / "nats.conf").read_text()
+    if "http_port: 8222" not in compose_conf:
         problem("deploy/nats.conf: monitoring port 8222 not enabled")
+    check_nats_users(compose_conf, nats_conf[0]["data"]["nats.conf"] if nats_conf else "", deployments)
+
+
+def check_nats_users(compose_conf, k8s_conf, deployments):
+    """deploy/nats.conf and the k8s nats-config have the same users and permissions (the system test runs on
+    the first); every role connects as its user, in compose and k8s, and NATS's client port is not published."""
+    def auth(text):
+        return text[text.find("authorization {"):].strip() if "authorization {" in text else ""
+    if not auth(compose_conf):
+        problem("deploy/nats.conf: no authorization block")
+    if auth(compose_conf) != auth(k8s_conf):
+        problem("deploy/k8s/20-nats.yaml: the nats-config authorization block differs from deploy/nats.conf's")
+    for name, dep in deployments.items():
+        for c in dep["spec"]["template"]["spec"]["containers"]:
+            args = c.get("args", [])
+            if c.get("image") != "plumbline" or len(args) < 2:
+                continue
+            env = {e["name"]: e for e in c.get("env", [])}
+            if env.get("PLUMBLINE_NATS_USER", {}).get("value") != args[1]:
+                problem(f"deploy/k8s: {name} does not connect to NATS as user {args[1]}")
+            if "PLUMBLINE_NATS_PASSWORD" not in env:
+                problem(f"deploy/k8s: {name} has no PLUMBLINE_NATS_PASSWORD")
+    compose = yaml.safe_load(read("docker-compose.yml"))
+    for name, svc in compose["services"].items():
+        command = svc.get("command", [])
+        if len(command) > 1 and command[0] == "serve":
+            env = svc.get("environment", {})
+            if env.get("PLUMBLINE_NATS_USER") != command[1] or not env.get("PLUMBLINE_NATS_PASSWORD"):
+                problem(f"docker-compose.yml: {name} does not connect to NATS as user {command[1]} with a password")
+            var = f"PLUMBLINE_NATS_{command[1].upper()}_PASSWORD"
+            if compose["services"]["nats"].get("environment", {}).get(var) != env.get("PLUMBLINE_NATS_PASSWORD"):
+                problem(f"docker-compose.yml: {name}'s NATS password is not the server's {var}")
+    for port in compose["services"]["nats"].get("ports", []):
+        if "4222" in str(port):
+            problem("docker-compose.yml: the NATS client port 4222 is published on the host")
 
 
 METRIC_SOURCES = {

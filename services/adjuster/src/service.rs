@@ -47,8 +47,7 @@ mod probe;
 pub use probe::ADJUSTER_FAMILIES;
 use probe::kind_of;
 
-/// The KV bucket of the tiles counted per campaign run.
-pub const TALLY_BUCKET: &str = "plumbline-adjuster";
+pub use plumbline_scheduler::bus::TALLY_BUCKET;
 /// Interval of the in-progress acks while a result (or the adjustment it triggers) is handled.
 const HEARTBEAT: Duration = Duration::from_secs(30);
 /// Delay asked for when a result is nakked the first time (doubling with each delivery, up to a minute).
@@ -137,17 +136,8 @@ pub async fn serve(bus: Bus, files: Files, ops: Option<Ops>, shutdown: impl Futu
         .get_consumer(ADJUSTER_CONSUMER)
         .await
         .map_err(|e| anyhow::anyhow!("consumer {ADJUSTER_CONSUMER}: {e}"))?;
-    let tallies = bus
-        .js
-        .create_or_update_key_value(kv::Config {
-            bucket: TALLY_BUCKET.into(),
-            description: "plumbline adjuster: tiles counted per campaign run".into(),
-            history: 1,
-            storage: jetstream::stream::StorageType::File,
-            ..Default::default()
-        })
-        .await
-        .map_err(|e| anyhow::anyhow!("KV bucket {TALLY_BUCKET}: {e}"))?;
+    let tallies =
+        bus.js.get_key_value(TALLY_BUCKET).await.map_err(|e| anyhow::anyhow!("KV bucket {TALLY_BUCKET}: {e}"))?;
     let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
     let metrics = Registry::new(&ADJUSTER_FAMILIES);
     let adjuster =

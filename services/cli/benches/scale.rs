@@ -109,7 +109,7 @@ struct Role {
 
 impl Role {
     fn start(role: &str, nats: &NatsServer, moto: &MotoServer, log: PathBuf, extra: &[&str]) -> Self {
-        let mut cmd = plumbline(&["serve", role, "--nats", &nats.url(), "--store", STORE]);
+        let mut cmd = plumbline(&["serve", role, "--nats", &nats.url(), "--store", STORE, "--insecure-no-nats-auth"]);
         cmd.args(extra)
             .env("PLUMBLINE_S3_ENDPOINT", moto.endpoint())
             .env("PLUMBLINE_S3_ACCESS_KEY_ID", "test")
@@ -291,7 +291,8 @@ async fn start(options: &Options) -> Bench {
     moto.create_bucket("plumbline");
     let files = services::s3_files(moto.endpoint());
     let nats = NatsServer::start();
-    let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let client =
+        service::connect(&nats.url(), service::NatsAuth::Insecure, "test", Duration::from_secs(10)).await.unwrap();
     let tokens = Tokens::from_pairs(&[(TOKEN, AGENCY)]).unwrap();
     let scheduler = Scheduler::start(client, files.clone(), STORE, tokens).await.unwrap();
     let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();

@@ -6,7 +6,7 @@ use std::path::Path;
 use anyhow::Context as _;
 use bytes::Bytes;
 pub use plumbline_runtime::file_name;
-use plumbline_runtime::{Files, OtlpExport, RuntimeConfig, TracingGuard};
+use plumbline_runtime::{Files, NatsConfig, OtlpExport, RuntimeConfig, TracingGuard};
 
 use crate::exit::invalid;
 
@@ -15,6 +15,7 @@ use crate::exit::invalid;
 #[derive(Debug)]
 pub struct Context {
     files: Files,
+    nats: Option<NatsConfig>,
     _tracing: TracingGuard,
 }
 
@@ -34,12 +35,17 @@ impl Context {
         let tracing =
             plumbline_runtime::init_tracing(&config.log, env.get("RUST_LOG").map(String::as_str), otlp.as_ref())
                 .map_err(|e| invalid(format!("logging: {e}")))?;
-        Ok(Self { files: Files::new(config.store.s3), _tracing: tracing })
+        Ok(Self { files: Files::new(config.store.s3), nats: config.nats, _tracing: tracing })
     }
 
     /// The file access the services' libraries take.
     pub fn files(&self) -> &Files {
         &self.files
+    }
+
+    /// The `[nats]` section of the runtime config (URL, credentials, TLS), if any.
+    pub fn nats(&self) -> Option<&NatsConfig> {
+        self.nats.as_ref()
     }
 
     /// Read a whole file named by path or URL. A missing file is invalid input.

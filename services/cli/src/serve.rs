@@ -8,9 +8,8 @@ use std::process::ExitCode;
 use std::time::Duration;
 
 use clap::{Args as ClapArgs, Subcommand};
-use plumbline_runtime::Secret;
-use plumbline_scheduler::bus::{Bus, TASKS_STREAM, ensure, workers_consumer};
-use plumbline_scheduler::service::{self, Scheduler, Tokens};
+use plumbline_scheduler::bus::{Bus, TASKS_STREAM, bind, workers_consumer};
+use plumbline_scheduler::service::{self, NatsAuth, Scheduler, Tokens};
 
 use crate::exit::{OrInvalid, invalid};
 use crate::io::Context;
@@ -29,12 +28,15 @@ pub enum Command {
 /// Connection arguments every role shares.
 #[derive(Debug, ClapArgs)]
 pub struct Connection {
-    /// NATS server with JetStream (2.10 or newer).
+    /// NATS server with JetStream (2.10 or newer). Credentials and TLS come from the runtime config:
+    /// PLUMBLINE_NATS_USER + PLUMBLINE_NATS_PASSWORD_FILE (one user per role, see deploy/nats.conf), or
+    /// PLUMBLINE_NATS_TOKEN_FILE, or PLUMBLINE_NATS_CREDS_FILE; PLUMBLINE_NATS_TLS_CA_FILE requires TLS.
     #[arg(long, env = "PLUMBLINE_NATS_URL", value_name = "URL")]
     pub nats: String,
-    /// File holding the NATS token, if the server wants one.
-    #[arg(long, env = "PLUMBLINE_NATS_TOKEN_FILE", value_name = "FILE")]
-    pub nats_token_file: Option<PathBuf>,
+    /// Connect to NATS without credentials. Development only: without it a role refuses to start when no
+    /// NATS credentials are configured.
+    #[arg(long)]
+    pub insecure_no_nats_auth: bool,
     /// Object store all agencies' data lives in: s3://bucket/prefix, file:///dir or a local directory.
     #[arg(long, env = "PLUMBLINE_STORE_URL", value_name = "URL")]
     pub store: String,
@@ -117,38 +119,48 @@ pub async fn run(ctx: &Context, command: Command) -> anyhow::Result<ExitCode> {
     }
 }
 
-/// Connect (logging every later disconnection and reconnection) and bind the JetStream resources. The
-/// client reconnects without limit; stream, consumer and bucket handles are names on the server, so they
-/// work again once it is back (a restarted server keeps them in its store directory).
-async fn bus(connection: &Connection, role: &str) -> anyhow::Result<Bus> {
-    let token = nats_token(connection.nats_token_file.as_ref())?;
-    let started = std::time::Instant::now();
-    let wait = Duration::from_secs(connection.connect_timeout_s);
-    let client = loop {
-        let mut options =
-            async_nats::ConnectOptions::new().name(format!("plumbline-{role}")).event_callback(|event| async move {
-                match event {
-                    async_nats::Event::Connected => tracing::info!(%event, "NATS connection event"),
-                    _ => tracing::warn!(%event, "NATS connection event"),
-                }
-            });
-        if let Some(token) = &token {
-            options = options.token(token.expose().to_owned());
+/// Connect as `plumbline-{role}` with the configured credentials; refuse to start without any unless
+/// `--insecure-no-nats-auth` says so.
+async fn connect(ctx: &Context, connection: &Connection, role: &str) -> anyhow::Result<async_nats::Client> {
+    let config = ctx.nats();
+    let auth = match (config, connection.insecure_no_nats_auth) {
+        (Some(c), true) if c.has_credentials() => {
+            return Err(invalid(
+                "--insecure-no-nats-auth is given while NATS credentials are configured; drop one of them",
+            ));
         }
-        match options.connect(&connection.nats).await {
-            Ok(client) => break client,
-            Err(e) if started.elapsed() < wait => {
-                tracing::warn!(url = connection.nats, error = %e, "NATS not reachable yet; retrying");
-                tokio::time::sleep(Duration::from_millis(500)).await;
-            }
-            Err(e) => anyhow::bail!("connecting to NATS at {}: {e}", connection.nats),
+        (Some(c), false) if c.has_credentials() => NatsAuth::Config(c),
+        (_, false) => {
+            return Err(invalid(
+                "no NATS credentials configured: set PLUMBLINE_NATS_USER and PLUMBLINE_NATS_PASSWORD_FILE (each \
+                 role has its user in deploy/nats.conf), or PLUMBLINE_NATS_TOKEN_FILE, or PLUMBLINE_NATS_CREDS_FILE; \
+                 a development server without authentication needs --insecure-no-nats-auth",
+            ));
+        }
+        (Some(c), true) => {
+            tracing::warn!("connecting to NATS without credentials (--insecure-no-nats-auth): development only");
+            NatsAuth::Config(c)
+        }
+        (None, true) => {
+            tracing::warn!("connecting to NATS without credentials (--insecure-no-nats-auth): development only");
+            NatsAuth::Insecure
         }
     };
-    Ok(ensure(async_nats::jetstream::new(client)).await?)
+    let wait = Duration::from_secs(connection.connect_timeout_s);
+    service::connect(&connection.nats, auth, role, wait).await
+}
+
+/// Connect and bind the JetStream resources the scheduler created (waiting for them as long as for the
+/// connection). Stream, consumer and bucket handles are names on the server, so they work again once a
+/// restarted server is back (it keeps them in its store directory).
+async fn bus(ctx: &Context, connection: &Connection, role: &str) -> anyhow::Result<Bus> {
+    let client = connect(ctx, connection, role).await?;
+    let wait = Duration::from_secs(connection.connect_timeout_s);
+    Ok(bind(async_nats::jetstream::new(client), wait).await?)
 }
 
 async fn worker(ctx: &Context, args: WorkerArgs) -> anyhow::Result<ExitCode> {
-    let bus = bus(&args.connection, "worker").await?;
+    let bus = bus(ctx, &args.connection, "worker").await?;
     if let Some(seconds) = args.ack_wait_s {
         shorten_ack_wait(&bus, Duration::from_secs(seconds)).await?;
     }
@@ -164,7 +176,7 @@ async fn worker(ctx: &Context, args: WorkerArgs) -> anyhow::Result<ExitCode> {
 }
 
 async fn adjuster(ctx: &Context, args: AdjusterArgs) -> anyhow::Result<ExitCode> {
-    let bus = bus(&args.connection, "adjuster").await?;
+    let bus = bus(ctx, &args.connection, "adjuster").await?;
     tracing::info!(store = args.connection.store, "adjuster starting");
     let ops = args.ops.bind(&args.connection.store).await?;
     plumbline_adjuster::service::serve(bus, ctx.files().clone(), ops, shutdown_signal()).await?;
@@ -182,24 +194,12 @@ async fn shorten_ack_wait(bus: &Bus, wait: Duration) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn nats_token(file: Option<&PathBuf>) -> anyhow::Result<Option<Secret>> {
-    match file {
-        Some(path) => {
-            let token = std::fs::read_to_string(path).or_invalid(&format!("NATS token file {}", path.display()))?;
-            Ok(Some(Secret::new(token.trim())))
-        }
-        None => Ok(None),
-    }
-}
-
 async fn scheduler(ctx: &Context, args: SchedulerArgs) -> anyhow::Result<ExitCode> {
     let origin = args.tokens.display().to_string();
     let text = std::fs::read_to_string(&args.tokens).or_invalid(&format!("tokens file {origin}"))?;
     let tokens = Tokens::from_toml(&origin, &text).map_err(invalid)?;
-    let c = &args.connection;
-    let nats_token = nats_token(c.nats_token_file.as_ref())?;
-    let client = service::connect(&c.nats, nats_token.as_ref(), Duration::from_secs(c.connect_timeout_s)).await?;
-    let scheduler = Scheduler::start(client, ctx.files().clone(), &c.store, tokens).await?;
+    let client = connect(ctx, &args.connection, "scheduler").await?;
+    let scheduler = Scheduler::start(client, ctx.files().clone(), &args.connection.store, tokens).await?;
     let listener =
         tokio::net::TcpListener::bind(&args.listen).await.or_invalid(&format!("--listen {}", args.listen))?;
     tracing::info!(listen = %listener.local_addr()?, "scheduler API listening");

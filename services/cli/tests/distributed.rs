@@ -4,7 +4,9 @@
 //! trajectory must equal the one `plumbline run` computes from the same files. A second submission of the
 //! campaign (another id) loses a worker to `kill -9` in the middle of a tile: the tile is redelivered to the
 //! other worker and the campaign completes with the same trajectory. The roles' ops listeners are scraped
-//! after the first campaign: their counters must match what happened.
+//! after the first campaign: their counters must match what happened. NATS runs on the deployment's own
+//! `deploy/nats.conf`: every role connects as its user and works within that user's permissions; a second
+//! test shows those permissions hold a role (or a stranger) to its subjects.
 
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
@@ -12,12 +14,47 @@ mod support;
 
 use std::time::{Duration, Instant};
 
+use async_nats::jetstream;
 use plumbline_geo::formats;
+use plumbline_runtime::{NatsConfig, Secret};
+use plumbline_scheduler::bus::{self, TASKS_STREAM};
 use plumbline_scheduler::client::Client;
 use plumbline_scheduler::messages::CampaignStatus;
+use plumbline_scheduler::service::{self, NatsAuth};
 use plumbline_testkit::{MotoServer, NatsServer};
 use support::plumbline;
-use support::services::{Role, SchedulerApi, s3_files, upload};
+use support::services::{Role, STORE, SchedulerApi, s3_files, upload};
+
+/// The roles' NATS passwords, as the server's environment hands them to `deploy/nats.conf`.
+const USERS: [(&str, &str, &str); 3] = [
+    ("scheduler", "PLUMBLINE_NATS_SCHEDULER_PASSWORD", "scheduler-test-secret-1"),
+    ("worker", "PLUMBLINE_NATS_WORKER_PASSWORD", "worker-test-secret-2"),
+    ("adjuster", "PLUMBLINE_NATS_ADJUSTER_PASSWORD", "adjuster-test-secret-3"),
+];
+
+/// A nats-server on the deployment's config file, with the roles' users.
+fn nats_with_users() -> NatsServer {
+    let file = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../deploy/nats.conf");
+    let env: Vec<(&str, &str)> = USERS.iter().map(|(_, var, password)| (*var, *password)).collect();
+    NatsServer::start_with_config(&file, &env)
+}
+
+/// The password of `user`.
+fn password(user: &str) -> &'static str {
+    USERS.iter().find(|(u, ..)| *u == user).map(|(.., p)| *p).unwrap()
+}
+
+/// The runtime config of a role connecting as `user`.
+fn nats_config(url: &str, user: &str) -> NatsConfig {
+    NatsConfig {
+        url: url.to_owned(),
+        token: None,
+        creds_file: None,
+        user: Some(user.to_owned()),
+        password: Some(Secret::new(password(user))),
+        tls_ca_file: None,
+    }
+}
 
 /// Poll the campaign until it is terminal; panics with the roles' logs after `limit`.
 async fn wait_terminal(
@@ -129,17 +166,30 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     let expected = formats::parse_sbet(&expected, "run").unwrap();
     eprintln!("simulate + plumbline run: {:.1} s", t0.elapsed().as_secs_f64());
 
-    let nats = NatsServer::start();
-    let scheduler = SchedulerApi::start(&nats.url(), files.clone()).await;
+    let nats = nats_with_users();
+    let scheduler_user = nats_config(&nats.url(), "scheduler");
+    let scheduler = SchedulerApi::start_as(&nats.url(), files.clone(), NatsAuth::Config(&scheduler_user)).await;
     let api = &scheduler.api;
+    // A killed worker's task comes back after 4 s instead of 60 (the workers' user may not change consumers).
+    let admin = service::connect(&nats.url(), NatsAuth::Config(&scheduler_user), "test", Duration::from_secs(10))
+        .await
+        .unwrap();
+    let stream = jetstream::new(admin).get_stream(TASKS_STREAM).await.unwrap();
+    let mut consumer = bus::workers_consumer();
+    consumer.ack_wait = Duration::from_secs(4);
+    consumer.backoff = vec![Duration::from_secs(4); consumer.backoff.len()];
+    stream.update_consumer(consumer).await.unwrap();
 
-    // (a) Two workers and an adjuster; the adjuster first, since the workers shorten the ack wait after it.
+    // (a) Two workers and an adjuster, each as its NATS user.
     let logs = dir.path();
     let ops = ["--ops-listen", "127.0.0.1:0"];
-    let adjuster = Role::start("adjuster", &nats.url(), &moto.endpoint(), logs.join("adjuster.log"), &ops);
-    let knobs = ["--heartbeat-s", "1", "--ack-wait-s", "4", "--ops-listen", "127.0.0.1:0"];
-    let mut w1 = Role::start("worker", &nats.url(), &moto.endpoint(), logs.join("w1.log"), &knobs);
-    let w2 = Role::start("worker", &nats.url(), &moto.endpoint(), logs.join("w2.log"), &knobs);
+    let role = |name: &str, log: &str, extra: &[&str]| {
+        Role::start_as(name, &nats.url(), &moto.endpoint(), logs.join(log), extra, name, password(name))
+    };
+    let adjuster = role("adjuster", "adjuster.log", &ops);
+    let knobs = ["--heartbeat-s", "1", "--ops-listen", "127.0.0.1:0"];
+    let mut w1 = role("worker", "w1.log", &knobs);
+    let w2 = role("worker", "w2.log", &knobs);
     let started = Instant::now();
     let submitted = api.submit(manifest.clone().into_bytes(), false).await.unwrap();
     assert!(submitted.campaign.tiles_total >= 2, "the campaign must span several tiles: {submitted:#?}");
@@ -153,6 +203,9 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
     assert_same_trajectory(&formats::parse_sbet(&found, "distributed").unwrap(), &expected, "distributed");
     assert_metrics(&[&w1, &w2], &adjuster, view.campaign.tiles_total);
+    for role in [&adjuster, &w1, &w2] {
+        assert!(!role.log().to_lowercase().contains("permissions violation"), "{}", role.log());
+    }
 
     // (b) The same campaign under another id; worker 1 is killed as soon as it works on a tile.
     let killed_manifest = manifest.replacen(&format!("id = \"{id}\""), &format!("id = \"{killed_id}\""), 1);
@@ -170,4 +223,60 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
     assert_same_trajectory(&formats::parse_sbet(&found, "after kill").unwrap(), &expected, "after kill");
     eprintln!("campaign with a killed worker: {:.1} s", start.elapsed().as_secs_f64());
+}
+
+/// The users of `deploy/nats.conf` hold each role to its subjects: a stranger and a wrong password are
+/// refused; a role without credentials does not start; the worker's user cannot publish tasks or create,
+/// change or delete streams; the adjuster's cannot publish results. The roles' own operations (the
+/// scheduler's [`bus::ensure`], the others' [`bus::bind`]) pass, and a worker started as its user gets ready.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn nats_users_are_held_to_their_permissions() {
+    let nats = nats_with_users();
+    let url = nats.url();
+    assert!(async_nats::connect(&url).await.is_err(), "a client without a user is refused");
+    let mut wrong = nats_config(&url, "worker");
+    wrong.password = Some(Secret::new("not-the-password"));
+    let refused = service::connect(&url, NatsAuth::Config(&wrong), "worker", Duration::from_secs(5)).await;
+    assert!(refused.unwrap_err().to_string().contains("refused plumbline-worker's credentials"));
+
+    // Without credentials and without --insecure-no-nats-auth, a role refuses to start.
+    let run = plumbline(&["serve", "worker", "--nats", &url, "--store", STORE, "--connect-timeout-s", "1"]).run();
+    run.failure_with(2);
+    assert!(run.stderr.contains("no NATS credentials configured"), "{}", run.stderr);
+
+    let as_user = |user: &'static str| {
+        let config = nats_config(&url, user);
+        async move {
+            let client = service::connect(&config.url, NatsAuth::Config(&config), user, Duration::from_secs(10));
+            let mut js = jetstream::new(client.await.unwrap());
+            js.set_timeout(Duration::from_secs(2));
+            js
+        }
+    };
+    let scheduler = bus::ensure(as_user("scheduler").await).await.expect("the scheduler creates the resources");
+    let worker = bus::bind(as_user("worker").await, Duration::from_secs(5)).await.expect("the worker binds them");
+    let adjuster = bus::bind(as_user("adjuster").await, Duration::from_secs(5)).await.expect("the adjuster too");
+
+    let forged = worker.js.publish("plumbline.tasks.hamburg.forged", "{}".into()).await.unwrap().await;
+    assert!(forged.is_err(), "the worker's user published a task");
+    assert!(worker.js.delete_stream(TASKS_STREAM).await.is_err(), "the worker's user deleted the task stream");
+    let evil = jetstream::stream::Config { name: "EVIL".into(), subjects: vec!["evil.>".into()], ..Default::default() };
+    assert!(worker.js.create_stream(evil.clone()).await.is_err(), "the worker's user created a stream");
+    let tasks = worker.js.get_stream(TASKS_STREAM).await.unwrap();
+    assert!(tasks.purge().await.is_err(), "the worker's user purged the task stream");
+    let result = adjuster.js.publish("plumbline.results.hamburg.forged", "{}".into()).await.unwrap().await;
+    assert!(result.is_err(), "the adjuster's user published a result");
+    assert!(adjuster.js.create_stream(evil).await.is_err(), "the adjuster's user created a stream");
+
+    // Nothing of that reached the server: the task stream is there and empty, no stream EVIL.
+    assert_eq!(scheduler.queued_tasks().await.unwrap(), 0);
+    assert!(scheduler.js.get_stream("EVIL").await.is_err());
+
+    // A worker started as its user binds the resources and gets ready.
+    let dir = tempfile::tempdir().unwrap();
+    let moto = MotoServer::start();
+    let worker =
+        Role::start_as("worker", &url, &moto.endpoint(), dir.path().join("w.log"), &[], "worker", password("worker"));
+    worker.wait_for("worker ready", 1, Duration::from_secs(60));
+    assert!(!worker.log().contains("Permissions Violation"), "{}", worker.log());
 }

@@ -229,7 +229,8 @@ async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
     assert!(c.dead_lettered[0].error.contains("terrain model"), "{:?}", c.dead_lettered[0]);
     // Terminated at its first delivery (permanent), and in the dead-letter stream.
     assert_eq!(worker.log().matches("tile given up").count(), 1, "{}", worker.log());
-    let client = service::connect(&rig.nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let client =
+        service::connect(&rig.nats.url(), service::NatsAuth::Insecure, "test", Duration::from_secs(10)).await.unwrap();
     let js = async_nats::jetstream::new(client);
     let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
     let mut dead = js.get_stream(DEAD_STREAM).await.unwrap();
@@ -260,7 +261,8 @@ async fn a_manifest_forged_on_the_bus_is_not_followed() {
     use plumbline_scheduler::messages::TileTask;
     let rig = Rig::start(|_| {}).await;
     rig.submit().await;
-    let client = service::connect(&rig.nats.url(), None, Duration::from_secs(10)).await.unwrap();
+    let client =
+        service::connect(&rig.nats.url(), service::NatsAuth::Insecure, "test", Duration::from_secs(10)).await.unwrap();
     let bus = plumbline_scheduler::bus::ensure(async_nats::jetstream::new(client)).await.unwrap();
     let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
     let (state, _) = bus.campaigns.get(&id).await.unwrap().unwrap();

@@ -176,6 +176,25 @@ fn secrets_do_not_show_in_debug() {
 }
 
 #[test]
+fn a_role_user_and_its_password_come_from_the_environment() {
+    let dir = tempfile::tempdir().unwrap();
+    let secret = dir.path().join("nats-worker");
+    std::fs::write(&secret, "pw-from-file\n").unwrap();
+    let env = [
+        ("PLUMBLINE_NATS_URL", "nats://nats:4222"),
+        ("PLUMBLINE_NATS_USER", "worker"),
+        ("PLUMBLINE_NATS_PASSWORD_FILE", secret.to_str().unwrap()),
+        ("PLUMBLINE_NATS_TLS_CA_FILE", "/etc/ca.pem"),
+    ];
+    let nats = load_ok("", &env).nats.expect("the environment creates the nats section");
+    assert_eq!(nats.user.as_deref(), Some("worker"));
+    assert_eq!(nats.password, Some(Secret::new("pw-from-file")));
+    assert_eq!(nats.tls_ca_file.as_deref(), Some(std::path::Path::new("/etc/ca.pem")));
+    assert!(nats.has_credentials() && nats.token.is_none());
+    assert!(!format!("{nats:?}").contains("pw-from-file"));
+}
+
+#[test]
 fn invalid_values_are_named() {
     check_err("[store]\nurl = \"gs://bucket\"", &[], &["store.url", "gs"]);
     check_err("[store]\nurl = \"s3:///x\"", &[], &["missing bucket"]);
@@ -184,6 +203,13 @@ fn invalid_values_are_named() {
     check_err("[nats]\nurl = \"http://nats:4222\"", &[], &["nats.url"]);
     check_err("[nats]\ntoken = \"t\"", &[], &["nats.url", "missing"]);
     check_err("[nats]\nurl = \"nats://n:4222\"\ntoken = \"t\"\ncreds_file = \"/c.creds\"", &[], &["choose one"]);
+    check_err(
+        "[nats]\nurl = \"nats://n:4222\"\ntoken = \"t\"\nuser = \"worker\"\npassword = \"p\"",
+        &[],
+        &["choose one"],
+    );
+    check_err("[nats]\nurl = \"nats://n:4222\"\nuser = \"worker\"", &[], &["nats.password", "missing"]);
+    check_err("[nats]\nurl = \"nats://n:4222\"\npassword = \"p\"", &[], &["nats.user", "missing"]);
     check_err("[log]\nfilter = \"info,[[\"", &[], &["log.filter"]);
     check_err("otlp_endpoint = \"not a url\"", &[], &["otlp_endpoint"]);
     check_err("", &[("PLUMBLINE_STORE_URL", "ftp://x")], &["ftp"]);

@@ -8,7 +8,7 @@
 //! | adjuster's consumer | durable pull consumer `adjuster` on `PLUMBLINE_RESULTS` | explicit ack, deliver all (a restarted adjuster replays what it has not acked), `ack_wait` [`ADJUSTER_ACK_WAIT`] | adjuster |
 //! | dead letters | stream `PLUMBLINE_DEAD`, subjects `plumbline.dead.<campaign>` | limits retention, [`DEAD_MAX_AGE`] (30 days) | workers publish a [`TileFailed`] for every task given up on |
 //! | campaign state | KV bucket `plumbline-campaigns`, key = campaign id | history 5, file storage; writers use [`CampaignStore::modify`] (read, change, `update` with the read revision, retry on a lost race) | everyone |
-//! | adjuster's tallies | KV bucket `plumbline-adjuster` (created by the adjuster), key `<campaign>.<run>` | history 1, file storage; the tiles done and failed of a run, revision-checked, so a redelivered result is counted once | adjuster |
+//! | adjuster's tallies | KV bucket `plumbline-adjuster`, key `<campaign>.<run>` | history 1, file storage; the tiles done and failed of a run, revision-checked, so a redelivered result is counted once | adjuster |
 //!
 //! The roles' loops on top of these resources:
 //! - **scheduler** (this crate's [`crate::service`]): stores the manifest and `plan.json`, creates the state
@@ -47,6 +47,8 @@ pub const RESULTS_STREAM: &str = "PLUMBLINE_RESULTS";
 pub const DEAD_STREAM: &str = "PLUMBLINE_DEAD";
 /// The campaign-state KV bucket.
 pub const CAMPAIGNS_BUCKET: &str = "plumbline-campaigns";
+/// The adjuster's KV bucket of the tiles counted per campaign run.
+pub const TALLY_BUCKET: &str = "plumbline-adjuster";
 /// The workers' durable consumer.
 pub const WORKERS_CONSUMER: &str = "workers";
 /// The adjuster's durable consumer.
@@ -169,6 +171,17 @@ pub fn campaigns_bucket() -> kv::Config {
     }
 }
 
+/// The adjuster's tally bucket's config.
+pub fn tally_bucket() -> kv::Config {
+    kv::Config {
+        bucket: TALLY_BUCKET.into(),
+        description: "plumbline adjuster: tiles counted per campaign run".into(),
+        history: 1,
+        storage: stream::StorageType::File,
+        ..Default::default()
+    }
+}
+
 /// A failure talking to JetStream, naming the resource.
 #[derive(Debug, thiserror::Error)]
 pub enum BusError {
@@ -224,9 +237,35 @@ pub async fn ensure(js: jetstream::Context) -> Result<Bus, BusError> {
     ensure_consumer(&tasks, workers_consumer(), WORKERS_CONSUMER).await?;
     let results = js.get_stream(RESULTS_STREAM).await.map_err(|e| setup(RESULTS_STREAM)(e.to_string()))?;
     ensure_consumer(&results, adjuster_consumer(), ADJUSTER_CONSUMER).await?;
+    js.create_or_update_key_value(tally_bucket()).await.map_err(|e| setup(TALLY_BUCKET)(e.to_string()))?;
     let kv =
         js.create_or_update_key_value(campaigns_bucket()).await.map_err(|e| setup(CAMPAIGNS_BUCKET)(e.to_string()))?;
     Ok(Bus { js, campaigns: CampaignStore { kv } })
+}
+
+/// Bind the resources [`ensure`] creates, changing nothing: the worker's and the adjuster's way, whose NATS
+/// users may not create or change streams (deploy/nats.conf). Waits up to `wait` for a scheduler to have
+/// created them.
+pub async fn bind(js: jetstream::Context, wait: Duration) -> Result<Bus, BusError> {
+    let started = std::time::Instant::now();
+    loop {
+        match try_bind(&js).await {
+            Ok(bus) => return Ok(bus),
+            Err(e) if started.elapsed() < wait => {
+                tracing::warn!(error = %e, "JetStream resources not there yet (has the scheduler started?); retrying");
+                tokio::time::sleep(Duration::from_secs(1)).await;
+            }
+            Err(e) => return Err(e),
+        }
+    }
+}
+
+async fn try_bind(js: &jetstream::Context) -> Result<Bus, BusError> {
+    for name in [TASKS_STREAM, RESULTS_STREAM, DEAD_STREAM] {
+        js.get_stream(name).await.map_err(|e| setup(name)(e.to_string()))?;
+    }
+    let kv = js.get_key_value(CAMPAIGNS_BUCKET).await.map_err(|e| setup(CAMPAIGNS_BUCKET)(e.to_string()))?;
+    Ok(Bus { js: js.clone(), campaigns: CampaignStore { kv } })
 }
 
 async fn ensure_consumer(

@@ -37,12 +37,27 @@ pub struct NatsServer {
     child: Option<Child>,
     port: u16,
     store: tempfile::TempDir,
+    /// A config file (`-c`) and the environment it reads (e.g. passwords), when started with one.
+    config: Option<(std::path::PathBuf, Vec<(String, String)>)>,
 }
 
 impl NatsServer {
     /// Start on a free port with a fresh store and wait until it accepts clients. Panics (failing the
     /// test) with an install hint when the binary is missing or older than [`MIN_NATS_VERSION`].
     pub fn start() -> Self {
+        Self::start_inner(None)
+    }
+
+    /// [`Self::start`] with a config file (`nats-server -c FILE`, e.g. the deployment's `deploy/nats.conf`
+    /// with its users and permissions) and the environment variables it references. Address, port,
+    /// monitoring port and store directory are overridden on the command line, so the file's own do not
+    /// clash.
+    pub fn start_with_config(file: &Path, env: &[(&str, &str)]) -> Self {
+        let env = env.iter().map(|(k, v)| ((*k).to_owned(), (*v).to_owned())).collect();
+        Self::start_inner(Some((file.to_owned(), env)))
+    }
+
+    fn start_inner(config: Option<(std::path::PathBuf, Vec<(String, String)>)>) -> Self {
         let (major, minor, patch) = nats_server_version().unwrap_or_else(|e| panic!("{e}"));
         assert!(
             (major, minor) >= MIN_NATS_VERSION,
@@ -51,7 +66,7 @@ impl NatsServer {
             MIN_NATS_VERSION.1
         );
         let store = tempfile::tempdir().expect("temporary JetStream store directory");
-        let mut server = Self { child: None, port: free_port(), store };
+        let mut server = Self { child: None, port: free_port(), store, config };
         server.spawn();
         server
     }
@@ -81,12 +96,33 @@ impl NatsServer {
     }
 
     fn spawn(&mut self) {
-        let child = Command::new("nats-server")
-            .args(["-js", "-a", "127.0.0.1", "-p", &self.port.to_string(), "-sd"])
-            .arg(self.store.path())
+        let mut command = Command::new("nats-server");
+        command.args(["-js", "-a", "127.0.0.1", "-p", &self.port.to_string()]);
+        match &self.config {
+            // The server refuses `-sd` beside a file's `store_dir`: a copy of the file names the store.
+            Some((file, env)) => {
+                let text = std::fs::read_to_string(file)
+                    .unwrap_or_else(|e| panic!("nats-server config {}: {e}", file.display()));
+                let store = format!("  store_dir: {:?}", self.store.path().join("js"));
+                let lines: Vec<&str> = text
+                    .lines()
+                    .map(|l| if l.trim_start().starts_with("store_dir") { store.as_str() } else { l })
+                    .collect();
+                let copy = self.store.path().join("nats.conf");
+                std::fs::write(&copy, lines.join("\n")).expect("write the nats-server config copy");
+                command.arg("-c").arg(copy).args(["-m", &free_port().to_string()]).envs(env.iter().cloned());
+            }
+            None => {
+                command.arg("-sd").arg(self.store.path());
+            }
+        }
+        let child = command
             .stdin(Stdio::null())
             .stdout(Stdio::null())
-            .stderr(Stdio::null())
+            .stderr(
+                std::fs::File::create(self.store.path().join("nats-server.log"))
+                    .map_or_else(|_| Stdio::null(), Stdio::from),
+            )
             .spawn()
             .unwrap_or_else(|e| panic!("cannot start nats-server ({e}); {INSTALL_HINT}"));
         self.child = Some(child);
@@ -97,7 +133,8 @@ impl NatsServer {
         let started = Instant::now();
         loop {
             if let Some(Ok(Some(status))) = self.child.as_mut().map(Child::try_wait) {
-                panic!("nats-server exited at startup with {status} (port {} taken?)", self.port);
+                let log = std::fs::read_to_string(self.store.path().join("nats-server.log")).unwrap_or_default();
+                panic!("nats-server exited at startup with {status} (port {} taken?): {log}", self.port);
             }
             if self.greets() {
                 return;

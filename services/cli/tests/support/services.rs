@@ -18,10 +18,35 @@ pub struct Role {
 }
 
 impl Role {
-    /// Start `plumbline serve ROLE` against `nats` and the S3 endpoint `s3` (moto or a proxy in front of it).
+    /// Start `plumbline serve ROLE` against `nats` (without authentication: `--insecure-no-nats-auth`) and
+    /// the S3 endpoint `s3` (moto or a proxy in front of it).
     pub fn start(role: &str, nats: &str, s3: &str, log: PathBuf, extra: &[&str]) -> Self {
+        Self::spawn(Self::command(role, nats, s3, &log).arg("--insecure-no-nats-auth").args(extra), log)
+    }
+
+    /// [`Self::start`] as the NATS user `user` with `password` (given as `PLUMBLINE_NATS_PASSWORD_FILE`).
+    pub fn start_as(
+        role: &str,
+        nats: &str,
+        s3: &str,
+        log: PathBuf,
+        extra: &[&str],
+        user: &str,
+        password: &str,
+    ) -> Self {
+        let secret = log.with_extension("nats-password");
+        std::fs::write(&secret, format!("{password}\n")).expect("write the password file");
+        let mut cmd = Self::command(role, nats, s3, &log);
+        cmd.args(extra)
+            .env("PLUMBLINE_NATS_URL", nats)
+            .env("PLUMBLINE_NATS_USER", user)
+            .env("PLUMBLINE_NATS_PASSWORD_FILE", &secret);
+        Self::spawn(&mut cmd, log)
+    }
+
+    fn command(role: &str, nats: &str, s3: &str, log: &Path) -> Command {
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_plumbline"));
-        cmd.args(["serve", role, "--nats", nats, "--store", STORE]).args(extra);
+        cmd.args(["serve", role, "--nats", nats, "--store", STORE]);
         for (key, _) in std::env::vars() {
             if key.starts_with("PLUMBLINE_") {
                 cmd.env_remove(key);
@@ -32,8 +57,24 @@ impl Role {
             .env("PLUMBLINE_S3_SECRET_ACCESS_KEY", "test")
             .env("PLUMBLINE_LOG_FILTER", "info")
             .stdout(Stdio::null())
-            .stderr(std::fs::File::create(&log).expect("role log file"));
+            .stderr(std::fs::File::create(log).expect("role log file"));
+        cmd
+    }
+
+    fn spawn(cmd: &mut Command, log: PathBuf) -> Self {
         Self { child: cmd.spawn().expect("plumbline serve starts"), log }
+    }
+
+    /// Wait for the process to exit (up to `limit`): its exit code.
+    pub fn exit_code(&mut self, limit: Duration) -> Option<i32> {
+        let start = Instant::now();
+        loop {
+            if let Some(status) = self.child.try_wait().expect("poll the role") {
+                return status.code();
+            }
+            assert!(start.elapsed() < limit, "the role still runs after {limit:?}:\n{}", self.log());
+            std::thread::sleep(Duration::from_millis(50));
+        }
     }
 
     /// What the process logged so far.
@@ -131,10 +172,16 @@ pub struct SchedulerApi {
 }
 
 impl SchedulerApi {
-    /// Connect to `nats`, start the scheduler and serve its API.
+    /// Connect to `nats` without authentication, start the scheduler and serve its API.
     pub async fn start(nats: &str, files: Files) -> Self {
+        Self::start_as(nats, files, plumbline_scheduler::service::NatsAuth::Insecure).await
+    }
+
+    /// [`Self::start`] with NATS credentials.
+    pub async fn start_as(nats: &str, files: Files, auth: plumbline_scheduler::service::NatsAuth<'_>) -> Self {
         use plumbline_scheduler::service::{self, Scheduler, Tokens};
-        let client = service::connect(nats, None, Duration::from_secs(10)).await.expect("connect to nats-server");
+        let client =
+            service::connect(nats, auth, "scheduler", Duration::from_secs(10)).await.expect("connect to nats-server");
         let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).expect("the test token");
         let scheduler = Scheduler::start(client, files, STORE, tokens).await.expect("start the scheduler");
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("a free loopback port");

@@ -16,6 +16,9 @@ pub(super) const S3_SECRET_ACCESS_KEY: &str = "PLUMBLINE_S3_SECRET_ACCESS_KEY";
 pub(super) const NATS_URL: &str = "PLUMBLINE_NATS_URL";
 pub(super) const NATS_CREDS_FILE: &str = "PLUMBLINE_NATS_CREDS_FILE";
 pub(super) const NATS_TOKEN: &str = "PLUMBLINE_NATS_TOKEN";
+pub(super) const NATS_USER: &str = "PLUMBLINE_NATS_USER";
+pub(super) const NATS_PASSWORD: &str = "PLUMBLINE_NATS_PASSWORD";
+pub(super) const NATS_TLS_CA_FILE: &str = "PLUMBLINE_NATS_TLS_CA_FILE";
 pub(super) const LOG_FORMAT: &str = "PLUMBLINE_LOG_FORMAT";
 pub(super) const LOG_FILTER: &str = "PLUMBLINE_LOG_FILTER";
 pub(super) const OTLP_ENDPOINT: &str = "PLUMBLINE_OTLP_ENDPOINT";
@@ -42,16 +45,29 @@ pub(super) fn apply_overrides(raw: &mut RawConfig, env: &HashMap<String, String>
 
 /// A NATS variable creates the `[nats]` section when the file has none.
 fn apply_nats_overrides(raw: &mut RawConfig, env: &HashMap<String, String>) {
-    let wanted = [NATS_URL, NATS_CREDS_FILE, NATS_TOKEN, &format!("{NATS_TOKEN}_FILE")]
-        .iter()
-        .any(|var| lookup(env, var).is_some());
+    let wanted = [
+        NATS_URL,
+        NATS_CREDS_FILE,
+        NATS_TOKEN,
+        &format!("{NATS_TOKEN}_FILE"),
+        NATS_USER,
+        NATS_PASSWORD,
+        &format!("{NATS_PASSWORD}_FILE"),
+        NATS_TLS_CA_FILE,
+    ]
+    .iter()
+    .any(|var| lookup(env, var).is_some());
     if raw.nats.is_none() && wanted {
         raw.nats = Some(RawNats::default());
     }
     if let Some(nats) = raw.nats.as_mut() {
         set_string(&mut nats.url, env, NATS_URL);
+        set_string(&mut nats.user, env, NATS_USER);
         if let Some(path) = lookup(env, NATS_CREDS_FILE) {
             nats.creds_file = Some(PathBuf::from(path));
+        }
+        if let Some(path) = lookup(env, NATS_TLS_CA_FILE) {
+            nats.tls_ca_file = Some(PathBuf::from(path));
         }
     }
 }

@@ -15,7 +15,10 @@
 //!
 //! [nats]                                         # optional: absent means the in-process queue
 //! url = "nats://nats:4222"
-//! token_file = "/run/secrets/nats"               # or token = "…", or creds_file = "/path/user.creds"
+//! user = "worker"                                # one role's user (deploy/nats.conf gives each role
+//! password_file = "/run/secrets/nats-worker"     #   its subject permissions); or token / token_file,
+//!                                                #   or creds_file = "/path/user.creds" (JWT + nkey)
+//! tls_ca_file = "/run/secrets/nats-ca.pem"       # optional: require TLS, trusting this CA
 //!
 //! [log]
 //! format = "json"                                # "pretty" (default) or "json"
@@ -25,9 +28,10 @@
 //! Environment overrides (an empty value counts as unset): `PLUMBLINE_STORE_URL`,
 //! `PLUMBLINE_S3_ENDPOINT`, `PLUMBLINE_S3_REGION`, `PLUMBLINE_S3_ACCESS_KEY_ID`,
 //! `PLUMBLINE_S3_ALLOW_HTTP`, `PLUMBLINE_S3_VIRTUAL_HOSTED_STYLE`, `PLUMBLINE_NATS_URL`,
-//! `PLUMBLINE_NATS_CREDS_FILE`, `PLUMBLINE_LOG_FORMAT`, `PLUMBLINE_LOG_FILTER`,
-//! `PLUMBLINE_OTLP_ENDPOINT`. Secrets: `PLUMBLINE_S3_SECRET_ACCESS_KEY` and `PLUMBLINE_NATS_TOKEN`,
-//! each also as `…_FILE` naming a file; precedence env value, env file, config value, config file.
+//! `PLUMBLINE_NATS_CREDS_FILE`, `PLUMBLINE_NATS_USER`, `PLUMBLINE_NATS_TLS_CA_FILE`, `PLUMBLINE_LOG_FORMAT`,
+//! `PLUMBLINE_LOG_FILTER`, `PLUMBLINE_OTLP_ENDPOINT`. Secrets: `PLUMBLINE_S3_SECRET_ACCESS_KEY`,
+//! `PLUMBLINE_NATS_TOKEN` and `PLUMBLINE_NATS_PASSWORD`, each also as `…_FILE` naming a file; precedence env
+//! value, env file, config value, config file.
 
 mod env;
 mod error;
@@ -72,13 +76,26 @@ pub struct StoreConfig {
     pub s3: S3Options,
 }
 
-/// How to reach NATS. At most one of `token` and `creds_file` is set.
+/// How to reach NATS. At most one way of authenticating is set: `token`, `creds_file`, or `user` with
+/// `password`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct NatsConfig {
     pub url: String,
     pub token: Option<Secret>,
     /// A NATS `.creds` file (JWT + nkey seed), handed to the client, which reads it.
     pub creds_file: Option<PathBuf>,
+    /// A user of the server's `authorization { users = [...] }`, with its `password`.
+    pub user: Option<String>,
+    pub password: Option<Secret>,
+    /// When set, the connection must use TLS and the server's certificate must chain to this CA (PEM).
+    pub tls_ca_file: Option<PathBuf>,
+}
+
+impl NatsConfig {
+    /// Whether any credentials are configured.
+    pub fn has_credentials(&self) -> bool {
+        self.token.is_some() || self.creds_file.is_some() || self.user.is_some()
+    }
 }
 
 /// Log output: format and an `EnvFilter` directive string.
@@ -169,5 +186,13 @@ fn resolve_nats(raw: RawNats, env: &HashMap<String, String>) -> Result<NatsConfi
     };
     let url =
         raw.url.ok_or_else(|| ConfigError::invalid("nats.url", format!("missing (set it or {})", env::NATS_URL)))?;
-    Ok(NatsConfig { url, token: secrets::resolve(sources, env)?, creds_file: raw.creds_file })
+    let token = secrets::resolve(sources, env)?;
+    let sources = SecretSources {
+        name: "nats.password",
+        env_var: env::NATS_PASSWORD,
+        config_value: raw.password,
+        config_file: raw.password_file,
+    };
+    let password = secrets::resolve(sources, env)?;
+    Ok(NatsConfig { url, token, creds_file: raw.creds_file, user: raw.user, password, tls_ca_file: raw.tls_ca_file })
 }

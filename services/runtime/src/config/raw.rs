@@ -45,6 +45,10 @@ pub(super) struct RawNats {
     pub token: Option<Secret>,
     pub token_file: Option<PathBuf>,
     pub creds_file: Option<PathBuf>,
+    pub user: Option<String>,
+    pub password: Option<Secret>,
+    pub password_file: Option<PathBuf>,
+    pub tls_ca_file: Option<PathBuf>,
 }
 
 #[derive(Debug, Default, Deserialize)]

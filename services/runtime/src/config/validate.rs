@@ -23,8 +23,16 @@ pub(super) fn validate(config: &RuntimeConfig) -> Result<(), ConfigError> {
 
 fn validate_nats(nats: &NatsConfig) -> Result<(), ConfigError> {
     check_url("nats.url", &nats.url, &["nats", "tls", "ws", "wss"])?;
-    if nats.token.is_some() && nats.creds_file.is_some() {
-        return Err(ConfigError::Conflict("both nats.token and nats.creds_file are set; choose one".to_owned()));
+    let ways = [nats.token.is_some(), nats.creds_file.is_some(), nats.user.is_some()];
+    if ways.iter().filter(|set| **set).count() > 1 {
+        return Err(ConfigError::Conflict(
+            "more than one of nats.token, nats.creds_file and nats.user are set; choose one".to_owned(),
+        ));
+    }
+    match (&nats.user, &nats.password) {
+        (Some(_), None) => return Err(ConfigError::invalid("nats.password", "missing: nats.user needs a password")),
+        (None, Some(_)) => return Err(ConfigError::invalid("nats.user", "missing: nats.password needs a user")),
+        _ => {}
     }
     Ok(())
 }

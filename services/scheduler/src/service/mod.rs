@@ -31,7 +31,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::Router;
-use plumbline_runtime::{Files, Secret};
+use plumbline_runtime::{Files, NatsConfig};
 
 pub use auth::{Agency, MIN_TOKEN_LEN, Tokens};
 pub use openapi::openapi;
@@ -128,17 +128,28 @@ impl Scheduler {
     }
 }
 
-/// Connect to NATS, retrying the first connection for up to `wait`; later outages are bridged by the
-/// client's unlimited reconnects.
-pub async fn connect(url: &str, token: Option<&Secret>, wait: Duration) -> anyhow::Result<async_nats::Client> {
+/// How a role authenticates to NATS: [`NatsConfig`]'s credentials, or none when the caller chose to run
+/// without (a development server; `plumbline serve --insecure-no-nats-auth`).
+#[derive(Clone, Copy, Debug)]
+pub enum NatsAuth<'a> {
+    /// The configured credentials (and TLS).
+    Config(&'a NatsConfig),
+    /// No credentials, no TLS.
+    Insecure,
+}
+
+/// Connect to NATS as `plumbline-{role}`, retrying the first connection for up to `wait` (an authorization
+/// failure is not retried: it would not pass). Every later disconnection and reconnection is logged; the
+/// client reconnects without limit.
+pub async fn connect(url: &str, auth: NatsAuth<'_>, role: &str, wait: Duration) -> anyhow::Result<async_nats::Client> {
     let started = std::time::Instant::now();
     loop {
-        let mut options = async_nats::ConnectOptions::new().name("plumbline-scheduler");
-        if let Some(token) = token {
-            options = options.token(token.expose().to_owned());
-        }
+        let options = connect_options(auth, role).await?;
         match options.connect(url).await {
             Ok(client) => return Ok(client),
+            Err(e) if e.kind() == async_nats::ConnectErrorKind::AuthorizationViolation => {
+                return Err(anyhow::anyhow!("NATS at {url} refused plumbline-{role}'s credentials: {e}"));
+            }
             Err(e) if started.elapsed() < wait => {
                 tracing::warn!(url, error = %e, "NATS not reachable yet; retrying");
                 tokio::time::sleep(Duration::from_millis(500)).await;
@@ -146,6 +157,33 @@ pub async fn connect(url: &str, token: Option<&Secret>, wait: Duration) -> anyho
             Err(e) => return Err(anyhow::anyhow!("connecting to NATS at {url}: {e}")),
         }
     }
+}
+
+async fn connect_options(auth: NatsAuth<'_>, role: &str) -> anyhow::Result<async_nats::ConnectOptions> {
+    let mut options =
+        async_nats::ConnectOptions::new().name(format!("plumbline-{role}")).event_callback(|event| async move {
+            match event {
+                async_nats::Event::Connected => tracing::info!(%event, "NATS connection event"),
+                _ => tracing::warn!(%event, "NATS connection event"),
+            }
+        });
+    let NatsAuth::Config(config) = auth else { return Ok(options) };
+    if let Some(token) = &config.token {
+        options = options.token(token.expose().to_owned());
+    }
+    if let (Some(user), Some(password)) = (&config.user, &config.password) {
+        options = options.user_and_password(user.clone(), password.expose().to_owned());
+    }
+    if let Some(path) = &config.creds_file {
+        options = options
+            .credentials_file(path)
+            .await
+            .map_err(|e| anyhow::anyhow!("NATS credentials file {}: {e}", path.display()))?;
+    }
+    if let Some(ca) = &config.tls_ca_file {
+        options = options.add_root_certificates(ca.clone()).require_tls(true);
+    }
+    Ok(options)
 }
 
 /// The router of the job API.

@@ -79,7 +79,8 @@ impl Harness {
     ) -> Self {
         let nats = NatsServer::start();
         let tokens = Tokens::from_pairs(&[(HAMBURG, "hamburg"), (BREMEN, "bremen")]).unwrap();
-        let client = service::connect(&nats.url(), None, Duration::from_secs(10)).await.unwrap();
+        let client =
+            service::connect(&nats.url(), service::NatsAuth::Insecure, "test", Duration::from_secs(10)).await.unwrap();
         let scheduler = Scheduler::start_with(client, files.clone(), &store, tokens, quotas).await.unwrap();
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
         let server = format!("http://{}", listener.local_addr().unwrap());
