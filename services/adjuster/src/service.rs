@@ -2,7 +2,7 @@
 //! `adjuster` consumer, following the protocol of [`plumbline_scheduler::bus`]:
 //!
 //! - each [`TileDone`]/[`TileFailed`] is recorded once per campaign run in the tally bucket
-//!   [`TALLY_BUCKET`] (key `<campaign>.<run>`: the tiles done and failed, revision-checked), and the
+//!   [`TALLY_BUCKET`] (key `<agency>.<campaign>.<run>`: the tiles done and failed, revision-checked), and the
 //!   campaign's KV state takes its counters from the tally — so a redelivered result changes nothing;
 //!   `queued` becomes `running`, failed tiles are listed in `dead_lettered`;
 //! - when done + failed == total the state becomes `adjusting`, every done tile's output is read from the
@@ -32,7 +32,7 @@ use plumbline_geo::tiling::TileId;
 use plumbline_runtime::{Files, StoreError};
 use plumbline_scheduler::SkippedInput;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
-use plumbline_scheduler::messages::{CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
+use plumbline_scheduler::messages::{Agency, CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
 use plumbline_scheduler::service::load_agency_campaign;
 use plumbline_worker::service::metrics::Registry;
 use plumbline_worker::service::ops::{Probe, serve_ops};
@@ -109,12 +109,17 @@ impl Outcome {
         }
     }
 
-    fn campaign_run(&self) -> (&plumbline_campaign::CampaignId, u32) {
+    fn campaign_run(&self) -> (&Agency, &plumbline_campaign::CampaignId, u32) {
         match self {
-            Self::Done(d) => (&d.campaign, d.run),
-            Self::Failed(f) => (&f.campaign, f.run),
+            Self::Done(d) => (&d.agency, &d.campaign, d.run),
+            Self::Failed(f) => (&f.agency, &f.campaign, f.run),
         }
     }
+}
+
+/// The tally key of a campaign run: `<agency>.<campaign>.<run>`.
+fn tally_key(agency: &Agency, id: &plumbline_campaign::CampaignId, run: u32) -> String {
+    format!("{agency}.{id}.{run}")
 }
 
 /// The adjuster's state.
@@ -213,15 +218,15 @@ impl Adjuster {
 
     /// Count the result into the tally and the state; finish the campaign when every tile is handled.
     async fn record(&self, outcome: &Outcome, delivered: i64) -> anyhow::Result<()> {
-        let (id, run) = outcome.campaign_run();
-        let Some((state, _)) = self.bus.campaigns.get(id).await? else {
+        let (agency, id, run) = outcome.campaign_run();
+        let Some((state, _)) = self.bus.campaigns.get(agency, id).await? else {
             tracing::warn!(campaign = id.as_str(), "result of an unknown campaign dropped");
             return Ok(());
         };
         if state.run != run || state.status.is_terminal() {
             return Ok(());
         }
-        let (tally, counted_now) = self.add_to_tally(&format!("{}.{run}", id.as_str()), outcome).await?;
+        let (tally, counted_now) = self.add_to_tally(&tally_key(agency, id, run), outcome).await?;
         if counted_now {
             let kind = if matches!(outcome, Outcome::Done(_)) { "done" } else { "failed" };
             self.metrics.add("plumbline_adjuster_results_total", &[("outcome", kind)], 1.0);
@@ -230,7 +235,7 @@ impl Adjuster {
         let written = self
             .bus
             .campaigns
-            .modify(id, move |s| {
+            .modify(agency, id, move |s| {
                 if s.run != run || s.status.is_terminal() || s.status == CampaignStatus::Adjusting {
                     return false;
                 }
@@ -305,7 +310,7 @@ impl Adjuster {
         };
         self.bus
             .campaigns
-            .modify(&state.id, move |s| {
+            .modify(&state.agency, &state.id, move |s| {
                 if s.run != run || s.status != CampaignStatus::Adjusting {
                     return false;
                 }
@@ -322,13 +327,13 @@ impl Adjuster {
 
     /// Read the done tiles' outputs and run [`finish`]; the report's URL.
     async fn adjust(&self, state: &CampaignState) -> anyhow::Result<String> {
-        let key = format!("{}.{}", state.id.as_str(), state.run);
+        let key = tally_key(&state.agency, &state.id, state.run);
         let entry = self.tallies.entry(key.as_str()).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
         let tally: Tally = match entry {
             Some(e) => serde_json::from_slice(&e.value)?,
             None => Tally::default(),
         };
-        let mut campaign = load_agency_campaign(&self.files, &state.manifest, &state.agency, &state.id).await?;
+        let mut campaign = load_agency_campaign(&self.files, &state.manifest, state.agency.as_str(), &state.id).await?;
         let mut outputs = Vec::with_capacity(tally.done.len());
         for tile in &tally.done {
             outputs.push(read_output(&self.files, &format!("{}{}", campaign.output, tile_key(tile))).await?);
@@ -362,6 +367,7 @@ mod tests {
 
     fn done(col: i64) -> Outcome {
         Outcome::Done(TileDone {
+            agency: Agency::parse("hamburg").unwrap(),
             campaign: "hh-2024".parse().unwrap(),
             run: 1,
             tile: TileId { col, row: 0 },
@@ -385,6 +391,7 @@ mod tests {
         assert!(tally.record(&done(1)));
         assert!(!tally.record(&done(1)), "a redelivered TileDone counts again");
         let failed = Outcome::Failed(TileFailed {
+            agency: Agency::parse("hamburg").unwrap(),
             campaign: "hh-2024".parse().unwrap(),
             run: 1,
             tile: TileId { col: 2, row: 0 },

@@ -235,7 +235,8 @@ async fn a_poison_tile_is_dead_lettered_reported_and_the_rest_completes() {
     let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
     let mut dead = js.get_stream(DEAD_STREAM).await.unwrap();
     assert_eq!(dead.info().await.unwrap().state.messages, 1);
-    let letter = dead.get_last_raw_message_by_subject(&dead_subject(&id)).await.unwrap();
+    let hamburg = plumbline_scheduler::messages::Agency::parse("hamburg").unwrap();
+    let letter = dead.get_last_raw_message_by_subject(&dead_subject(&hamburg, &id)).await.unwrap();
     let letter = TileFailed::from_json(&letter.payload).unwrap();
     assert_eq!((letter.tile, letter.kind, letter.attempts), (tile, FailureKind::Permanent, 1));
     // The report names the missing tile; `plumbline status` shows it with its reason.
@@ -265,7 +266,8 @@ async fn a_manifest_forged_on_the_bus_is_not_followed() {
         service::connect(&rig.nats.url(), service::NatsAuth::Insecure, "test", Duration::from_secs(10)).await.unwrap();
     let bus = plumbline_scheduler::bus::ensure(async_nats::jetstream::new(client)).await.unwrap();
     let id: plumbline_campaign::CampaignId = shared().id.parse().unwrap();
-    let (state, _) = bus.campaigns.get(&id).await.unwrap().unwrap();
+    let hamburg = plumbline_scheduler::messages::Agency::parse("hamburg").unwrap();
+    let (state, _) = bus.campaigns.get(&hamburg, &id).await.unwrap().unwrap();
     // Another agency's folder: the manifest there is not this agency's stored one.
     let forged = state.manifest.replace("/agencies/hamburg/", "/agencies/bremen/");
     assert_ne!(forged, state.manifest);
@@ -273,7 +275,7 @@ async fn a_manifest_forged_on_the_bus_is_not_followed() {
     rig.files.write(&forged, text).await.unwrap();
     let set = forged.clone();
     bus.campaigns
-        .modify(&id, move |c| {
+        .modify(&hamburg, &id, move |c| {
             c.manifest = set.clone();
             true
         })
@@ -281,7 +283,14 @@ async fn a_manifest_forged_on_the_bus_is_not_followed() {
         .unwrap()
         .unwrap();
     let tile = plumbline_geo::tiling::TileId { col: 9_999, row: 9_999 };
-    let task = TileTask { campaign: id.clone(), run: state.run, manifest: forged, tile, output: state.output };
+    let task = TileTask {
+        agency: hamburg.clone(),
+        campaign: id.clone(),
+        run: state.run,
+        manifest: forged,
+        tile,
+        output: state.output,
+    };
     assert!(bus.publish_task(&task).await.unwrap());
     let (_adjuster, worker) = rig.roles(&rig.moto.endpoint());
     worker.wait_for("tile given up", 1, LIMIT);

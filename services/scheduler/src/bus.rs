@@ -2,18 +2,19 @@
 //!
 //! | resource | name | settings | used by |
 //! |---|---|---|---|
-//! | work queue | stream `PLUMBLINE_TASKS`, subjects `plumbline.tasks.<campaign>` | work-queue retention (a task is gone once acked), file storage, `Nats-Msg-Id` de-duplication over [`DUPLICATE_WINDOW`] (1 h) | scheduler publishes [`TileTask`]s, one per tile, id `<campaign>.<run>.<tile>` |
+//! | work queue | stream `PLUMBLINE_TASKS`, subjects `plumbline.tasks.<agency>.<campaign>` | work-queue retention (a task is gone once acked), file storage, `Nats-Msg-Id` de-duplication over [`DUPLICATE_WINDOW`] (1 h) | scheduler publishes [`TileTask`]s, one per tile, id `<agency>.<campaign>.<run>.<tile>` |
 //! | workers' consumer | durable pull consumer `workers` on `PLUMBLINE_TASKS` | explicit ack, `ack_wait` [`ACK_WAIT`] (60 s; workers send in-progress acks every [`HEARTBEAT`] while a tile runs), `max_deliver` [`MAX_DELIVER`] (5), redelivery backoff [`BACKOFF`] after ack timeouts (its first step equals `ack_wait`), `max_ack_pending` [`MAX_ACK_PENDING`] | workers: ack after the tile's output is written; nak with a delay on retryable errors; `term` + dead letter on permanent ones or on the last delivery |
-//! | results | stream `PLUMBLINE_RESULTS`, subjects `plumbline.results.<campaign>` | limits retention, [`RESULTS_MAX_AGE`] (7 days), file storage | workers publish [`TileDone`]/[`TileFailed`] |
+//! | results | stream `PLUMBLINE_RESULTS`, subjects `plumbline.results.<agency>.<campaign>` | limits retention, [`RESULTS_MAX_AGE`] (7 days), file storage | workers publish [`TileDone`]/[`TileFailed`] |
 //! | adjuster's consumer | durable pull consumer `adjuster` on `PLUMBLINE_RESULTS` | explicit ack, deliver all (a restarted adjuster replays what it has not acked), `ack_wait` [`ADJUSTER_ACK_WAIT`] | adjuster |
-//! | dead letters | stream `PLUMBLINE_DEAD`, subjects `plumbline.dead.<campaign>` | limits retention, [`DEAD_MAX_AGE`] (30 days) | workers publish a [`TileFailed`] for every task given up on |
-//! | campaign state | KV bucket `plumbline-campaigns`, key = campaign id | history 5, file storage; writers use [`CampaignStore::modify`] (read, change, `update` with the read revision, retry on a lost race) | everyone |
-//! | adjuster's tallies | KV bucket `plumbline-adjuster`, key `<campaign>.<run>` | history 1, file storage; the tiles done and failed of a run, revision-checked, so a redelivered result is counted once | adjuster |
+//! | dead letters | stream `PLUMBLINE_DEAD`, subjects `plumbline.dead.<agency>.<campaign>` | limits retention, [`DEAD_MAX_AGE`] (30 days) | workers publish a [`TileFailed`] for every task given up on |
+//! | campaign state | KV bucket `plumbline-campaigns`, key `<agency>.<campaign>` ([`campaign_key`]; ids are per agency) | history 5, file storage; writers use [`CampaignStore::modify`] (read, change, `update` with the read revision, retry on a lost race); a state whose agency or id is not its key's is refused | everyone |
+//! | adjuster's tallies | KV bucket `plumbline-adjuster`, key `<agency>.<campaign>.<run>` | history 1, file storage; the tiles done and failed of a run, revision-checked, so a redelivered result is counted once | adjuster |
 //!
 //! The roles' loops on top of these resources:
 //! - **scheduler** (this crate's [`crate::service`]): stores the manifest and `plan.json`, creates the state
 //!   (`queued`, run n) and only then publishes the run's tasks, each with `Nats-Msg-Id`
-//!   `<campaign>.<run>.<tile>` ([`task_message_id`]), so a resubmission within the window adds nothing.
+//!   `<agency>.<campaign>.<run>.<tile>` ([`task_message_id`]), so a resubmission within the window adds
+//!   nothing.
 //! - **worker**: fetch from `workers`; read the state: a task whose campaign is `cancelled`/`failed`, or
 //!   whose run is not the state's run, is acked and dropped. Otherwise set `running` (if `queued`), process
 //!   the tile (off the async runtime) sending `AckKind::Progress` every [`HEARTBEAT`], write the output to
@@ -37,7 +38,7 @@ use async_nats::jetstream::{self, consumer, kv, stream};
 use plumbline_campaign::CampaignId;
 use plumbline_geo::tiling::TileId;
 
-use crate::messages::{CampaignState, MessageError, TileFailed, TileTask};
+use crate::messages::{Agency, CampaignState, MessageError, TileFailed, TileTask};
 
 /// The work-queue stream.
 pub const TASKS_STREAM: &str = "PLUMBLINE_TASKS";
@@ -73,24 +74,29 @@ pub const DEAD_MAX_AGE: Duration = Duration::from_secs(30 * 24 * 3600);
 /// Time the adjuster has to ack a result.
 pub const ADJUSTER_ACK_WAIT: Duration = Duration::from_secs(300);
 
+/// The KV key of a campaign's state: `<agency>.<campaign>` (neither holds a dot).
+pub fn campaign_key(agency: &Agency, campaign: &CampaignId) -> String {
+    format!("{agency}.{campaign}")
+}
+
 /// The subject of a campaign's tasks.
-pub fn task_subject(campaign: &CampaignId) -> String {
-    format!("plumbline.tasks.{}", campaign.as_str())
+pub fn task_subject(agency: &Agency, campaign: &CampaignId) -> String {
+    format!("plumbline.tasks.{agency}.{campaign}")
 }
 
 /// The subject of a campaign's results.
-pub fn result_subject(campaign: &CampaignId) -> String {
-    format!("plumbline.results.{}", campaign.as_str())
+pub fn result_subject(agency: &Agency, campaign: &CampaignId) -> String {
+    format!("plumbline.results.{agency}.{campaign}")
 }
 
 /// The subject of a campaign's dead letters.
-pub fn dead_subject(campaign: &CampaignId) -> String {
-    format!("plumbline.dead.{}", campaign.as_str())
+pub fn dead_subject(agency: &Agency, campaign: &CampaignId) -> String {
+    format!("plumbline.dead.{agency}.{campaign}")
 }
 
 /// The `Nats-Msg-Id` of a task: the same tile of the same run is published once within the window.
-pub fn task_message_id(campaign: &CampaignId, run: u32, tile: &TileId) -> String {
-    format!("{}.{run}.{tile}", campaign.as_str())
+pub fn task_message_id(agency: &Agency, campaign: &CampaignId, run: u32, tile: &TileId) -> String {
+    format!("{agency}.{campaign}.{run}.{tile}")
 }
 
 /// The work-queue stream's config.
@@ -209,6 +215,15 @@ pub enum BusError {
         /// The message.
         detail: String,
     },
+    /// A stored state names another agency or campaign than its key: written by someone other than the
+    /// roles, never served or followed.
+    #[error("campaign state {key}: {detail}")]
+    Forged {
+        /// The KV key.
+        key: String,
+        /// What does not match.
+        detail: String,
+    },
     /// A stored message could not be read.
     #[error(transparent)]
     Message(#[from] MessageError),
@@ -285,10 +300,10 @@ impl Bus {
     /// Publish one task with its de-duplication id; `Ok(true)` when the stream stored it, `Ok(false)` when
     /// it dropped it as a duplicate.
     pub async fn publish_task(&self, task: &TileTask) -> Result<bool, BusError> {
-        let subject = task_subject(&task.campaign);
+        let subject = task_subject(&task.agency, &task.campaign);
         let message = jetstream::message::PublishMessage::build()
             .payload(task.to_json().into())
-            .message_id(task_message_id(&task.campaign, task.run, &task.tile));
+            .message_id(task_message_id(&task.agency, &task.campaign, task.run, &task.tile));
         let publish_error = |e: String| BusError::Publish { subject: subject.clone(), detail: e };
         let ack = self.js.send_publish(subject.clone(), message).await.map_err(|e| publish_error(e.to_string()))?;
         let ack = ack.await.map_err(|e| publish_error(e.to_string()))?;
@@ -297,7 +312,7 @@ impl Bus {
 
     /// Publish a failed task to the dead-letter stream.
     pub async fn publish_dead(&self, failed: &TileFailed) -> Result<(), BusError> {
-        let subject = dead_subject(&failed.campaign);
+        let subject = dead_subject(&failed.agency, &failed.campaign);
         let publish_error = |e: String| BusError::Publish { subject: subject.clone(), detail: e };
         let ack = self
             .js
@@ -326,33 +341,37 @@ pub struct CampaignStore {
 const MAX_UPDATE_ROUNDS: usize = 64;
 
 impl CampaignStore {
-    /// The state and its revision, or `None` when the campaign is unknown.
-    pub async fn get(&self, id: &CampaignId) -> Result<Option<(CampaignState, u64)>, BusError> {
-        let key = id.as_str();
-        let entry = self.kv.entry(key).await.map_err(|e| state_error(key, e.to_string()))?;
-        match entry {
-            Some(e) if e.operation == kv::Operation::Put => Ok(Some((CampaignState::from_json(&e.value)?, e.revision))),
-            _ => Ok(None),
+    /// The state of `agency`'s campaign `id` and its revision, or `None` when it is unknown. A stored state
+    /// naming another agency or id than its key is refused (an error), never returned.
+    pub async fn get(&self, agency: &Agency, id: &CampaignId) -> Result<Option<(CampaignState, u64)>, BusError> {
+        let key = campaign_key(agency, id);
+        let entry = self.kv.entry(key.as_str()).await.map_err(|e| state_error(&key, e.to_string()))?;
+        let Some(entry) = entry.filter(|e| e.operation == kv::Operation::Put) else { return Ok(None) };
+        let state = CampaignState::from_json(&entry.value)?;
+        if state.agency != *agency || state.id != *id {
+            let found = format!("agency {} and id {}", state.agency, state.id);
+            return Err(BusError::Forged { key, detail: format!("the stored state names {found}, not its key's") });
         }
+        Ok(Some((state, entry.revision)))
     }
 
     /// Store a state only when the key is new (or deleted); `Ok(None)` when it already exists.
     pub async fn create(&self, state: &CampaignState) -> Result<Option<u64>, BusError> {
-        let key = state.id.as_str();
-        match self.kv.create(key, state.to_json().into()).await {
+        let key = campaign_key(&state.agency, &state.id);
+        match self.kv.create(key.as_str(), state.to_json().into()).await {
             Ok(revision) => Ok(Some(revision)),
             Err(e) if e.kind() == kv::CreateErrorKind::AlreadyExists => Ok(None),
-            Err(e) => Err(state_error(key, e.to_string())),
+            Err(e) => Err(state_error(&key, e.to_string())),
         }
     }
 
     /// Replace the state written at `revision`; `Ok(None)` when another writer came first.
     pub async fn update(&self, state: &CampaignState, revision: u64) -> Result<Option<u64>, BusError> {
-        let key = state.id.as_str();
-        match self.kv.update(key, state.to_json().into(), revision).await {
+        let key = campaign_key(&state.agency, &state.id);
+        match self.kv.update(key.as_str(), state.to_json().into(), revision).await {
             Ok(revision) => Ok(Some(revision)),
             Err(e) if e.kind() == kv::UpdateErrorKind::WrongLastRevision => Ok(None),
-            Err(e) => Err(state_error(key, e.to_string())),
+            Err(e) => Err(state_error(&key, e.to_string())),
         }
     }
 
@@ -360,11 +379,12 @@ impl CampaignStore {
     /// the state as it is. Returns the state as written (or found), `None` for an unknown campaign.
     pub async fn modify(
         &self,
+        agency: &Agency,
         id: &CampaignId,
         mut change: impl FnMut(&mut CampaignState) -> bool,
     ) -> Result<Option<CampaignState>, BusError> {
         for _ in 0..MAX_UPDATE_ROUNDS {
-            let Some((mut state, revision)) = self.get(id).await? else { return Ok(None) };
+            let Some((mut state, revision)) = self.get(agency, id).await? else { return Ok(None) };
             if !change(&mut state) {
                 return Ok(Some(state));
             }
@@ -373,10 +393,11 @@ impl CampaignStore {
                 return Ok(Some(state));
             }
         }
-        Err(state_error(id.as_str(), format!("still contended after {MAX_UPDATE_ROUNDS} rounds")))
+        Err(state_error(&campaign_key(agency, id), format!("still contended after {MAX_UPDATE_ROUNDS} rounds")))
     }
 
-    /// Every campaign state (unreadable entries are logged and left out).
+    /// Every campaign state of every agency (unreadable entries and keys of another shape are logged and
+    /// left out).
     pub async fn list(&self) -> Result<Vec<CampaignState>, BusError> {
         use futures::TryStreamExt as _;
         let keys: Vec<String> = match self.kv.keys().await {
@@ -385,8 +406,12 @@ impl CampaignStore {
         };
         let mut out = Vec::with_capacity(keys.len());
         for key in keys {
-            let Ok(id) = key.parse::<CampaignId>() else { continue };
-            match self.get(&id).await {
+            let parsed = key.split_once('.').and_then(|(a, id)| Some((Agency::parse(a).ok()?, id.parse().ok()?)));
+            let Some((agency, id)) = parsed else {
+                tracing::warn!(key, "campaign state key is not <agency>.<campaign>; left out of the list");
+                continue;
+            };
+            match self.get(&agency, &id).await {
                 Ok(Some((state, _))) => out.push(state),
                 Ok(None) => {}
                 Err(e) => tracing::warn!(key, error = %e, "campaign state left out of the list"),

@@ -2,17 +2,74 @@
 //!
 //! | message | subject / key | written by | read by |
 //! |---|---|---|---|
-//! | [`TileTask`] | `plumbline.tasks.<campaign>` (work queue) | scheduler | workers |
-//! | [`TileDone`] | `plumbline.results.<campaign>` | worker, after the tile's output object is written | adjuster |
-//! | [`TileFailed`] | `plumbline.results.<campaign>` (and `plumbline.dead.<campaign>` when given up) | worker | adjuster, scheduler |
-//! | [`CampaignState`] | KV `plumbline-campaigns`, key = campaign id | scheduler, workers, adjuster (revision-checked) | everyone, the job API |
+//! | [`TileTask`] | `plumbline.tasks.<agency>.<campaign>` (work queue) | scheduler | workers |
+//! | [`TileDone`] | `plumbline.results.<agency>.<campaign>` | worker, after the tile's output object is written | adjuster |
+//! | [`TileFailed`] | `plumbline.results.<agency>.<campaign>` (and `plumbline.dead.…` when given up) | worker | adjuster, scheduler |
+//! | [`CampaignState`] | KV `plumbline-campaigns`, key `<agency>.<campaign>` | scheduler, workers, adjuster (revision-checked) | everyone, the job API |
 //!
-//! Bulky payloads stay in object storage; messages carry URLs and keys.
+//! A campaign is known by its agency and id together: two agencies may use the same id. Bulky payloads stay
+//! in object storage; messages carry URLs and keys.
+
+use std::borrow::Cow;
 
 use plumbline_campaign::CampaignId;
 use plumbline_geo::tiling::TileId;
-use schemars::JsonSchema;
+use schemars::{JsonSchema, Schema, SchemaGenerator, json_schema};
 use serde::{Deserialize, Serialize};
+
+/// An agency's name, checked with the campaign-id rules (1 to 64 of `a`–`z`, `0`–`9`, `-`, `_`), so it is
+/// safe in store prefixes, KV keys and subjects.
+#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct Agency(String);
+
+impl Agency {
+    /// The agency's name.
+    pub fn as_str(&self) -> &str {
+        &self.0
+    }
+
+    /// A checked agency name.
+    pub fn parse(name: &str) -> Result<Self, String> {
+        name.parse::<CampaignId>()
+            .map(|_| Self(name.to_owned()))
+            .map_err(|e| e.to_string().replace("campaign id", "agency"))
+    }
+}
+
+impl TryFrom<String> for Agency {
+    type Error = String;
+
+    fn try_from(name: String) -> Result<Self, Self::Error> {
+        Self::parse(&name)
+    }
+}
+
+impl From<Agency> for String {
+    fn from(agency: Agency) -> Self {
+        agency.0
+    }
+}
+
+impl std::fmt::Display for Agency {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl JsonSchema for Agency {
+    fn schema_name() -> Cow<'static, str> {
+        "Agency".into()
+    }
+
+    fn json_schema(_: &mut SchemaGenerator) -> Schema {
+        json_schema!({
+            "description": "Agency name: 1 to 64 characters out of a-z, 0-9, '-' and '_'.",
+            "type": "string",
+            "pattern": "^[a-z0-9_-]{1,64}$",
+        })
+    }
+}
 
 /// One tile to process. Idempotent: processing it again writes the same result object.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -27,7 +84,9 @@ pub enum TileTaskDoc {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileTask {
-    /// The campaign.
+    /// The agency the campaign belongs to.
+    pub agency: Agency,
+    /// The campaign (its id within the agency).
     pub campaign: CampaignId,
     /// The campaign's run: a resubmission after a terminal state starts run + 1; workers skip tasks of
     /// runs other than the state's current one.
@@ -53,7 +112,9 @@ pub enum TileDoneDoc {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileDone {
-    /// The campaign.
+    /// The agency the campaign belongs to.
+    pub agency: Agency,
+    /// The campaign (its id within the agency).
     pub campaign: CampaignId,
     /// The campaign's run the task belonged to.
     pub run: u32,
@@ -88,7 +149,9 @@ pub enum TileFailedDoc {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileFailed {
-    /// The campaign.
+    /// The agency the campaign belongs to.
+    pub agency: Agency,
+    /// The campaign (its id within the agency).
     pub campaign: CampaignId,
     /// The campaign's run the task belonged to.
     pub run: u32,
@@ -166,10 +229,10 @@ pub enum CampaignStateDoc {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct CampaignState {
-    /// The campaign id (the manifest's `campaign.id`).
+    /// The campaign id (the manifest's `campaign.id`), unique within its agency.
     pub id: CampaignId,
-    /// The agency that owns it.
-    pub agency: String,
+    /// The agency that owns it (with `id`, the state's key).
+    pub agency: Agency,
     /// The current run (1 for the first submission).
     pub run: u32,
     /// The stored manifest's absolute URL.
@@ -249,7 +312,7 @@ pub struct MessageError {
 
 /// The schema files of the messages, by file name in `schemas/`.
 pub fn schemas() -> Vec<(&'static str, serde_json::Value)> {
-    let json = |s: schemars::Schema| s.to_value();
+    let json = |s: Schema| s.to_value();
     vec![
         ("tile-task.v1.schema.json", json(schemars::schema_for!(TileTaskDoc))),
         ("tile-done.v1.schema.json", json(schemars::schema_for!(TileDoneDoc))),
@@ -265,7 +328,7 @@ mod tests {
     fn state() -> CampaignState {
         CampaignState {
             id: "hh-2024".parse().unwrap(),
-            agency: "hamburg".into(),
+            agency: Agency::parse("hamburg").unwrap(),
             run: 1,
             manifest: "s3://b/agencies/hamburg/campaigns/hh-2024/manifest.toml".into(),
             output: "s3://b/agencies/hamburg/campaigns/hh-2024/results/".into(),
@@ -292,6 +355,7 @@ mod tests {
         assert_eq!(value["status"], "running");
         assert_eq!(CampaignState::from_json(&bytes).unwrap(), s);
         let task = TileTask {
+            agency: s.agency.clone(),
             campaign: s.id.clone(),
             run: 1,
             manifest: s.manifest.clone(),
@@ -307,6 +371,10 @@ mod tests {
         assert!(err.starts_with("TileTask"), "{err}");
         let err = CampaignState::from_json(br#"{"version":"1","id":"UPPER"}"#).unwrap_err().to_string();
         assert!(err.contains("id"), "{err}");
+        let mut v: serde_json::Value = serde_json::from_slice(&state().to_json()).unwrap();
+        v["agency"] = "a.b".into();
+        let err = CampaignState::from_json(v.to_string().as_bytes()).unwrap_err().to_string();
+        assert!(err.contains("agency") && err.contains("'.'"), "{err}");
         let mut v: serde_json::Value = serde_json::from_slice(&state().to_json()).unwrap();
         v["status"] = "paused".into();
         let err = CampaignState::from_json(v.to_string().as_bytes()).unwrap_err().to_string();

@@ -14,7 +14,8 @@ use plumbline_scheduler::messages::{CampaignStatus, TileTask};
 use reqwest::StatusCode;
 use support::{BREMEN, HAMBURG, Harness, TINY_TILES, manifest};
 
-/// Every task in the work queue (read without consuming: the stream's messages by sequence).
+/// Every task of agency hamburg in the work queue (read without consuming: the stream's messages by
+/// sequence).
 async fn tasks(h: &Harness) -> Vec<TileTask> {
     let js = jetstream::new(async_nats::connect(h.nats.url()).await.unwrap());
     let stream = js.get_stream(TASKS_STREAM).await.unwrap();
@@ -27,6 +28,7 @@ async fn tasks(h: &Harness) -> Vec<TileTask> {
         }
     }
     assert_eq!(out.len() as u64, info.state.messages);
+    out.retain(|t| t.agency.as_str() == "hamburg");
     out
 }
 
@@ -61,7 +63,7 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     assert_eq!(queued_tiles, planned);
     assert_eq!(planned.iter().map(|t| t.col).collect::<Vec<_>>(), (5000..5006).collect::<Vec<_>>());
     assert!(queued.iter().all(|t| t.run == 1 && t.manifest == state.manifest && t.output == state.output));
-    let (kv, _) = h.scheduler.bus().campaigns.get(&state.id).await.unwrap().unwrap();
+    let (kv, _) = h.scheduler.bus().campaigns.get(&state.agency, &state.id).await.unwrap().unwrap();
     assert_eq!(kv, view.campaign);
 
     // Resubmitting the same manifest publishes nothing new.
@@ -84,16 +86,21 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     let anonymous = reqwest::get(format!("{}/v1/campaigns/tiny-1", h.server)).await.unwrap();
     assert_eq!(anonymous.status(), StatusCode::UNAUTHORIZED);
     assert_eq!(status_of(&h.client("not-a-known-token-000").list().await.unwrap_err()), StatusCode::UNAUTHORIZED);
-    // Another agency cannot take the id over.
+    // Ids are per agency: bremen's campaign tiny-1 is its own, under its own prefix, and learns nothing of
+    // hamburg's; hamburg's is untouched.
     h.upload_inputs("bremen", "tiny-1").await;
-    let taken = hb.submit(text.clone().into_bytes(), false).await.unwrap_err();
-    assert_eq!(status_of(&taken), StatusCode::CONFLICT);
+    let theirs = hb.submit(text.clone().into_bytes(), false).await.unwrap();
+    assert_eq!((theirs.campaign.agency.as_str(), theirs.campaign.run), ("bremen", 1));
+    assert_eq!(theirs.campaign.manifest, format!("{}manifest.toml", h.campaign_dir("bremen", "tiny-1")));
+    assert_eq!(hh.status("tiny-1").await.unwrap().campaign, view.campaign);
+    assert_eq!(hb.cancel("tiny-1").await.unwrap().campaign.status, CampaignStatus::Cancelled);
+    assert_eq!(hh.status("tiny-1").await.unwrap().campaign.status, CampaignStatus::Queued);
     assert_eq!(status_of(&hh.report("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
 
     // Cancel: the KV state says so; cancelling again is a conflict; a new submission starts run 2.
     let cancelled = hh.cancel("tiny-1").await.unwrap();
     assert_eq!(cancelled.campaign.status, CampaignStatus::Cancelled);
-    let (kv, _) = h.scheduler.bus().campaigns.get(&state.id).await.unwrap().unwrap();
+    let (kv, _) = h.scheduler.bus().campaigns.get(&state.agency, &state.id).await.unwrap().unwrap();
     assert_eq!(kv.status, CampaignStatus::Cancelled);
     assert_eq!(status_of(&hh.cancel("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
     let rerun = hh.submit(text.into_bytes(), false).await.unwrap();
@@ -105,22 +112,25 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     // What the adjuster will do when finished: the report is served from the store once the state is done.
     let report_url = format!("{}report.json", rerun.campaign.output);
     h.files.write(&report_url, br#"{"version":"1","summary":{"epochs":601}}"#.to_vec()).await.unwrap();
-    let done = h.scheduler.bus().campaigns.modify(&state.id, |c| {
+    let done = h.scheduler.bus().campaigns.modify(&state.agency, &state.id, |c| {
         c.status = CampaignStatus::Done;
         c.report = Some(report_url.clone());
         true
     });
     done.await.unwrap().unwrap();
     assert_eq!(hh.report("tiny-1").await.unwrap()["summary"]["epochs"], 601);
-    assert_eq!(status_of(&hb.report("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
+    // Bremen's tiny-1 (cancelled) has no report; hamburg's is not served to it.
+    let e = hb.report("tiny-1").await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::CONFLICT, "{e}");
+    assert!(!e.to_string().contains("601"), "{e}");
     assert_eq!(status_of(&hh.cancel("tiny-1").await.unwrap_err()), StatusCode::CONFLICT);
 
     let metrics = reqwest::get(format!("{}/metrics", h.server)).await.unwrap().text().await.unwrap();
     for line in [
-        format!("plumbline_tasks_published_total {}", 2 * TINY_TILES),
+        format!("plumbline_tasks_published_total {}", 3 * TINY_TILES),
         format!("plumbline_tasks_duplicate_total {TINY_TILES}"),
         "plumbline_campaigns{status=\"done\"} 1".to_owned(),
-        format!("plumbline_work_queue_messages {}", 2 * TINY_TILES),
+        format!("plumbline_work_queue_messages {}", 3 * TINY_TILES),
         "plumbline_api_requests_total{route=\"/v1/campaigns/{id}\",status=\"404\"} 2".to_owned(),
         "plumbline_api_requests_total{route=\"/v1/campaigns/{id}/report\",status=\"200\"} 1".to_owned(),
     ] {
@@ -130,12 +140,13 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     assert_eq!(ready.status(), StatusCode::OK);
 
     // Whoever can write the KV bucket cannot redirect the report: its location is derived from the agency
-    // and the id, not read from the state, and a state handed to another agency serves that agency nothing.
+    // and the id, not read from the state; a state rewritten to name another agency is refused (500, never
+    // served) and serves that agency nothing.
     let tamper = |f: fn(&mut plumbline_scheduler::messages::CampaignState)| {
         let bus = h.scheduler.bus();
         async move {
             bus.campaigns
-                .modify(&state.id, |c| {
+                .modify(&state.agency, &state.id, |c| {
                     f(c);
                     true
                 })
@@ -146,10 +157,17 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     };
     tamper(|c| c.report = Some("file:///etc/hostname".into())).await;
     assert_eq!(hh.report("tiny-1").await.unwrap()["summary"]["epochs"], 601);
-    tamper(|c| c.agency = "bremen".into()).await;
-    assert_eq!(status_of(&hh.report("tiny-1").await.unwrap_err()), StatusCode::NOT_FOUND);
-    let e = hb.report("tiny-1").await.unwrap_err();
+    let kv = jetstream::new(async_nats::connect(h.nats.url()).await.unwrap());
+    let kv = kv.get_key_value(plumbline_scheduler::bus::CAMPAIGNS_BUCKET).await.unwrap();
+    let key = plumbline_scheduler::bus::campaign_key(&state.agency, &state.id);
+    let mut forged = h.scheduler.bus().campaigns.get(&state.agency, &state.id).await.unwrap().unwrap().0;
+    forged.agency = plumbline_scheduler::messages::Agency::parse("bremen").unwrap();
+    kv.put(key, forged.to_json().into()).await.unwrap();
+    let e = hh.report("tiny-1").await.unwrap_err();
     assert_eq!(status_of(&e), StatusCode::INTERNAL_SERVER_ERROR, "{e}");
+    assert!(e.to_string().contains("inconsistent") && !e.to_string().contains("601"), "{e}");
+    let e = hb.report("tiny-1").await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::CONFLICT, "bremen's own tiny-1 is cancelled: {e}");
     assert!(!e.to_string().contains("601"), "{e}");
 }
 

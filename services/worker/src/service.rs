@@ -33,7 +33,7 @@ use plumbline_campaign::CampaignId;
 use plumbline_runtime::Files;
 use plumbline_scheduler::Campaign;
 use plumbline_scheduler::bus::{self, Bus, BusError, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
-use plumbline_scheduler::messages::{CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
+use plumbline_scheduler::messages::{Agency, CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
 use plumbline_scheduler::service::load_agency_campaign;
 use tracing::Instrument as _;
 
@@ -75,7 +75,7 @@ impl Default for ServiceConfig {
 }
 
 /// Campaigns loaded so far, by campaign and run.
-type Cache = Mutex<HashMap<(CampaignId, u32), Arc<Campaign>>>;
+type Cache = Mutex<HashMap<(Agency, CampaignId, u32), Arc<Campaign>>>;
 
 /// The shared state of the slots.
 struct Worker {
@@ -190,9 +190,15 @@ impl Worker {
                 self.count("dropped");
             }
             Ok(Handled::Done { result, resumed }) => {
-                let done =
-                    TileDone { campaign: task.campaign.clone(), run: task.run, tile: task.tile, result, attempts };
-                match self.publish_result(&task.campaign, done.to_json()).await {
+                let done = TileDone {
+                    agency: task.agency.clone(),
+                    campaign: task.campaign.clone(),
+                    run: task.run,
+                    tile: task.tile,
+                    result,
+                    attempts,
+                };
+                match self.publish_result(task, done.to_json()).await {
                     Ok(()) => {
                         self.count(if resumed { "resumed" } else { "done" });
                         if let Err(e) = message.double_ack().await {
@@ -236,6 +242,7 @@ impl Worker {
         let kind = if permanent { FailureKind::Permanent } else { FailureKind::Retryable };
         tracing::error!(error = %format!("{error:#}"), delivered, ?kind, "tile given up");
         let failed = TileFailed {
+            agency: task.agency.clone(),
             campaign: task.campaign.clone(),
             run: task.run,
             tile: task.tile,
@@ -243,7 +250,7 @@ impl Worker {
             error: format!("{error:#}"),
             attempts,
         };
-        let published = match self.publish_result(&task.campaign, failed.to_json()).await {
+        let published = match self.publish_result(task, failed.to_json()).await {
             Ok(()) => self.bus.publish_dead(&failed).await.map_err(anyhow::Error::from),
             Err(e) => Err(e),
         };
@@ -261,7 +268,7 @@ impl Worker {
 
     /// Check the state, load the campaign, process (or read back) the tile.
     async fn process(&self, task: &TileTask) -> anyhow::Result<Handled> {
-        let Some((mut state, revision)) = self.bus.campaigns.get(&task.campaign).await? else {
+        let Some((mut state, revision)) = self.bus.campaigns.get(&task.agency, &task.campaign).await? else {
             return Ok(Handled::Skipped("unknown campaign"));
         };
         if state.run != task.run {
@@ -279,7 +286,7 @@ impl Worker {
         if task.manifest != state.manifest {
             return Ok(Handled::Skipped("the task names another manifest than its campaign's state"));
         }
-        let campaign = self.campaign(task, &state.agency).await?;
+        let campaign = self.campaign(task).await?;
         tracing::info!("tile started");
         let config = WorkerConfig::from_manifest(&campaign.manifest);
         let (files, owned, tile) = (self.files.clone(), campaign.clone(), task.tile);
@@ -308,23 +315,23 @@ impl Worker {
     }
 
     /// The task's campaign, loaded once per campaign and run.
-    async fn campaign(&self, task: &TileTask, agency: &str) -> anyhow::Result<Arc<Campaign>> {
-        let key = (task.campaign.clone(), task.run);
+    async fn campaign(&self, task: &TileTask) -> anyhow::Result<Arc<Campaign>> {
+        let key = (task.agency.clone(), task.campaign.clone(), task.run);
         if let Some(found) = self.campaigns.lock().ok().and_then(|c| c.get(&key).cloned()) {
             return Ok(found);
         }
-        let loaded = load_agency_campaign(&self.files, &task.manifest, agency, &task.campaign).await?;
+        let loaded = load_agency_campaign(&self.files, &task.manifest, task.agency.as_str(), &task.campaign).await?;
         let campaign = Arc::new(loaded);
         if let Ok(mut cache) = self.campaigns.lock() {
-            cache.retain(|(id, _), _| *id != task.campaign);
+            cache.retain(|(agency, id, _), _| (agency, id) != (&task.agency, &task.campaign));
             cache.insert(key, campaign.clone());
         }
         Ok(campaign)
     }
 
-    /// Publish a result message and wait for the stream's ack.
-    async fn publish_result(&self, campaign: &CampaignId, payload: Vec<u8>) -> anyhow::Result<()> {
-        let subject = bus::result_subject(campaign);
+    /// Publish a result of `task` and wait for the stream's ack.
+    async fn publish_result(&self, task: &TileTask, payload: Vec<u8>) -> anyhow::Result<()> {
+        let subject = bus::result_subject(&task.agency, &task.campaign);
         let failed = |e: String| BusError::Publish { subject: format!("{subject} ({RESULTS_STREAM})"), detail: e };
         let ack = self.bus.js.publish(subject.clone(), payload.into()).await.map_err(|e| failed(e.to_string()))?;
         ack.await.map_err(|e| failed(e.to_string()))?;

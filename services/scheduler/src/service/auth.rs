@@ -13,30 +13,12 @@
 
 use std::collections::BTreeMap;
 
-use plumbline_campaign::CampaignId;
+pub use crate::messages::Agency;
 use plumbline_runtime::Secret;
 use serde::Deserialize;
 
 /// Shortest token accepted.
 pub const MIN_TOKEN_LEN: usize = 16;
-
-/// The agency a request acts for.
-#[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub struct Agency(String);
-
-impl Agency {
-    /// The agency's name.
-    pub fn as_str(&self) -> &str {
-        &self.0
-    }
-
-    /// A checked agency name (the campaign-id rules).
-    pub fn parse(name: &str) -> Result<Self, String> {
-        name.parse::<CampaignId>()
-            .map(|_| Self(name.to_owned()))
-            .map_err(|e| e.to_string().replace("campaign id", "agency"))
-    }
-}
 
 /// The token set.
 #[derive(Clone, Debug, Default)]

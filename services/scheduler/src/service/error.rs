@@ -40,6 +40,19 @@ impl ApiError {
         Self::new(StatusCode::SERVICE_UNAVAILABLE, format!("{what}: {e}"))
     }
 
+    /// A failure reading a campaign state: 500 for a forged one (it names another agency or id than its
+    /// key; not retryable), 503 otherwise.
+    pub fn state(e: &crate::bus::BusError) -> Self {
+        if matches!(e, crate::bus::BusError::Forged { .. }) {
+            tracing::error!(error = %e, "campaign state refused");
+            return Self::new(
+                StatusCode::INTERNAL_SERVER_ERROR,
+                "the campaign's state is inconsistent; ask the operator",
+            );
+        }
+        Self::unavailable("campaign state", e)
+    }
+
     /// With problems by field.
     pub fn with_problems(mut self, problems: Vec<FieldProblem>) -> Self {
         self.problems = problems;

@@ -57,12 +57,13 @@ fn agency(s: &Scheduler, headers: &HeaderMap) -> Result<Agency, ApiError> {
     s.tokens.authorize(value).ok_or_else(ApiError::unauthorized)
 }
 
-/// The agency's own campaign, or 404 (unknown and foreign campaigns look the same).
+/// The agency's own campaign, or 404 (ids are per agency: another agency's campaign of the same id is a
+/// different campaign).
 async fn owned(s: &Scheduler, agency: &Agency, id: &str) -> Result<CampaignState, ApiError> {
     let Ok(campaign) = id.parse::<CampaignId>() else { return Err(ApiError::not_found(id)) };
-    match s.bus.campaigns.get(&campaign).await.map_err(|e| ApiError::unavailable("campaign state", &e))? {
-        Some((state, _)) if state.agency == agency.as_str() => Ok(state),
-        _ => Err(ApiError::not_found(id)),
+    match s.bus.campaigns.get(agency, &campaign).await.map_err(|e| ApiError::state(&e))? {
+        Some((state, _)) => Ok(state),
+        None => Err(ApiError::not_found(id)),
     }
 }
 
@@ -84,7 +85,7 @@ async fn create(State(s): Shared, headers: HeaderMap, body: Bytes) -> Result<Res
 async fn list(State(s): Shared, headers: HeaderMap) -> Result<Json<CampaignList>, ApiError> {
     let agency = agency(&s, &headers)?;
     let all = s.bus.campaigns.list().await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
-    let mut campaigns: Vec<CampaignState> = all.into_iter().filter(|c| c.agency == agency.as_str()).collect();
+    let mut campaigns: Vec<CampaignState> = all.into_iter().filter(|c| c.agency == agency).collect();
     campaigns.sort_by(|a, b| b.created.cmp(&a.created).then_with(|| a.id.cmp(&b.id)));
     Ok(Json(CampaignList { campaigns }))
 }
@@ -139,7 +140,7 @@ async fn cancel(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) ->
     let cancelled = s
         .bus
         .campaigns
-        .modify(&state.id, |c| {
+        .modify(&agency, &state.id, |c| {
             changed = !c.status.is_terminal();
             if changed {
                 c.status = CampaignStatus::Cancelled;

@@ -38,11 +38,8 @@ pub(super) async fn submit(
     let id = sub.manifest.campaign.id.clone();
     let span = tracing::Span::current();
     span.record("campaign", id.as_str());
-    let existing = s.bus.campaigns.get(&id).await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
+    let existing = s.bus.campaigns.get(agency, &id).await.map_err(|e| ApiError::state(&e))?;
     let (run, revision) = match existing {
-        Some((state, _)) if state.agency != agency.as_str() => {
-            return Err(ApiError::new(StatusCode::CONFLICT, format!("campaign id {:?} is in use", id.as_str())));
-        }
         Some((state, _)) if !state.status.is_terminal() => return resubmit(s, &sub, state).await,
         Some((state, revision)) => (state.run + 1, Some(revision)),
         None => (1, None),
@@ -89,7 +86,7 @@ pub(super) async fn submit(
 /// The agency's campaigns in flight (neither done, failed nor cancelled), `id`'s own earlier run left out.
 async fn in_flight(s: &Scheduler, agency: &Agency, id: &CampaignId) -> Result<Vec<CampaignState>, ApiError> {
     let all = s.bus.campaigns.list().await.map_err(|e| ApiError::unavailable("campaign state", &e))?;
-    Ok(all.into_iter().filter(|c| c.agency == agency.as_str() && c.id != *id && !c.status.is_terminal()).collect())
+    Ok(all.into_iter().filter(|c| c.agency == *agency && c.id != *id && !c.status.is_terminal()).collect())
 }
 
 /// Parse, validate and check the prefixes of a submitted manifest.
@@ -156,7 +153,7 @@ fn initial_state(agency: &Agency, run: u32, manifest: &str, campaign: &Campaign)
     let now = unix_now();
     CampaignState {
         id: campaign.manifest.campaign.id.clone(),
-        agency: agency.as_str().to_owned(),
+        agency: agency.clone(),
         run,
         manifest: manifest.to_owned(),
         output: campaign.output.clone(),
@@ -205,6 +202,7 @@ async fn publish(s: &Scheduler, state: &CampaignState, campaign: &Campaign) -> R
     let (mut stored, mut duplicates) = (0, 0);
     for tile in campaign.plan.tiles.tiles() {
         let task = TileTask {
+            agency: state.agency.clone(),
             campaign: state.id.clone(),
             run: state.run,
             manifest: state.manifest.clone(),
