@@ -4,7 +4,10 @@
 //! trajectory must equal the one `plumbline run` computes from the same files. A second submission of the
 //! campaign (another id) loses a worker to `kill -9` in the middle of a tile: the tile is redelivered to the
 //! other worker and the campaign completes with the same trajectory. The roles' ops listeners are scraped
-//! after the first campaign: their counters must match what happened. NATS runs on the deployment's own
+//! after the first campaign: their counters must match what happened. The first campaign resubmitted with a
+//! changed parameter is processed again and equals `plumbline run` of the changed manifest; a second agency's
+//! campaign of the same id whose index reaches into the first agency's prefix and the worker's disk has those
+//! rows refused. NATS runs on the deployment's own
 //! `deploy/nats.conf`: every role connects as its user and works within that user's permissions; a second
 //! test shows those permissions hold a role (or a stranger) to its subjects.
 
@@ -23,7 +26,7 @@ use plumbline_scheduler::messages::CampaignStatus;
 use plumbline_scheduler::service::{self, NatsAuth};
 use plumbline_testkit::{MotoServer, NatsServer};
 use support::plumbline;
-use support::services::{Role, STORE, SchedulerApi, s3_files, upload};
+use support::services::{Role, STORE, SchedulerApi, s3_files, upload, upload_to};
 
 /// The roles' NATS passwords, as the server's environment hands them to `deploy/nats.conf`.
 const USERS: [(&str, &str, &str); 3] = [
@@ -223,6 +226,71 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
     assert_same_trajectory(&formats::parse_sbet(&found, "after kill").unwrap(), &expected, "after kill");
     eprintln!("campaign with a killed worker: {:.1} s", start.elapsed().as_secs_f64());
+
+    // (c) Campaign (a) is done; the same id with a changed tile parameter is its run 2: every tile is processed
+    // again (none read back: its fingerprint changed) and the trajectory is `plumbline run`'s of the changed
+    // manifest, not run 1's.
+    let changed = format!("{manifest}\n[parameters.poles]\nmax_range_m = 5.0\n");
+    let local = changed.replacen("output = \"results/\"", "output = \"results-changed/\"", 1);
+    std::fs::write(campaign.join("changed.toml"), local).unwrap();
+    plumbline(&["run", campaign.join("changed.toml").to_str().unwrap(), "--quiet"]).run().success();
+    let reference = std::fs::read(campaign.join("results-changed/trajectory.sbet")).unwrap();
+    let reference = formats::parse_sbet(&reference, "changed run").unwrap();
+    let differs = reference.iter().zip(&expected).any(|(a, b)| a.to_array() != b.to_array());
+    assert!(differs, "the changed parameter must change the trajectory for this check to mean anything");
+    let scrape = || get(&w2.ops_addr(), "/metrics").1;
+    let done_before = sample(&scrape(), "plumbline_worker_tasks_total{outcome=\"done\"}");
+    let resumed_before = sample(&scrape(), "plumbline_worker_tasks_total{outcome=\"resumed\"}");
+    let start = Instant::now();
+    let run2 = api.submit(changed.into_bytes(), false).await.unwrap();
+    assert_eq!(run2.campaign.run, 2, "{run2:#?}");
+    let view = wait_terminal(api, &id, Duration::from_secs(600), &[&adjuster, &w2]).await;
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    let found = files.read(&format!("{}trajectory.sbet", view.campaign.output)).await.unwrap();
+    assert_same_trajectory(&formats::parse_sbet(&found, "run 2").unwrap(), &reference, "changed parameters");
+    let text = scrape();
+    let done = sample(&text, "plumbline_worker_tasks_total{outcome=\"done\"}") - done_before;
+    let resumed = sample(&text, "plumbline_worker_tasks_total{outcome=\"resumed\"}") - resumed_before;
+    assert_eq!((done, resumed), (view.campaign.tiles_total as f64, 0.0), "tiles processed again: {text}");
+    eprintln!("resubmission with a changed parameter: {:.1} s", start.elapsed().as_secs_f64());
+
+    // (d) Agency bremen, same campaign id: its own campaign. Its panorama index names one of hamburg's
+    // panoramas and a file on the worker's disk; both rows are refused as outside bremen's prefix and named in
+    // its report, the rest is processed, and hamburg's campaign is untouched.
+    upload_to(&files, &campaign, "bremen", &id).await;
+    let index_url = format!("{STORE}/agencies/bremen/campaigns/{id}/panoramas/index.csv");
+    let index = String::from_utf8(files.read(&index_url).await.unwrap().to_vec()).unwrap();
+    let column = index.lines().next().unwrap().split(',').position(|c| c == "file").unwrap();
+    let theirs = format!("{STORE}/agencies/hamburg/campaigns/{id}/panoramas/");
+    let rows: Vec<String> = index
+        .lines()
+        .enumerate()
+        .map(|(i, line)| {
+            let mut cells: Vec<String> = line.split(',').map(str::to_owned).collect();
+            match i {
+                1 => cells[column] = format!("{theirs}{}", cells[column]),
+                2 => cells[column] = "file:///etc/hostname".to_owned(),
+                _ => {}
+            }
+            cells.join(",")
+        })
+        .collect();
+    files.write(&index_url, (rows.join("\n") + "\n").into_bytes()).await.unwrap();
+    let bremen = &scheduler.bremen;
+    let theirs_view = bremen.submit(manifest.clone().into_bytes(), false).await.unwrap();
+    assert_eq!((theirs_view.campaign.agency.as_str(), theirs_view.campaign.run), ("bremen", 1));
+    let view = wait_terminal(bremen, &id, Duration::from_secs(600), &[&adjuster, &w2]).await;
+    assert_eq!(view.campaign.status, CampaignStatus::Done, "{view:#?}\n{}", adjuster.log());
+    let report = bremen.report(&id).await.unwrap();
+    let skipped = report["skipped"].as_array().unwrap();
+    let refused = |needle: &str| {
+        skipped
+            .iter()
+            .any(|s| s["detail"].as_str().is_some_and(|d| d.contains(needle)) && s["reason"].as_str() == Some("url"))
+    };
+    assert!(refused(&theirs) && refused("file:///etc/hostname"), "{skipped:#?}");
+    assert!(report["summary"]["images_matched"].as_u64().unwrap() > 0, "the rest was processed: {report}");
+    assert_eq!(api.status(&id).await.unwrap().campaign.run, 2, "hamburg's campaign is its own");
 }
 
 /// The users of `deploy/nats.conf` hold each role to its subjects: a stranger and a wrong password are

@@ -12,9 +12,10 @@
 //!
 //! The roles' loops on top of these resources:
 //! - **scheduler** (this crate's [`crate::service`]): stores the manifest and `plan.json`, creates the state
-//!   (`queued`, run n) and only then publishes the run's tasks, each with `Nats-Msg-Id`
-//!   `<agency>.<campaign>.<run>.<tile>` ([`task_message_id`]), so a resubmission within the window adds
-//!   nothing.
+//!   (`queued`, run n) and only then publishes the run's tasks — a window of them per agency at a time
+//!   ([`crate::service::dispatch`]), raising the state's `dispatched` after publishing — each with
+//!   `Nats-Msg-Id` `<agency>.<campaign>.<run>.<tile>` ([`task_message_id`]), so publishing again within the
+//!   window adds nothing.
 //! - **worker**: fetch from `workers`; read the state: a task whose campaign is `cancelled`/`failed`, or
 //!   whose run is not the state's run, is acked and dropped. Otherwise set `running` (if `queued`), process
 //!   the tile (off the async runtime) sending `AckKind::Progress` every [`HEARTBEAT`], write the output to

@@ -243,6 +243,10 @@ pub struct CampaignState {
     pub status: CampaignStatus,
     /// Tiles planned.
     pub tiles_total: u64,
+    /// Tiles whose task has been published, in plan order (the scheduler dispatches a few at a time per
+    /// agency: `service::dispatch`).
+    #[serde(default)]
+    pub dispatched: u64,
     /// Tiles finished.
     pub tiles_done: u64,
     /// Tiles failed for good.
@@ -334,6 +338,7 @@ mod tests {
             output: "s3://b/agencies/hamburg/campaigns/hh-2024/results/".into(),
             status: CampaignStatus::Running,
             tiles_total: 4,
+            dispatched: 4,
             tiles_done: 2,
             tiles_failed: 1,
             dead_lettered: vec![DeadLetter { tile: TileId { col: 1, row: -2 }, error: "bad".into() }],

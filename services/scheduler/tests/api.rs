@@ -17,6 +17,13 @@ use support::{BREMEN, HAMBURG, Harness, TINY_TILES, manifest};
 /// Every task of agency hamburg in the work queue (read without consuming: the stream's messages by
 /// sequence).
 async fn tasks(h: &Harness) -> Vec<TileTask> {
+    let mut all = all_tasks(h).await;
+    all.retain(|t| t.agency.as_str() == "hamburg");
+    all
+}
+
+/// Every task in the work queue, in queue order.
+async fn all_tasks(h: &Harness) -> Vec<TileTask> {
     let js = jetstream::new(async_nats::connect(h.nats.url()).await.unwrap());
     let stream = js.get_stream(TASKS_STREAM).await.unwrap();
     let mut stream_info = stream.clone();
@@ -28,7 +35,6 @@ async fn tasks(h: &Harness) -> Vec<TileTask> {
         }
     }
     assert_eq!(out.len() as u64, info.state.messages);
-    out.retain(|t| t.agency.as_str() == "hamburg");
     out
 }
 
@@ -171,12 +177,99 @@ async fn submit_status_cancel_and_isolation_on_s3() {
     assert!(!e.to_string().contains("601"), "{e}");
 }
 
+/// Fair dispatch on a real nats-server: agency hamburg has 210 tiles waiting in 7 campaigns when bremen
+/// submits a one-tile campaign. The work queue holds at most a window (4) of hamburg's tasks, so a worker
+/// taking tasks in queue order — acking each and counting it as handled, as worker and adjuster do — reaches
+/// bremen's tile after at most 4 of hamburg's, while almost all of hamburg's are still unpublished; the
+/// dispatcher tops hamburg up as its tiles are handled.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn one_agencys_backlog_does_not_hold_up_anothers_tile() {
+    use futures::StreamExt as _;
+    use plumbline_scheduler::messages::Agency;
+    use plumbline_scheduler::service::Quotas;
+    let h = Harness::local_with_quotas(Quotas { dispatch_window: 4, ..Quotas::default() }).await;
+    let (hh, hb) = (h.client(HAMBURG), h.client(BREMEN));
+    let tiled = |id: &str, size: &str, overlap: &str| {
+        manifest(id, "nav/dg.csv", "results/")
+            .replace("tile_size_m = 100.0", &format!("tile_size_m = {size}"))
+            .replace("overlap_m = 10.0", &format!("overlap_m = {overlap}"))
+            .into_bytes()
+    };
+    let mut backlog = 0;
+    for k in 0..7 {
+        let id = format!("big-{k}");
+        h.upload_inputs("hamburg", &id).await;
+        let view = hh.submit(tiled(&id, "12.0", "1.0"), false).await.unwrap();
+        assert!(view.campaign.dispatched <= 4, "{view:#?}");
+        backlog += view.campaign.tiles_total;
+    }
+    assert!(backlog >= 200, "hamburg's campaigns have {backlog} tiles");
+    h.upload_inputs("bremen", "one").await;
+    let one = hb.submit(tiled("one", "1000.0", "10.0"), false).await.unwrap();
+    assert_eq!((one.campaign.tiles_total, one.campaign.dispatched), (1, 1));
+    let queued = all_tasks(&h).await;
+    let hamburg = queued.iter().filter(|t| t.agency.as_str() == "hamburg").count();
+    assert_eq!((hamburg, queued.len()), (4, 5), "the queue holds a window of hamburg's tasks and bremen's");
+
+    let js = jetstream::new(async_nats::connect(h.nats.url()).await.unwrap());
+    let stream = js.get_stream(TASKS_STREAM).await.unwrap();
+    let consumer: jetstream::consumer::PullConsumer =
+        stream.get_consumer(plumbline_scheduler::bus::WORKERS_CONSUMER).await.unwrap();
+    let mut before = 0;
+    let started = Instant::now();
+    let found = loop {
+        assert!(started.elapsed() < Duration::from_secs(60), "bremen's task never came");
+        let mut batch = consumer.fetch().max_messages(1).expires(Duration::from_secs(2)).messages().await.unwrap();
+        let Some(message) = batch.next().await else { continue };
+        let message = message.unwrap();
+        let task = TileTask::from_json(&message.payload).unwrap();
+        message.double_ack().await.unwrap();
+        if task.agency.as_str() == "bremen" {
+            break task;
+        }
+        before += 1;
+        let handled = h.scheduler.bus().campaigns.modify(&task.agency, &task.campaign, |c| {
+            c.tiles_done += 1;
+            true
+        });
+        handled.await.unwrap().unwrap();
+    };
+    assert_eq!(found.campaign.as_str(), "one");
+    assert!(before <= 4, "bremen's tile came after {before} of hamburg's");
+    let bremen = Agency::parse("bremen").unwrap();
+    let finished = h.scheduler.bus().campaigns.modify(&bremen, &found.campaign, |c| {
+        c.tiles_done = 1;
+        c.status = CampaignStatus::Done;
+        true
+    });
+    assert_eq!(finished.await.unwrap().unwrap().status, CampaignStatus::Done);
+    let listed = hh.list().await.unwrap().campaigns;
+    let unpublished: u64 = listed.iter().map(|c| c.tiles_total - c.dispatched).sum();
+    assert!(unpublished >= backlog - 8, "{unpublished} of hamburg's {backlog} tiles still unpublished");
+    // Hamburg's handled tiles are replaced by new ones within a round.
+    let started = Instant::now();
+    loop {
+        let listed = hh.list().await.unwrap().campaigns;
+        let out: u64 = listed.iter().map(|c| c.dispatched - c.tiles_done).sum();
+        if out == 4 {
+            break;
+        }
+        assert!(started.elapsed() < Duration::from_secs(10), "hamburg has {out} tasks out, not 4");
+        tokio::time::sleep(Duration::from_millis(100)).await;
+    }
+}
+
 /// One agency's backlog and submission rate are bounded (429 naming the quota); another agency is not held
 /// up by them, and a cancelled campaign frees its place.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn quotas_bound_an_agencys_backlog_and_submission_rate() {
     use plumbline_scheduler::service::Quotas;
-    let quotas = Quotas { campaigns_in_flight: 1, tiles_queued: 10 * TINY_TILES, submissions_per_minute: 4 };
+    let quotas = Quotas {
+        campaigns_in_flight: 1,
+        tiles_queued: 10 * TINY_TILES,
+        submissions_per_minute: 4,
+        ..Quotas::default()
+    };
     let h = Harness::local_with_quotas(quotas).await;
     for (agency, id) in [("hamburg", "q-1"), ("hamburg", "q-2"), ("bremen", "q-3")] {
         h.upload_inputs(agency, id).await;

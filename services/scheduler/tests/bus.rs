@@ -19,6 +19,7 @@ fn state(id: &str) -> CampaignState {
         output: "file:///out/".into(),
         status: CampaignStatus::Queued,
         tiles_total: 80,
+        dispatched: 0,
         tiles_done: 0,
         tiles_failed: 0,
         dead_lettered: Vec::new(),

@@ -146,12 +146,17 @@ fn walk(dir: &Path, base: &Path, out: &mut Vec<String>) {
 /// Upload the simulated campaign's inputs (not its `results/`), eight at a time, where a manifest of
 /// campaign `id` of agency hamburg finds them; the bytes sent.
 pub async fn upload(files: &Files, campaign: &Path, id: &str) -> u64 {
+    upload_to(files, campaign, "hamburg", id).await
+}
+
+/// [`upload`] for `agency`.
+pub async fn upload_to(files: &Files, campaign: &Path, agency: &str, id: &str) -> u64 {
     let mut names = Vec::new();
     walk(campaign, campaign, &mut names);
     let uploads = names.into_iter().filter(|n| !n.starts_with("results/")).map(|name| async move {
         let bytes = std::fs::read(campaign.join(&name)).expect("read a campaign file");
         let size = bytes.len() as u64;
-        let url = format!("{STORE}/agencies/hamburg/campaigns/{id}/{name}");
+        let url = format!("{STORE}/agencies/{agency}/campaigns/{id}/{name}");
         files.write(&url, bytes).await.expect("upload a campaign file");
         size
     });
@@ -160,12 +165,16 @@ pub async fn upload(files: &Files, campaign: &Path, id: &str) -> u64 {
 
 /// The agency token of the tests' scheduler (agency hamburg).
 pub const TOKEN: &str = "hh-token-0123456789abcdef";
+/// Agency bremen's token.
+pub const BREMEN_TOKEN: &str = "hb-token-0123456789abcdef";
 
 /// An in-process scheduler on NATS at `nats` with the store `files`, its job API served on a free loopback
 /// port until this is dropped.
 pub struct SchedulerApi {
     /// The API client with agency hamburg's token.
     pub api: plumbline_scheduler::client::Client,
+    /// The API client with agency bremen's token.
+    pub bremen: plumbline_scheduler::client::Client,
     /// `http://127.0.0.1:PORT` of the API.
     pub server: String,
     _stop: tokio::sync::oneshot::Sender<()>,
@@ -182,7 +191,7 @@ impl SchedulerApi {
         use plumbline_scheduler::service::{self, Scheduler, Tokens};
         let client =
             service::connect(nats, auth, "scheduler", Duration::from_secs(10)).await.expect("connect to nats-server");
-        let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg")]).expect("the test token");
+        let tokens = Tokens::from_pairs(&[(TOKEN, "hamburg"), (BREMEN_TOKEN, "bremen")]).expect("the test tokens");
         let scheduler = Scheduler::start(client, files, STORE, tokens).await.expect("start the scheduler");
         let listener = tokio::net::TcpListener::bind("127.0.0.1:0").await.expect("a free loopback port");
         let server = format!("http://{}", listener.local_addr().expect("the bound address"));
@@ -190,7 +199,8 @@ impl SchedulerApi {
         tokio::spawn(service::serve(listener, scheduler, async {
             let _ = stopped.await;
         }));
-        let api = plumbline_scheduler::client::Client::new(&server, Secret::new(TOKEN)).expect("an API client");
-        Self { api, server, _stop: stop }
+        let client = |token| plumbline_scheduler::client::Client::new(&server, Secret::new(token)).expect("a client");
+        let (api, bremen) = (client(TOKEN), client(BREMEN_TOKEN));
+        Self { api, bremen, server, _stop: stop }
     }
 }

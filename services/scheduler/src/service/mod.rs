@@ -3,7 +3,7 @@
 //!
 //! | route | auth | answers |
 //! |---|---|---|
-//! | `POST /v1/campaigns` | bearer | 201 + [`CampaignView`](crate::api::CampaignView) (new campaign or new run), 200 (resubmission of an active campaign: tasks de-duplicated), 401, 403 (a location outside the agency's prefix, by field), 409 (id owned by another agency, or active with a different manifest), 413, 422 (unparseable or invalid manifest, by field; unreadable inputs), 503 |
+//! | `POST /v1/campaigns` | bearer | 201 + [`CampaignView`](crate::api::CampaignView) (new campaign or new run; its first tasks dispatched, [`dispatch`]), 200 (resubmission of an active campaign: its dispatched tasks published again, de-duplicated), 401, 403 (a location outside the agency's prefix, by field), 409 (active with a different manifest), 413, 422 (unparseable or invalid manifest, by field; unreadable inputs), 429 (a quota), 503 |
 //! | `GET /v1/campaigns` | bearer | 200 + [`CampaignList`](crate::api::CampaignList) of the agency's own campaigns |
 //! | `GET /v1/campaigns/{id}` | bearer | 200 + [`CampaignView`](crate::api::CampaignView), 404 (unknown or another agency's) |
 //! | `GET /v1/campaigns/{id}/report` | bearer | 200 + `report.json`, 409 until done, 404 |
@@ -19,6 +19,7 @@
 //! `{store}/agencies/<agency>/` first (absolute URLs must stay under it too).
 
 mod auth;
+pub mod dispatch;
 mod error;
 pub mod metrics;
 mod openapi;
@@ -35,7 +36,10 @@ use plumbline_runtime::{Files, NatsConfig};
 
 pub use auth::{Agency, MIN_TOKEN_LEN, Tokens};
 pub use openapi::openapi;
-pub use prefix::{Layout, PrefixProblem, check_locations, load_agency_campaign, stored_manifest_prefix};
+pub use prefix::{
+    Layout, PrefixProblem, StoredOutputError, check_locations, load_agency_campaign, stored_manifest_prefix,
+    stored_output,
+};
 
 use crate::bus::{Bus, BusError, ensure};
 use metrics::Metrics;
@@ -53,11 +57,14 @@ pub struct Quotas {
     pub tiles_queued: u64,
     /// Submissions (`POST /v1/campaigns`) one agency may make in any minute.
     pub submissions_per_minute: usize,
+    /// Tasks of one agency in the work queue or in progress at once ([`dispatch`]): the most another
+    /// agency's newly submitted tile waits behind.
+    pub dispatch_window: u64,
 }
 
 impl Default for Quotas {
     fn default() -> Self {
-        Self { campaigns_in_flight: 8, tiles_queued: 5_000, submissions_per_minute: 30 }
+        Self { campaigns_in_flight: 8, tiles_queued: 5_000, submissions_per_minute: 30, dispatch_window: 32 }
     }
 }
 
@@ -73,11 +80,17 @@ pub struct Scheduler {
     quotas: Quotas,
     /// Each agency's submissions of the last minute.
     recent: std::sync::Mutex<std::collections::HashMap<String, std::collections::VecDeque<std::time::Instant>>>,
+    /// The planned tiles of active campaigns, for dispatch.
+    plans: std::sync::Mutex<dispatch::PlanCache>,
+    /// Held while a dispatch round runs.
+    dispatching: tokio::sync::Mutex<()>,
+    /// Wakes the dispatcher before its next round is due.
+    wake: Arc<tokio::sync::Notify>,
 }
 
 impl Scheduler {
     /// Bind (or create) the JetStream resources and serve campaigns stored under `store`, with the default
-    /// [`Quotas`].
+    /// [`Quotas`]; starts the dispatcher ([`dispatch`]), which stops when the scheduler is dropped.
     pub async fn start(
         client: async_nats::Client,
         files: Files,
@@ -98,8 +111,21 @@ impl Scheduler {
         let bus = ensure(async_nats::jetstream::new(client.clone())).await?;
         let layout = Layout::new(store);
         tracing::info!(store = layout.root(), ?quotas, "scheduler ready");
-        let recent = std::sync::Mutex::default();
-        Ok(Arc::new(Self { bus, client, files, layout, tokens, metrics: Metrics::default(), quotas, recent }))
+        let scheduler = Arc::new(Self {
+            bus,
+            client,
+            files,
+            layout,
+            tokens,
+            metrics: Metrics::default(),
+            quotas,
+            recent: std::sync::Mutex::default(),
+            plans: std::sync::Mutex::default(),
+            dispatching: tokio::sync::Mutex::new(()),
+            wake: Arc::new(tokio::sync::Notify::new()),
+        });
+        dispatch::spawn_dispatcher(&scheduler);
+        Ok(scheduler)
     }
 
     /// Count a submission of `agency`; false when it made `submissions_per_minute` already in the last minute.

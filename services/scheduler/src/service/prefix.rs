@@ -131,6 +131,52 @@ pub async fn load_agency_campaign(
     Ok(campaign)
 }
 
+/// Why [`stored_output`] found no output prefix.
+#[derive(Debug)]
+pub enum StoredOutputError {
+    /// The store did not answer; a retry may pass.
+    Store(String),
+    /// The state or the stored manifest was tampered with.
+    Tampered(&'static str),
+}
+
+/// The stored manifest of `agency`'s campaign (the state's `manifest` only picks `.toml` or `.json`, and
+/// must be one of the two) and its output prefix (ending in `/`), resolved from that manifest and checked to
+/// lie, like all its locations, under the agency's prefix — derived from agency and id, never read from the
+/// state. Where the report, `plan.json` and the tasks' locations come from.
+pub async fn stored_output(
+    files: &plumbline_runtime::Files,
+    layout: &Layout,
+    agency: &Agency,
+    state: &crate::messages::CampaignState,
+) -> Result<(String, String), StoredOutputError> {
+    use StoredOutputError::Tampered;
+    let manifest_url = [false, true]
+        .map(|json| layout.manifest_url(agency, &state.id, json))
+        .into_iter()
+        .find(|u| *u == state.manifest)
+        .ok_or(Tampered("its state names a manifest that is not the agency's stored one"))?;
+    let bytes = files.read(&manifest_url).await.map_err(|e| StoredOutputError::Store(format!("{e:#}")))?;
+    let manifest = crate::parse_manifest(plumbline_runtime::file_name(&manifest_url), &bytes)
+        .map_err(|_| Tampered("its stored manifest no longer parses"))?
+        .into_latest();
+    if !check_locations(&manifest, &manifest_url, &layout.agency_prefix(agency)).is_empty() {
+        return Err(Tampered("its stored manifest names locations outside the agency's prefix"));
+    }
+    let output = resolve(&crate::manifest_base(&manifest_url), manifest.output.as_str())
+        .map_err(|_| Tampered("its output cannot be resolved"))?;
+    Ok((manifest_url, format!("{}/", output.trim_end_matches('/'))))
+}
+
+impl std::fmt::Display for StoredOutputError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Store(e) => write!(f, "store: {e}"),
+            Self::Tampered(what) => f.write_str(what),
+        }
+    }
+}
+
 /// Whether a key has segments that could move it elsewhere once a store normalises it (`..`, `.`, their
 /// percent-encodings, or backslashes).
 fn climbs(rest: &str) -> bool {

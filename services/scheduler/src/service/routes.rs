@@ -15,7 +15,7 @@ use tracing::Instrument as _;
 
 use super::auth::Agency;
 use super::error::ApiError;
-use super::prefix::check_locations;
+use super::prefix::{StoredOutputError, stored_output};
 use super::{MAX_MANIFEST_BYTES, Scheduler, submit};
 use crate::api::{CampaignList, CampaignView};
 use crate::messages::{CampaignState, CampaignStatus};
@@ -112,25 +112,19 @@ async fn report(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) ->
 /// stored under the agency's prefix for this id, its `output` resolved and checked to stay under that prefix,
 /// then `report.json`.
 async fn report_url(s: &Scheduler, agency: &Agency, state: &CampaignState) -> Result<String, ApiError> {
-    let tampered = |what: &str| {
-        tracing::error!(campaign = state.id.as_str(), agency = agency.as_str(), what, "campaign state tampered with");
-        ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, format!("campaign {:?}: {what}", state.id.as_str()))
-    };
-    let manifest_url = [false, true]
-        .map(|json| s.layout.manifest_url(agency, &state.id, json))
-        .into_iter()
-        .find(|u| *u == state.manifest)
-        .ok_or_else(|| tampered("its state names a manifest that is not the agency's stored one"))?;
-    let bytes = s.files.read(&manifest_url).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
-    let manifest = crate::parse_manifest(plumbline_runtime::file_name(&manifest_url), &bytes)
-        .map_err(|_| tampered("its stored manifest no longer parses"))?
-        .into_latest();
-    if !check_locations(&manifest, &manifest_url, &s.layout.agency_prefix(agency)).is_empty() {
-        return Err(tampered("its stored manifest names locations outside the agency's prefix"));
+    match stored_output(&s.files, &s.layout, agency, state).await {
+        Ok((_, output)) => Ok(format!("{output}report.json")),
+        Err(StoredOutputError::Store(e)) => Err(ApiError::unavailable("store", &e)),
+        Err(StoredOutputError::Tampered(what)) => {
+            tracing::error!(
+                campaign = state.id.as_str(),
+                agency = agency.as_str(),
+                what,
+                "campaign state tampered with"
+            );
+            Err(ApiError::new(StatusCode::INTERNAL_SERVER_ERROR, format!("campaign {:?}: {what}", state.id.as_str())))
+        }
     }
-    let output = plumbline_campaign::resolve(&crate::manifest_base(&manifest_url), manifest.output.as_str())
-        .map_err(|_| tampered("its output cannot be resolved"))?;
-    Ok(format!("{}/report.json", output.trim_end_matches('/')))
 }
 
 async fn cancel(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) -> Result<Json<CampaignView>, ApiError> {

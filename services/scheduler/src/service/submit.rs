@@ -11,7 +11,7 @@ use super::error::{ApiError, FieldProblem};
 use super::prefix::check_locations;
 use crate::bus::unix_now;
 use crate::load::{Campaign, load_campaign};
-use crate::messages::{CampaignState, CampaignStatus, TileTask};
+use crate::messages::{CampaignState, CampaignStatus};
 
 /// What was submitted, parsed and checked.
 struct Submission {
@@ -78,9 +78,18 @@ pub(super) async fn submit(
     if written.is_none() {
         return Err(ApiError::new(StatusCode::CONFLICT, "another submission of this campaign came first; retry"));
     }
-    publish(s, &state, &campaign).await?;
+    s.remember_plan(&state, campaign.plan.tiles.tiles().iter().map(|t| t.id).collect());
     tracing::info!(campaign = id.as_str(), agency = agency.as_str(), run, tiles = state.tiles_total, "campaign queued");
-    Ok((StatusCode::CREATED, state))
+    Ok((StatusCode::CREATED, dispatch_now(s, state).await?))
+}
+
+/// Run a dispatch round so the campaign's first tasks are queued when the answer goes out; the state as it
+/// is then. A failed round is 503: the campaign is stored and the dispatcher keeps trying, and submitting
+/// the same manifest again answers once it went through.
+async fn dispatch_now(s: &Scheduler, state: CampaignState) -> Result<CampaignState, ApiError> {
+    s.dispatch().await.map_err(|e| ApiError::unavailable("publishing tasks (the dispatcher retries)", &e))?;
+    let now = s.bus.campaigns.get(&state.agency, &state.id).await.map_err(|e| ApiError::state(&e))?;
+    Ok(now.map_or(state, |(now, _)| now))
 }
 
 /// The agency's campaigns in flight (neither done, failed nor cancelled), `id`'s own earlier run left out.
@@ -159,6 +168,7 @@ fn initial_state(agency: &Agency, run: u32, manifest: &str, campaign: &Campaign)
         output: campaign.output.clone(),
         status: CampaignStatus::Queued,
         tiles_total: campaign.plan.tiles.tiles().len() as u64,
+        dispatched: 0,
         tiles_done: 0,
         tiles_failed: 0,
         dead_lettered: Vec::new(),
@@ -171,8 +181,8 @@ fn initial_state(agency: &Agency, run: u32, manifest: &str, campaign: &Campaign)
     }
 }
 
-/// The same manifest again while the campaign is active: publish its tasks again (the stream drops the
-/// duplicates, restoring any a failed submission did not get to publish). A different manifest is refused.
+/// The same manifest again while the campaign is active: publish its dispatched tasks again (the stream
+/// drops the duplicates, restoring any lost) and run a dispatch round. A different manifest is refused.
 async fn resubmit(
     s: &Scheduler,
     sub: &Submission,
@@ -189,37 +199,6 @@ async fn resubmit(
             ),
         ));
     }
-    let campaign = load(s, &sub.url).await?;
-    publish(s, &state, &campaign).await?;
-    Ok((StatusCode::OK, state))
-}
-
-/// One task per planned tile, de-duplicated by `Nats-Msg-Id`.
-#[tracing::instrument(name = "publish tasks", skip_all, fields(
-    stage = "publish", campaign = state.id.as_str(), run = state.run, stored = Empty, duplicates = Empty
-))]
-async fn publish(s: &Scheduler, state: &CampaignState, campaign: &Campaign) -> Result<(), ApiError> {
-    let (mut stored, mut duplicates) = (0, 0);
-    for tile in campaign.plan.tiles.tiles() {
-        let task = TileTask {
-            agency: state.agency.clone(),
-            campaign: state.id.clone(),
-            run: state.run,
-            manifest: state.manifest.clone(),
-            tile: tile.id,
-            output: state.output.clone(),
-        };
-        match s.bus.publish_task(&task).await {
-            Ok(true) => stored += 1,
-            Ok(false) => duplicates += 1,
-            Err(e) => {
-                s.metrics.tasks(stored, duplicates);
-                return Err(ApiError::unavailable("publishing tasks (resubmit to complete)", &e));
-            }
-        }
-    }
-    s.metrics.tasks(stored, duplicates);
-    tracing::Span::current().record("stored", stored).record("duplicates", duplicates);
-    tracing::info!(campaign = state.id.as_str(), stored, duplicates, "tasks published");
-    Ok(())
+    s.republish(&state).await.map_err(|e| ApiError::unavailable("publishing tasks", &e))?;
+    Ok((StatusCode::OK, dispatch_now(s, state).await?))
 }
