@@ -33,7 +33,7 @@ use plumbline_runtime::{Files, StoreError};
 use plumbline_scheduler::SkippedInput;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{Agency, CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
-use plumbline_scheduler::service::load_agency_campaign;
+use plumbline_scheduler::service::{Layout, load_agency_campaign};
 use plumbline_worker::service::metrics::Registry;
 use plumbline_worker::service::ops::{Probe, serve_ops};
 use plumbline_worker::service::{Ops, reply, with_heartbeat};
@@ -126,6 +126,8 @@ fn tally_key(agency: &Agency, id: &plumbline_campaign::CampaignId, run: u32) -> 
 struct Adjuster {
     bus: Bus,
     files: Files,
+    /// The store root the adjuster was started with: manifests from the bus must lie where it stores them.
+    layout: Layout,
     tallies: kv::Store,
     metrics: Registry,
     consumer: PullConsumer,
@@ -134,7 +136,13 @@ struct Adjuster {
 
 /// Handle results until `shutdown` completes (the result in hand is finished first); answer probes and
 /// scrapes on `ops` when given.
-pub async fn serve(bus: Bus, files: Files, ops: Option<Ops>, shutdown: impl Future<Output = ()>) -> anyhow::Result<()> {
+pub async fn serve(
+    bus: Bus,
+    files: Files,
+    layout: Layout,
+    ops: Option<Ops>,
+    shutdown: impl Future<Output = ()>,
+) -> anyhow::Result<()> {
     let stream =
         bus.js.get_stream(RESULTS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {RESULTS_STREAM}: {e}"))?;
     let consumer: PullConsumer = stream
@@ -146,7 +154,7 @@ pub async fn serve(bus: Bus, files: Files, ops: Option<Ops>, shutdown: impl Futu
     let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
     let metrics = Registry::new(&ADJUSTER_FAMILIES);
     let adjuster =
-        std::sync::Arc::new(Adjuster { bus, files, tallies, metrics, consumer: consumer.clone(), store_probe });
+        std::sync::Arc::new(Adjuster { bus, files, layout, tallies, metrics, consumer: consumer.clone(), store_probe });
     let (stop_ops, ops_stopped) = tokio::sync::oneshot::channel::<()>();
     if let Some(listener) = listener {
         let probe: std::sync::Arc<dyn Probe> = adjuster.clone();
@@ -333,7 +341,8 @@ impl Adjuster {
             Some(e) => serde_json::from_slice(&e.value)?,
             None => Tally::default(),
         };
-        let mut campaign = load_agency_campaign(&self.files, &state.manifest, state.agency.as_str(), &state.id).await?;
+        let mut campaign =
+            load_agency_campaign(&self.files, &self.layout, &state.manifest, &state.agency, &state.id).await?;
         let mut outputs = Vec::with_capacity(tally.done.len());
         for tile in &tally.done {
             outputs.push(read_output(&self.files, &format!("{}{}", campaign.output, tile_key(tile))).await?);

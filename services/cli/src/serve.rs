@@ -171,7 +171,8 @@ async fn worker(ctx: &Context, args: WorkerArgs) -> anyhow::Result<ExitCode> {
     };
     tracing::info!(store = args.connection.store, "worker starting");
     let ops = args.ops.bind(&args.connection.store).await?;
-    plumbline_worker::service::serve(bus, ctx.files().clone(), config, ops, shutdown_signal()).await?;
+    let layout = service::Layout::new(&args.connection.store);
+    plumbline_worker::service::serve(bus, ctx.files().clone(), layout, config, ops, shutdown_signal()).await?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -179,7 +180,8 @@ async fn adjuster(ctx: &Context, args: AdjusterArgs) -> anyhow::Result<ExitCode>
     let bus = bus(ctx, &args.connection, "adjuster").await?;
     tracing::info!(store = args.connection.store, "adjuster starting");
     let ops = args.ops.bind(&args.connection.store).await?;
-    plumbline_adjuster::service::serve(bus, ctx.files().clone(), ops, shutdown_signal()).await?;
+    let layout = service::Layout::new(&args.connection.store);
+    plumbline_adjuster::service::serve(bus, ctx.files().clone(), layout, ops, shutdown_signal()).await?;
     Ok(ExitCode::SUCCESS)
 }
 

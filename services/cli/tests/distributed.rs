@@ -7,7 +7,8 @@
 //! after the first campaign: their counters must match what happened. The first campaign resubmitted with a
 //! changed parameter is processed again and equals `plumbline run` of the changed manifest; a second agency's
 //! campaign of the same id whose index reaches into the first agency's prefix and the worker's disk has those
-//! rows refused. NATS runs on the deployment's own
+//! rows refused, and its orthophoto and terrain VRTs naming a worker-local file and a URL are refused by name
+//! without GDAL opening either. NATS runs on the deployment's own
 //! `deploy/nats.conf`: every role connects as its user and works within that user's permissions; a second
 //! test shows those permissions hold a role (or a stranger) to its subjects.
 
@@ -291,6 +292,73 @@ async fn distributed_campaign_matches_plumbline_run_and_survives_a_killed_worker
     assert!(refused(&theirs) && refused("file:///etc/hostname"), "{skipped:#?}");
     assert!(report["summary"]["images_matched"].as_u64().unwrap() > 0, "the rest was processed: {report}");
     assert_eq!(api.status(&id).await.unwrap().campaign.run, 2, "hamburg's campaign is its own");
+
+    // (e) Agency bremen's orthophoto and terrain model as VRTs reaching outside its prefix: the terrain's
+    // source is a URL on a listener of this test (after an XML comment), the orthophoto's a file on the
+    // worker's disk (attributes in single quotes). The terrain is read when the manifest gives no camera
+    // height, the orthophoto when it names no aerial frames: one campaign each. Neither source is handed to
+    // GDAL — nothing connects to the listener — and both refusals are named.
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    listener.set_nonblocking(true).unwrap();
+    let bait = format!("/vsicurl/http://{}/terrain.tif", listener.local_addr().unwrap());
+    let ortho = hostile_vrt(&campaign.join("aerial/orthophoto.tif"), "/etc/hostname", '\'', "");
+    let terrain = hostile_vrt(&campaign.join("aerial/terrain.tif"), &bait, '"', "<!-- a comment first -->");
+    let frames = manifest.find("[aerial.frames]").unwrap()..manifest.find("[aerial.orthophoto]").unwrap();
+    let cases = [
+        ("terrain-vrt", manifest.replace("camera_height_m = 3.75\n", "")),
+        ("ortho-vrt", manifest.replace(&manifest[frames], "")),
+    ];
+    let mut views = Vec::new();
+    for (case, text) in cases {
+        upload_to(&files, &campaign, "bremen", case).await;
+        let dir = format!("{STORE}/agencies/bremen/campaigns/{case}/aerial/");
+        files.write(&format!("{dir}orthophoto.vrt"), ortho.clone().into_bytes()).await.unwrap();
+        files.write(&format!("{dir}terrain.vrt"), terrain.clone().into_bytes()).await.unwrap();
+        let text = text
+            .replacen(&format!("id = \"{id}\""), &format!("id = \"{case}\""), 1)
+            .replace("aerial/orthophoto.tif", "aerial/orthophoto.vrt")
+            .replace("aerial/terrain.tif", "aerial/terrain.vrt");
+        bremen.submit(text.into_bytes(), false).await.unwrap();
+        views.push(wait_terminal(bremen, case, Duration::from_secs(600), &[&adjuster, &w2]).await);
+    }
+    assert!(listener.accept().is_err(), "the terrain VRT's URL was fetched");
+    // Without a camera height every tile needs the terrain: each fails for good, naming the refused source.
+    let refused_terrain = format!("`{bait}` is not relative to the VRT");
+    let failed = &views[0].campaign;
+    assert_eq!(failed.status, CampaignStatus::Failed, "{failed:#?}");
+    assert_eq!(failed.dead_lettered.len() as u64, failed.tiles_total, "{failed:#?}");
+    assert!(failed.dead_lettered.iter().all(|d| d.error.contains(&refused_terrain)), "{failed:#?}");
+    // Without frames the orthophoto is the reference: refused and named; the campaign ends on its poles.
+    assert_eq!(views[1].campaign.status, CampaignStatus::Done, "{:#?}", views[1]);
+    let report = bremen.report("ortho-vrt").await.unwrap();
+    let named = report["skipped"].as_array().unwrap().iter().any(|s| {
+        s["item"].as_str().is_some_and(|i| i.ends_with("/ortho-vrt/aerial/orthophoto.vrt"))
+            && s["detail"].as_str().is_some_and(|d| d.contains("`/etc/hostname` is not relative to the VRT"))
+    });
+    assert!(named, "{:#?}", report["skipped"]);
+}
+
+/// A VRT of `raster`'s size, geotransform and band count whose sources are `source` (absolute), with
+/// attributes quoted by `quote` and `lead` before the root element.
+fn hostile_vrt(raster: &std::path::Path, source: &str, quote: char, lead: &str) -> String {
+    let r = plumbline_runtime::gdal_read::RasterSource::open_path(raster).unwrap();
+    let ((w, h), g) = (r.size(), r.geotransform());
+    let q = quote;
+    let mut bands = String::new();
+    for band in 1..=r.band_count() {
+        bands.push_str(&format!(
+            "<VRTRasterBand dataType={q}{ty}{q} band={q}{band}{q}><SimpleSource>\
+             <SourceFilename relativeToVRT={q}0{q}>{source}</SourceFilename><SourceBand>{band}</SourceBand>\
+             <SrcRect xOff={q}0{q} yOff={q}0{q} xSize={q}{w}{q} ySize={q}{h}{q}/>\
+             <DstRect xOff={q}0{q} yOff={q}0{q} xSize={q}{w}{q} ySize={q}{h}{q}/></SimpleSource></VRTRasterBand>",
+            ty = r.pixel_type().unwrap(),
+        ));
+    }
+    format!(
+        "{lead}<VRTDataset rasterXSize={q}{w}{q} rasterYSize={q}{h}{q}><SRS>EPSG:25832</SRS>\
+         <GeoTransform>{}, {}, {}, {}, {}, {}</GeoTransform>{bands}</VRTDataset>",
+        g[0], g[1], g[2], g[3], g[4], g[5]
+    )
 }
 
 /// The users of `deploy/nats.conf` hold each role to its subjects: a stranger and a wrong password are

@@ -34,7 +34,7 @@ use plumbline_runtime::Files;
 use plumbline_scheduler::Campaign;
 use plumbline_scheduler::bus::{self, Bus, BusError, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
 use plumbline_scheduler::messages::{Agency, CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
-use plumbline_scheduler::service::load_agency_campaign;
+use plumbline_scheduler::service::{Layout, load_agency_campaign};
 use tracing::Instrument as _;
 
 use crate::{WorkerConfig, tile_key};
@@ -81,6 +81,8 @@ type Cache = Mutex<HashMap<(Agency, CampaignId, u32), Arc<Campaign>>>;
 struct Worker {
     bus: Bus,
     files: Files,
+    /// The store root the worker was started with: manifests from the bus must lie where it stores them.
+    layout: Layout,
     config: ServiceConfig,
     campaigns: Cache,
     metrics: Registry,
@@ -96,11 +98,12 @@ enum Handled {
     Done { result: String, resumed: bool },
 }
 
-/// Process tasks until `shutdown` completes (tasks in flight are finished first); answer probes and
-/// scrapes on `ops` when given.
+/// Process tasks of campaigns stored under `layout`'s root until `shutdown` completes (tasks in flight are
+/// finished first); answer probes and scrapes on `ops` when given.
 pub async fn serve(
     bus: Bus,
     files: Files,
+    layout: Layout,
     config: ServiceConfig,
     ops: Option<Ops>,
     shutdown: impl Future<Output = ()> + Send,
@@ -113,6 +116,7 @@ pub async fn serve(
     let worker = Arc::new(Worker {
         bus,
         files,
+        layout,
         config,
         campaigns: Mutex::new(HashMap::new()),
         metrics,
@@ -320,7 +324,8 @@ impl Worker {
         if let Some(found) = self.campaigns.lock().ok().and_then(|c| c.get(&key).cloned()) {
             return Ok(found);
         }
-        let loaded = load_agency_campaign(&self.files, &task.manifest, task.agency.as_str(), &task.campaign).await?;
+        let loaded =
+            load_agency_campaign(&self.files, &self.layout, &task.manifest, &task.agency, &task.campaign).await?;
         let campaign = Arc::new(loaded);
         if let Ok(mut cache) = self.campaigns.lock() {
             cache.retain(|(agency, id, _), _| (agency, id) != (&task.agency, &task.campaign));

@@ -36,10 +36,7 @@ use plumbline_runtime::{Files, NatsConfig};
 
 pub use auth::{Agency, MIN_TOKEN_LEN, Tokens};
 pub use openapi::openapi;
-pub use prefix::{
-    Layout, PrefixProblem, StoredOutputError, check_locations, load_agency_campaign, stored_manifest_prefix,
-    stored_output,
-};
+pub use prefix::{Layout, PrefixProblem, StoredOutputError, check_locations, load_agency_campaign, stored_output};
 
 use crate::bus::{Bus, BusError, ensure};
 use metrics::Metrics;

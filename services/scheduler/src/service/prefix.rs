@@ -42,6 +42,21 @@ impl Layout {
         format!("{}agencies/{}/", self.root, agency.as_str())
     }
 
+    /// The agency's prefix when `manifest_url` — read from the bus (a task or a campaign's state), where
+    /// anyone able to publish could have written anything — is exactly where the job API stores that agency's
+    /// manifest of campaign `id` under this store root: `{root}agencies/<agency>/campaigns/<id>/manifest.(toml|json)`.
+    pub fn stored_manifest(&self, manifest_url: &str, agency: &Agency, id: &CampaignId) -> Result<String, String> {
+        if [false, true].into_iter().any(|json| self.manifest_url(agency, id, json) == manifest_url) {
+            return Ok(self.agency_prefix(agency));
+        }
+        Err(format!(
+            "`{manifest_url}` is not where the job API stores agency {}'s manifest of campaign {} (under {})",
+            agency.as_str(),
+            id.as_str(),
+            self.root
+        ))
+    }
+
     /// Where the manifest of a campaign is stored: `{agency prefix}campaigns/<id>/manifest.{toml|json}`.
     pub fn manifest_url(&self, agency: &Agency, id: &CampaignId, json: bool) -> String {
         let ext = if json { "json" } else { "toml" };
@@ -86,38 +101,19 @@ pub fn check_locations(manifest: &ManifestV1, manifest_url: &str, prefix: &str) 
     problems
 }
 
-/// The prefix of agency `agency` when `manifest_url` — read from the bus (a task or a campaign's state),
-/// where anyone able to publish could have written anything — is where the job API stores that agency's
-/// manifest of campaign `id`: `{root}agencies/<agency>/campaigns/<id>/manifest.(toml|json)`.
-pub fn stored_manifest_prefix(manifest_url: &str, agency: &str, id: &CampaignId) -> Result<String, String> {
-    let agency = Agency::parse(agency)?;
-    for ext in ["toml", "json"] {
-        let tail = format!("agencies/{}/campaigns/{}/manifest.{ext}", agency.as_str(), id.as_str());
-        if let Some(root) = manifest_url.strip_suffix(&tail)
-            && root.ends_with('/')
-            && !climbs(root)
-        {
-            return Ok(format!("{root}agencies/{}/", agency.as_str()));
-        }
-    }
-    Err(format!(
-        "`{manifest_url}` is not where the job API stores agency {}'s manifest of campaign {}",
-        agency.as_str(),
-        id.as_str()
-    ))
-}
-
 /// Load a campaign whose manifest URL and agency come from the bus, as the worker and the adjuster do: the
-/// manifest must be the agency's stored one ([`stored_manifest_prefix`]) and every location it names must
-/// still lie under the agency's prefix ([`check_locations`]) — what submission checked, checked again where
-/// the reads happen. Either failing is invalid input (the tile or campaign is failed, not retried).
+/// manifest must be the agency's stored one under the store root the role was started with
+/// ([`Layout::stored_manifest`]) and every location it names must still lie under the agency's prefix
+/// ([`check_locations`]) — what submission checked, checked again where the reads happen. Either failing is
+/// invalid input (the tile or campaign is failed, not retried).
 pub async fn load_agency_campaign(
     files: &plumbline_runtime::Files,
+    layout: &Layout,
     manifest_url: &str,
-    agency: &str,
+    agency: &Agency,
     id: &CampaignId,
 ) -> anyhow::Result<crate::Campaign> {
-    let prefix = stored_manifest_prefix(manifest_url, agency, id).map_err(plumbline_runtime::invalid)?;
+    let prefix = layout.stored_manifest(manifest_url, agency, id).map_err(plumbline_runtime::invalid)?;
     let campaign = crate::load_campaign(files, manifest_url).await?;
     let outside = check_locations(&campaign.manifest, manifest_url, &prefix);
     if let Some(first) = outside.first() {
@@ -225,19 +221,22 @@ mod tests {
 
     #[test]
     fn only_the_agencys_stored_manifest_is_taken_from_the_bus() {
-        let id: CampaignId = "c1".parse().unwrap();
-        let ok = stored_manifest_prefix("s3://b/pl/agencies/hamburg/campaigns/c1/manifest.json", "hamburg", &id);
+        let layout = Layout::new("s3://b/pl");
+        let (hamburg, id): (Agency, CampaignId) = (Agency::parse("hamburg").unwrap(), "c1".parse().unwrap());
+        let ok = layout.stored_manifest("s3://b/pl/agencies/hamburg/campaigns/c1/manifest.json", &hamburg, &id);
         assert_eq!(ok.unwrap(), "s3://b/pl/agencies/hamburg/");
-        for (url, agency) in [
-            ("s3://b/pl/agencies/bremen/campaigns/c1/manifest.toml", "hamburg"),
-            ("s3://b/pl/agencies/hamburg/campaigns/c2/manifest.toml", "hamburg"),
-            ("s3://b/pl/agencies/hamburg/campaigns/c1/other.toml", "hamburg"),
-            ("file:///etc/agencies/hamburg/campaigns/c1/../c1/manifest.toml", "hamburg"),
-            ("s3://b/pl/../agencies/hamburg/campaigns/c1/manifest.toml", "hamburg"),
-            ("s3://b/pl/xagencies/hamburg/campaigns/c1/manifest.toml", "hamburg"),
-            ("s3://b/pl/agencies/hamburg/campaigns/c1/manifest.toml", "Ham burg"),
+        for url in [
+            "s3://b/pl/agencies/bremen/campaigns/c1/manifest.toml",
+            "s3://b/pl/agencies/hamburg/campaigns/c2/manifest.toml",
+            "s3://b/pl/agencies/hamburg/campaigns/c1/other.toml",
+            "file:///etc/agencies/hamburg/campaigns/c1/manifest.toml",
+            "s3://other/pl/agencies/hamburg/campaigns/c1/manifest.toml",
+            "s3://b/pl/agencies/hamburg/campaigns/c1/../c1/manifest.toml",
+            "s3://b/pl/../agencies/hamburg/campaigns/c1/manifest.toml",
+            "s3://b/pl/xagencies/hamburg/campaigns/c1/manifest.toml",
         ] {
-            assert!(stored_manifest_prefix(url, agency, &id).is_err(), "{url} as {agency}");
+            let e = layout.stored_manifest(url, &hamburg, &id).unwrap_err();
+            assert!(e.contains("is not where the job API stores agency hamburg's manifest"), "{url}: {e}");
         }
     }
 
