@@ -70,6 +70,15 @@ impl Files {
         }
     }
 
+    /// Bytes and objects stored under a prefix (a directory or `s3://bucket/prefix/`); a prefix that does
+    /// not exist holds nothing.
+    pub async fn prefix_size(&self, url: &str) -> anyhow::Result<(u64, u64)> {
+        match crate::store::prefix_size(url, &self.s3).await {
+            Err(e) if e.kind() == StoreErrorKind::NotFound => Ok((0, 0)),
+            other => other.with_context(|| format!("listing {url}")),
+        }
+    }
+
     /// Write a whole file, replacing it.
     pub async fn write(&self, url: &str, bytes: Vec<u8>) -> anyhow::Result<()> {
         write_url(url, &self.s3, Bytes::from(bytes)).await.with_context(|| format!("writing {url}"))

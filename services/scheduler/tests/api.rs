@@ -259,6 +259,24 @@ async fn one_agencys_backlog_does_not_hold_up_anothers_tile() {
     }
 }
 
+/// The bytes an agency keeps under its prefix are bounded: over its quota, a submission is 429 naming the
+/// bytes; another agency under its own quota is not held up.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_bytes_quota_bounds_what_an_agency_keeps() {
+    use plumbline_scheduler::service::Quotas;
+    let one = (support::trajectory_csv().len() + support::panorama_index().len()) as u64;
+    let h = Harness::local_with_quotas(Quotas { bytes_stored: one, ..Quotas::default() }).await;
+    for (agency, id) in [("hamburg", "b-1"), ("hamburg", "b-2"), ("bremen", "b-3")] {
+        h.upload_inputs(agency, id).await;
+    }
+    let text = |id: &str| manifest(id, "nav/dg.csv", "results/").into_bytes();
+    let e = h.client(HAMBURG).submit(text("b-1"), false).await.unwrap_err();
+    assert_eq!(status_of(&e), StatusCode::TOO_MANY_REQUESTS, "{e}");
+    assert!(e.to_string().contains(&format!("keeps {} bytes in 4 objects", 2 * one)), "{e}");
+    assert!(h.client(HAMBURG).list().await.unwrap().campaigns.is_empty());
+    assert_eq!(h.client(BREMEN).submit(text("b-3"), false).await.unwrap().campaign.run, 1);
+}
+
 /// One agency's backlog and submission rate are bounded (429 naming the quota); another agency is not held
 /// up by them, and a cancelled campaign frees its place.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

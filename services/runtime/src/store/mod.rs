@@ -96,6 +96,21 @@ fn lexically_normal(path: &std::path::Path) -> std::path::PathBuf {
     out
 }
 
+/// The bytes and the number of objects stored under a prefix URL (`s3://bucket/agencies/a/`, a local
+/// directory), listed page by page: what an agency keeps in the store.
+pub async fn prefix_size(url: &str, s3: &S3Options) -> Result<(u64, u64), StoreError> {
+    use futures::TryStreamExt as _;
+    let root = open_store(url, s3)?;
+    let prefix = (!root.prefix.as_ref().is_empty()).then_some(&root.prefix);
+    let mut listing = root.store.list(prefix);
+    let (mut bytes, mut objects) = (0u64, 0u64);
+    while let Some(meta) = listing.try_next().await.map_err(|e| StoreError::from_store("list", url, e))? {
+        bytes = bytes.saturating_add(meta.size);
+        objects += 1;
+    }
+    Ok((bytes, objects))
+}
+
 /// Checks that the object an object URL names exists, reading only its metadata.
 pub async fn head_url(url: &str, s3: &S3Options) -> Result<(), StoreError> {
     let (store, key) = open_object(url, s3)?;

@@ -57,11 +57,19 @@ pub struct Quotas {
     /// Tasks of one agency in the work queue or in progress at once ([`dispatch`]): the most another
     /// agency's newly submitted tile waits behind.
     pub dispatch_window: u64,
+    /// Bytes one agency may keep under its prefix (inputs and results), listed at each submission.
+    pub bytes_stored: u64,
 }
 
 impl Default for Quotas {
     fn default() -> Self {
-        Self { campaigns_in_flight: 8, tiles_queued: 5_000, submissions_per_minute: 30, dispatch_window: 32 }
+        Self {
+            campaigns_in_flight: 8,
+            tiles_queued: 5_000,
+            submissions_per_minute: 30,
+            dispatch_window: 32,
+            bytes_stored: 10 << 40,
+        }
     }
 }
 

@@ -54,6 +54,18 @@ pub(super) async fn submit(
         );
         return Err(ApiError::new(StatusCode::TOO_MANY_REQUESTS, message));
     }
+    let prefix = s.layout.agency_prefix(agency);
+    let (stored, objects) =
+        s.files.prefix_size(&prefix).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
+    if stored > s.quotas.bytes_stored {
+        let message = format!(
+            "agency {} keeps {stored} bytes in {objects} objects under {prefix}, more than its quota of {} bytes; \
+             delete what finished campaigns no longer need",
+            agency.as_str(),
+            s.quotas.bytes_stored
+        );
+        return Err(ApiError::new(StatusCode::TOO_MANY_REQUESTS, message));
+    }
     s.files.write(&sub.url, sub.bytes.clone()).await.map_err(|e| ApiError::unavailable("store", &format!("{e:#}")))?;
     let campaign = load(s, &sub.url).await?;
     let plan_url = format!("{}plan.json", campaign.output);
