@@ -108,6 +108,22 @@ pub struct SchedulerArgs {
     /// Bearer tokens: a TOML file whose `[tokens]` table maps each token to its agency.
     #[arg(long, env = "PLUMBLINE_TOKENS_FILE", value_name = "FILE")]
     pub tokens: PathBuf,
+    /// Per agency: campaigns neither done, failed nor cancelled.
+    #[arg(long, default_value_t = 8, value_parser = clap::value_parser!(u64).range(1..))]
+    pub quota_campaigns: u64,
+    /// Per agency: tiles of its campaigns in flight not yet handled.
+    #[arg(long, default_value_t = 5_000, value_parser = clap::value_parser!(u64).range(1..))]
+    pub quota_tiles: u64,
+    /// Per agency: submissions in any minute.
+    #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u64).range(1..))]
+    pub quota_submissions_per_minute: u64,
+    /// Per agency: bytes kept under its prefix, in GiB.
+    #[arg(long, default_value_t = 10_240, value_parser = clap::value_parser!(u64).range(1..))]
+    pub quota_gib: u64,
+    /// Per agency: tasks in the work queue or in progress at once (fair dispatch); the most another agency's
+    /// new tile waits behind. Keep it at or above the number of workers one agency should keep busy.
+    #[arg(long, default_value_t = 32, value_parser = clap::value_parser!(u64).range(1..))]
+    pub dispatch_window: u64,
 }
 
 /// Run `serve`.
@@ -201,7 +217,15 @@ async fn scheduler(ctx: &Context, args: SchedulerArgs) -> anyhow::Result<ExitCod
     let text = std::fs::read_to_string(&args.tokens).or_invalid(&format!("tokens file {origin}"))?;
     let tokens = Tokens::from_toml(&origin, &text).map_err(invalid)?;
     let client = connect(ctx, &args.connection, "scheduler").await?;
-    let scheduler = Scheduler::start(client, ctx.files().clone(), &args.connection.store, tokens).await?;
+    let quotas = service::Quotas {
+        campaigns_in_flight: usize::try_from(args.quota_campaigns).unwrap_or(usize::MAX),
+        tiles_queued: args.quota_tiles,
+        submissions_per_minute: usize::try_from(args.quota_submissions_per_minute).unwrap_or(usize::MAX),
+        dispatch_window: args.dispatch_window,
+        bytes_stored: args.quota_gib.saturating_mul(1 << 30),
+    };
+    let store = &args.connection.store;
+    let scheduler = Scheduler::start_with(client, ctx.files().clone(), store, tokens, quotas).await?;
     let listener =
         tokio::net::TcpListener::bind(&args.listen).await.or_invalid(&format!("--listen {}", args.listen))?;
     tracing::info!(listen = %listener.local_addr()?, "scheduler API listening");
