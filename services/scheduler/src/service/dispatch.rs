@@ -90,6 +90,20 @@ struct Target {
     tiles: Arc<Vec<TileId>>,
 }
 
+impl Target {
+    /// The task of `tile` of the campaign in `state`'s run.
+    fn task(&self, state: &CampaignState, tile: TileId) -> TileTask {
+        TileTask {
+            agency: state.agency.clone(),
+            campaign: state.id.clone(),
+            run: state.run,
+            manifest: self.manifest.clone(),
+            tile,
+            output: self.output.clone(),
+        }
+    }
+}
+
 impl Scheduler {
     /// Remember a planned campaign's tiles (at submission, so its first round needs no read).
     pub(super) fn remember_plan(&self, state: &CampaignState, tiles: Vec<TileId>) {
@@ -133,15 +147,7 @@ impl Scheduler {
             }
             let Some(Some(target)) = targets.get(&i) else { continue };
             let Some(tile) = usize::try_from(next[i]).ok().and_then(|k| target.tiles.get(k)) else { continue };
-            let task = TileTask {
-                agency: state.agency.clone(),
-                campaign: state.id.clone(),
-                run: state.run,
-                manifest: target.manifest.clone(),
-                tile: *tile,
-                output: target.output.clone(),
-            };
-            match self.bus.publish_task(&task).await {
+            match self.bus.publish_task(&target.task(state, *tile)).await {
                 Ok(true) => stored += 1,
                 Ok(false) => duplicates += 1,
                 Err(e) => {
@@ -184,15 +190,7 @@ impl Scheduler {
         let dispatched = usize::try_from(state.dispatched).unwrap_or(usize::MAX);
         let (mut stored, mut duplicates) = (0, 0);
         for tile in target.tiles.iter().take(dispatched) {
-            let task = TileTask {
-                agency: state.agency.clone(),
-                campaign: state.id.clone(),
-                run: state.run,
-                manifest: target.manifest.clone(),
-                tile: *tile,
-                output: target.output.clone(),
-            };
-            match self.bus.publish_task(&task).await {
+            match self.bus.publish_task(&target.task(state, *tile)).await {
                 Ok(true) => stored += 1,
                 Ok(false) => duplicates += 1,
                 Err(e) => {
