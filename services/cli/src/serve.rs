@@ -153,13 +153,9 @@ async fn connect(ctx: &Context, connection: &Connection, role: &str) -> anyhow::
                  a development server without authentication needs --insecure-no-nats-auth",
             ));
         }
-        (Some(c), true) => {
+        (config, true) => {
             tracing::warn!("connecting to NATS without credentials (--insecure-no-nats-auth): development only");
-            NatsAuth::Config(c)
-        }
-        (None, true) => {
-            tracing::warn!("connecting to NATS without credentials (--insecure-no-nats-auth): development only");
-            NatsAuth::Insecure
+            config.map_or(NatsAuth::Insecure, NatsAuth::Config)
         }
     };
     let wait = Duration::from_secs(connection.connect_timeout_s);
