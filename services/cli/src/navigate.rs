@@ -16,10 +16,11 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample, IntegrityConfig,
-    MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway, STANDARD_GRAVITY, Screened, ScreenedFix,
-    VehicleConstraint, align, angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, measure_noise,
-    screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    Adaptation, AlignmentConfig, Earth, EpisodeEnd, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample,
+    IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway, STANDARD_GRAVITY, Screened,
+    ScreenedFix, StepScreen, StepTest, VehicleConstraint, align, angle_random_walk_deg_per_sqrt_h, divergences, filter,
+    filter_adaptive, filter_excluding, measure_noise, screen_fixes, screen_steps, smooth, test_innovations,
+    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -33,6 +34,17 @@ pub enum Grade {
     Tactical,
     /// Consumer MEMS (BMI160 class, paper 002 §3.1.1; `navigate --imu-model consumer`).
     Consumer,
+}
+
+/// How `navigate` judges the fixes (see `--integrity`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Integrity {
+    /// GNSS steps against the IMU's free displacement (`plumbline_navigation::screen_steps`).
+    Steps,
+    /// The filter's online innovation tests (`plumbline_navigation::filter_adaptive`).
+    Online,
+    /// Every fix used.
+    None,
 }
 
 /// Arguments of `navigate`.
@@ -56,13 +68,22 @@ pub struct Args {
     /// gravity: the simulator's world.
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub latitude: Option<f64>,
-    /// Significance level of the innovation tests.
+    /// Significance level of the innovation tests and the step test.
     #[arg(long, default_value_t = 0.001)]
     pub alpha: f64,
     /// Fixes in the moving window of the global tests.
     #[arg(long, default_value_t = 25)]
     pub window: usize,
-    /// Use every fix as it comes (do not exclude rejected fixes or re-open the covariance).
+    /// How fixes are judged before use: `steps` (GNSS steps found against the IMU's own acceleration,
+    /// independent of the filter's drift; the default), `online` (the filter acting on its innovation tests,
+    /// paper 001 §3.2: excluding, re-opening, re-initialising; suits IMU data its model describes) or `none`
+    /// (every fix used).
+    #[arg(long, value_enum, default_value_t = Integrity::Steps)]
+    pub integrity: Integrity,
+    /// The smallest GNSS step the step test excludes fixes for, m.
+    #[arg(long, value_name = "M", default_value_t = StepTest::default().min_step)]
+    pub min_step: f64,
+    /// Use every fix as it comes: the same as `--integrity none`.
     #[arg(long)]
     pub no_adapt: bool,
     /// The platform is not a wheeled vehicle (a backpack, a trolley): do not hold the body's lateral and
@@ -145,6 +166,41 @@ fn report_screened(rejected: &[ScreenedFix], total: usize, name: &str) {
     }
 }
 
+/// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
+fn report_steps(steps: &StepScreen, name: &str) {
+    let s = steps.scale;
+    eprintln!(
+        "GNSS step test: {} fixes tested against the IMU (σ of the step evidence {:.2}/{:.2}/{:.2} m/s \
+         east/north/up, smallest step {:.2} m), {} excluded in {} episode(s)",
+        steps.tested,
+        s[0],
+        s[1],
+        s[2],
+        steps.min_step,
+        steps.excluded_count(),
+        steps.episodes.len()
+    );
+    for e in steps.episodes.iter().take(SKIPPED_LISTED) {
+        let how = match e.ended {
+            EpisodeEnd::Returned => "until the fixes came back",
+            EpisodeEnd::Gap => "until a gap in the fixes",
+            EpisodeEnd::Data => "until the end of the data",
+        };
+        let [e_, n, u] = e.step;
+        eprintln!(
+            "warning: {name} line {}: a step of {:.1} m (east {e_:.1}, north {n:.1}, up {u:.1}) at time {:.2} s: {} \
+             fix(es) excluded {how}",
+            e.first_fix + 2,
+            (e_ * e_ + n * n + u * u).sqrt(),
+            e.start,
+            e.fixes
+        );
+    }
+    if steps.episodes.len() > SKIPPED_LISTED {
+        eprintln!("warning: {name}: {} more step episodes (summary.json)", steps.episodes.len() - SKIPPED_LISTED);
+    }
+}
+
 /// A filter error about a fix, numbered as in the file.
 fn renumber(e: NavError, fix: usize) -> NavError {
     match e {
@@ -173,6 +229,8 @@ const SKIPPED_LISTED: usize = 10;
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let adaptation = Adaptation { alpha: args.alpha, window: args.window, ..Adaptation::default() };
     adaptation.check().or_invalid("--alpha/--window")?;
+    let step_test = StepTest { alpha: args.alpha, min_step: args.min_step, ..StepTest::default() };
+    step_test.check().or_invalid("--alpha/--min-step")?;
     let datasheet = datasheet_of(ctx, &args.imu_model).await?;
     let earth = match args.latitude {
         Some(deg) => Earth::Wgs84 { latitude: deg.to_radians() },
@@ -204,53 +262,71 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let vehicle = (!args.no_vehicle_constraint).then(VehicleConstraint::default);
     let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle };
     config.check().or_invalid("navigation config")?;
-    let adapt = !args.no_adapt;
+    let integrity = if args.no_adapt { Integrity::None } else { args.integrity };
     let gnss_name = file_name(&args.gnss).to_owned();
     let screened = screen_fixes(&gnss, &Plausibility::default());
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
-    let (forward, trajectory, flags, initial, diverged) = tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
-        let Screened { kept: gnss, index, .. } = screened;
-        let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
-        let mut forward = if adapt {
-            filter_adaptive(&imu, &gnss, &initial, &config, &adaptation)
-        } else {
-            filter(&imu, &gnss, &initial, &config)
-        }
-        .map_err(|e| files::name_sample(e, &imu_name))?;
-        // Fix numbers back to the file's, past the fixes screened out.
-        forward.innovations.iter_mut().for_each(|i| i.fix = index[i.fix]);
-        for s in &mut forward.skipped {
-            s.fix = index[s.fix];
-            s.reason = renumber(s.reason.clone(), s.fix);
-        }
-        // A runaway or a smoother failure still leaves the filter's record to be written.
-        let diverged = divergences(&forward, &Physics::for_unit(config.imu.accel_bias, config.imu.gyro_bias));
-        let trajectory = match diverged.first() {
-            Some(d) => Err(anyhow::anyhow!(
-                "the filter diverged in {} span(s); the first from time {:.2} s to {:.2} s ({}, speed up to {:.1} \
+    let (forward, trajectory, flags, initial, diverged, steps) =
+        tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
+            let Screened { kept: gnss, index, .. } = screened;
+            let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
+            let name = |e| files::name_sample(e, &imu_name);
+            let (mut forward, steps) = match integrity {
+                Integrity::Steps => {
+                    let first = filter(&imu, &gnss, &initial, &config).map_err(name)?;
+                    let steps = screen_steps(&first, &gnss, &step_test);
+                    (filter_excluding(&imu, &gnss, &initial, &config, &steps.excluded).map_err(name)?, Some(steps))
+                }
+                Integrity::Online => {
+                    (filter_adaptive(&imu, &gnss, &initial, &config, &adaptation).map_err(name)?, None)
+                }
+                Integrity::None => (filter(&imu, &gnss, &initial, &config).map_err(name)?, None),
+            };
+            let steps = steps.map(|mut s| {
+                for e in &mut s.episodes {
+                    e.first_fix = index[e.first_fix];
+                }
+                s
+            });
+            // Fix numbers back to the file's, past the fixes screened out.
+            forward.innovations.iter_mut().for_each(|i| i.fix = index[i.fix]);
+            for s in &mut forward.skipped {
+                s.fix = index[s.fix];
+                s.reason = renumber(s.reason.clone(), s.fix);
+            }
+            // A runaway or a smoother failure still leaves the filter's record to be written.
+            let diverged = divergences(&forward, &Physics::for_unit(config.imu.accel_bias, config.imu.gyro_bias));
+            let trajectory = match diverged.first() {
+                Some(d) => Err(anyhow::anyhow!(
+                    "the filter diverged in {} span(s); the first from time {:.2} s to {:.2} s ({}, speed up to {:.1} \
                  m/s): its IMU model does not fit the data (try a worse --imu-model class) or the GNSS it trusted \
                  was wrong",
-                diverged.len(),
-                d.start,
-                d.end,
-                runaway_text(d.first),
-                d.max_speed
-            )),
-            None => smooth(&forward)
-                .context("RTS smoother")
-                .and_then(|smoothed| to_trajectory(&smoothed).context("smoothed trajectory")),
-        };
-        let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
-        let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-        Ok((forward, trajectory, flags, initial, diverged))
-    })
-    .await
-    .context("navigation task")??;
+                    diverged.len(),
+                    d.start,
+                    d.end,
+                    runaway_text(d.first),
+                    d.max_speed
+                )),
+                None => smooth(&forward)
+                    .context("RTS smoother")
+                    .and_then(|smoothed| to_trajectory(&smoothed).context("smoothed trajectory")),
+            };
+            let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
+            let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
+            Ok((forward, trajectory, flags, initial, diverged, steps))
+        })
+        .await
+        .context("navigation task")??;
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     ctx.write(&format!("{prefix}innovations.csv"), output::innovations_csv(&forward)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
-    let mut summary = output::summary(&forward, &flags, &initial, adapt);
+    if let Some(steps) = &steps {
+        report_steps(steps, &gnss_name);
+    }
+    let mut summary = output::summary(&forward, &flags, &initial, integrity != Integrity::None);
+    summary["integrity"] = output::integrity_name(integrity).into();
+    summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     summary["divergences"] = serde_json::to_value(&diverged)?;

@@ -66,7 +66,8 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     let dir = tempfile::tempdir().unwrap();
     let sim = dir.path().join("sim");
     simulate(&sim, 3);
-    // A 1 m northward jump in the fixes for 10 s, 60 s into the drive.
+    // A 2 m northward jump in the fixes for 10 s, 60 s into the drive (multipath steps are 2–5 m; the step
+    // test leaves steps under `--min-step`, 1 m by default, to the filter's averaging).
     let text = std::fs::read_to_string(sim.join("nav/gnss.csv")).unwrap();
     let t0: f64 = text.lines().nth(1).unwrap().split(',').next().unwrap().parse().unwrap();
     let (a, b) = (t0 + 60.0, t0 + 70.0);
@@ -76,7 +77,7 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
         let mut f: Vec<String> = line.split(',').map(str::to_owned).collect();
         let t: f64 = if i == 0 { f64::NAN } else { f[0].parse().unwrap() };
         if t >= a && t < b {
-            f[2] = (f[2].parse::<f64>().unwrap() + 1.0).to_string();
+            f[2] = (f[2].parse::<f64>().unwrap() + 2.0).to_string();
             in_jump += 1;
         }
         // And one 30 m outlier eastward, 100 s in: set aside before the filter, on the fixes alone.
@@ -110,9 +111,10 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let screened = summary["screened_fixes"].as_array().unwrap();
     assert!(screened.iter().any(|s| s["fix"] == outlier), "{screened:?}");
-    // The jump's onset is abrupt at 5 Hz: its edge fixes may be set aside as spikes instead of excluded.
+    // The jump's onset is abrupt at 5 Hz: up to three fixes at each edge may be set aside as spikes instead
+    // of excluded.
     let at_edges = screened.iter().filter(|s| s["fix"] != outlier).count() as u64;
-    assert!(at_edges <= 4, "{screened:?}");
+    assert!(at_edges <= 6, "{screened:?}");
     let excluded = summary["decisions"]["excluded"].as_u64().unwrap_or(0) + at_edges;
     assert!(excluded >= in_jump as u64 && excluded <= in_jump as u64 + 5, "{excluded} excluded, jump {in_jump}");
     // innovations.csv: one row per fix the filter met, the jump's fixes with their residual and decision.
@@ -123,7 +125,7 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     let in_jump_excluded = rows.iter().filter(|r| {
         let t: f64 = r[0].parse().unwrap();
         let north: f64 = r[3].parse().unwrap();
-        t >= a + 1.0 && t < b && r[9] == "excluded" && (north - 1.0).abs() < 0.2
+        t >= a + 1.0 && t < b && r[9] == "excluded" && (north - 2.0).abs() < 0.2
     });
     assert!(in_jump_excluded.count() >= in_jump - 10, "{innovations}");
     let flags = std::fs::read_to_string(out.join("flags.csv")).unwrap();

@@ -81,7 +81,7 @@ pub fn filter(
     initial: &InitialState,
     config: &NavConfig,
 ) -> Result<ForwardPass, NavError> {
-    run_filter(imu, gnss, initial, config, None)
+    run_filter(imu, gnss, initial, config, None, &[])
 }
 
 /// The filter acting on its own tests (see the `adaptive` module): fixes the local test rejects are
@@ -95,7 +95,20 @@ pub fn filter_adaptive(
     adaptation: &Adaptation,
 ) -> Result<ForwardPass, NavError> {
     adaptation.check()?;
-    run_filter(imu, gnss, initial, config, Some(Monitor::new(*adaptation)))
+    run_filter(imu, gnss, initial, config, Some(Monitor::new(*adaptation)), &[])
+}
+
+/// Run the filter with the fixes `excluded` marks (by index into `gnss`; shorter than `gnss` means the rest
+/// are not) left out: their innovations are recorded as [`Decision::Excluded`] and nothing is updated. The
+/// step test ([`crate::screen_steps`]) decides them.
+pub fn filter_excluding(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    initial: &InitialState,
+    config: &NavConfig,
+    excluded: &[bool],
+) -> Result<ForwardPass, NavError> {
+    run_filter(imu, gnss, initial, config, None, excluded)
 }
 
 fn run_filter(
@@ -104,11 +117,13 @@ fn run_filter(
     initial: &InitialState,
     config: &NavConfig,
     monitor: Option<Monitor>,
+    excluded: &[bool],
 ) -> Result<ForwardPass, NavError> {
     config.check()?;
     initial.check()?;
     check_samples(imu, initial.time)?;
     let mut run = Run::new(imu, initial, config, monitor);
+    run.excluded = excluded;
     run.updates_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5, None);
     for s in imu {
         run.predict(s);
@@ -127,6 +142,8 @@ struct Run<'a> {
     /// Time of the next vehicle-constraint update, s.
     next_constraint: f64,
     monitor: Option<Monitor>,
+    /// Fixes decided out before the run (by index).
+    excluded: &'a [bool],
     out: ForwardPass,
 }
 
@@ -161,7 +178,7 @@ impl<'a> Run<'a> {
             skipped: Vec::new(),
         };
         let next_constraint = init.time + config.vehicle.map_or(f64::INFINITY, |v| v.interval);
-        Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, out }
+        Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, excluded: &[], out }
     }
 
     /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
@@ -226,6 +243,7 @@ impl<'a> Run<'a> {
         let s = h * self.p * h.transpose() + r;
         let before = self.p;
         let decision = match &mut self.monitor {
+            _ if self.excluded.get(index).copied().unwrap_or(false) => Decision::Excluded,
             None => Decision::Used,
             Some(m) => {
                 let age = m.episode_age(fix.time);

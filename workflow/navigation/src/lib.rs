@@ -13,6 +13,8 @@
 //! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
 //!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
 //! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
+//! screen_steps(&first_pass, gnss, &StepTest) → StepScreen (GNSS steps and outliers found against the IMU's
+//!     free displacement, independent of the filter's drift; `navigate`'s default) → filter_excluding(…)
 //! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
 //!     re-opened where the IMU is blamed (a jump may build up over `transition` s); each innovation
 //!     carries its Decision
@@ -36,6 +38,7 @@ mod integrity;
 mod screen;
 mod smoother;
 mod state;
+mod steps;
 
 pub use adaptive::{Adaptation, Decision};
 pub use align::{AlignmentConfig, align};
@@ -47,11 +50,12 @@ pub use datasheet::{
     velocity_random_walk_m_per_s_per_sqrt_h,
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
-pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive};
+pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive, filter_excluding};
 pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
+pub use steps::{EpisodeEnd, StepEpisode, StepScreen, StepTest, screen_steps};
 
 /// Why the filter or smoother could not run, naming the item and field.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -2,16 +2,18 @@
 //! The filter acting on its own tests: a GNSS jump is excluded instead of absorbed, also when it builds up
 //! over a second as multipath does; after an IMU bias step the filter re-estimates the bias and stops
 //! flagging; a re-initialisation bends the smoothed trajectory instead of stepping it; coarse alignment from
-//! the data, standing (also with canyon-grade fixes) or already moving, and its errors when it cannot work.
+//! the data, standing (also with canyon-grade fixes) or already moving, and its errors when it cannot work;
+//! the step test (the default of `navigate`) excluding steps, outliers and faults found after an outage, and
+//! nothing else.
 
 mod common;
 
 use nalgebra::Vector3;
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Decision, Flag, ForwardPass, GnssFix, ImuSample, InitialState, IntegrityConfig,
-    NavConfig, NavError, Sensor, SmoothedEpoch, VehicleConstraint, align, filter, filter_adaptive, smooth,
-    test_innovations, to_trajectory,
+    Adaptation, AlignmentConfig, Decision, EpisodeEnd, Flag, ForwardPass, GnssFix, ImuSample, InitialState,
+    IntegrityConfig, NavConfig, NavError, Sensor, SmoothedEpoch, StepTest, VehicleConstraint, align, filter,
+    filter_adaptive, filter_excluding, screen_steps, smooth, test_innovations, to_trajectory,
 };
 use plumbline_synth::motion::imu::ImuErrors;
 
@@ -352,4 +354,97 @@ fn alignment_fails_only_when_impossible_and_says_why() {
     let bad = AlignmentConfig { alpha: 0.0, ..AlignmentConfig::default() };
     let err = align(&s.imu, &s.gnss, &lever(), &bad).unwrap_err();
     assert!(matches!(err, NavError::Config { field: "alignment.alpha", .. }), "{err:?}");
+}
+
+/// Indices of the fixes within [a, b).
+fn fixes_in(gnss: &[GnssFix], a: f64, b: f64) -> Vec<usize> {
+    gnss.iter().enumerate().filter(|(_, f)| f.time >= a && f.time < b).map(|(i, _)| i).collect()
+}
+
+#[test]
+fn the_step_test_excludes_steps_and_outliers_until_the_fixes_return_and_nothing_else() {
+    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    // A 3.5 m multipath step for 15 s; a 10 m outlier; a fault changing level fix by fix (2 m, then 4 m,
+    // then back); a slow drift of 2 m over 20 s, which is no step.
+    let step = Vector3::new(2.0, -2.5, 1.2);
+    let (a, b) = (t0 + 40.0, t0 + 55.0);
+    let multipath = fixes_in(&s.gnss, a, b);
+    multipath.iter().for_each(|&i| s.gnss[i].position.p += step);
+    let outlier = fixes_in(&s.gnss, t0 + 80.0, t0 + 81.0)[0];
+    s.gnss[outlier].position.p.x += 10.0;
+    let staircase = fixes_in(&s.gnss, t0 + 100.0, t0 + 106.0);
+    for (n, &i) in staircase.iter().enumerate() {
+        s.gnss[i].position.p.y += if n < 3 { 2.0 } else { 4.0 };
+    }
+    for f in s.gnss.iter_mut().filter(|f| f.time >= t0 + 130.0) {
+        f.position.p.x += ((f.time - t0 - 130.0) * 0.1).min(2.0);
+    }
+    let first = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let screen = screen_steps(&first, &s.gnss, &StepTest::default());
+    let excluded: Vec<usize> = (0..s.gnss.len()).filter(|&i| screen.excluded[i]).collect();
+    let mut expected: Vec<usize> = multipath.iter().chain(&[outlier]).chain(&staircase).copied().collect();
+    expected.sort_unstable();
+    assert_eq!(excluded, expected, "{:?}", screen.episodes);
+    assert_eq!(screen.episodes.len(), 3, "{:?}", screen.episodes);
+    assert!(screen.episodes.iter().all(|e| e.ended == EpisodeEnd::Returned), "{:?}", screen.episodes);
+    // The step that opened each episode, as estimated against the IMU.
+    let opened = Vector3::from(screen.episodes[0].step);
+    assert!((opened - step).norm() < 0.1, "multipath step estimated as {opened:?}");
+    assert!((Vector3::from(screen.episodes[1].step) - Vector3::new(10.0, 0.0, 0.0)).norm() < 0.2);
+    assert!((Vector3::from(screen.episodes[2].step) - Vector3::new(0.0, 2.0, 0.0)).norm() < 0.2);
+
+    // Filtered without them, the smoothed trajectory stays on the truth through the step.
+    let forward = filter_excluding(&s.imu, &s.gnss, &s.initial, &s.config, &screen.excluded).unwrap();
+    let excluded_decisions = forward.innovations.iter().filter(|i| i.decision == Decision::Excluded).count();
+    assert_eq!(excluded_decisions, expected.len());
+    let truth = s.drive.trajectory.records();
+    let worst_in = |smoothed: &[SmoothedEpoch], from: f64, to: f64| {
+        smoothed
+            .iter()
+            .zip(truth)
+            .filter(|(e, _)| e.time >= from && e.time < to)
+            .map(|(e, t)| (e.position.p - t.position.p).xy().norm())
+            .fold(0.0, f64::max)
+    };
+    let smoothed = smooth(&forward).unwrap();
+    let absorbed = smooth(&first).unwrap();
+    let (during, before) = (worst_in(&smoothed, a, b), worst_in(&smoothed, t0 + 5.0, a - 5.0));
+    println!(
+        "worst inside the step: {during:.3} m excluded, {:.3} m absorbed; before it {before:.3} m",
+        worst_in(&absorbed, a, b)
+    );
+    // 15 s bridged on a navigation-grade IMU at 1 Hz GNSS: a decimetre at most, where the step is 3.4 m.
+    assert!(during < 0.15, "the smoothed trajectory leaves the truth by {during} m inside the step");
+    assert!(worst_in(&absorbed, a, b) > 1.0, "the step should matter to the filter that takes it in");
+}
+
+#[test]
+fn a_chain_that_starts_inside_a_fault_trusts_the_level_most_of_its_fixes_share() {
+    let mut s = common::scenario(8, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    // An outage of 20 s (longer than the test bridges), and the first 12 s after it carry a 3 m fault.
+    s.gnss.retain(|f| !(f.time >= t0 + 60.0 && f.time < t0 + 80.0));
+    let fault = fixes_in(&s.gnss, t0 + 80.0, t0 + 92.0);
+    fault.iter().for_each(|&i| s.gnss[i].position.p += Vector3::new(-3.0, 0.0, 0.5));
+    let first = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let screen = screen_steps(&first, &s.gnss, &StepTest::default());
+    let excluded: Vec<usize> = (0..s.gnss.len()).filter(|&i| screen.excluded[i]).collect();
+    assert_eq!(excluded, fault, "{:?}", screen.episodes);
+    assert_eq!(screen.episodes.len(), 1);
+    assert_eq!(screen.episodes[0].ended, EpisodeEnd::Returned);
+}
+
+#[test]
+fn step_test_parameters_are_checked_by_name() {
+    let bad = [
+        (StepTest { alpha: 0.0, ..StepTest::default() }, "steps.alpha"),
+        (StepTest { max_gap: f64::NAN, ..StepTest::default() }, "steps.max_gap"),
+        (StepTest { min_step: -1.0, ..StepTest::default() }, "steps.min_step"),
+    ];
+    for (test, field) in bad {
+        let e = test.check().unwrap_err();
+        assert!(matches!(e, NavError::Config { field: f, .. } if f == field), "{e}");
+    }
+    assert!(StepTest::default().check().is_ok());
 }

@@ -114,6 +114,15 @@ pub fn summary(forward: &ForwardPass, flags: &[Flag], initial: &InitialState, ad
     })
 }
 
+/// `summary.json`'s `integrity`: how the fixes were judged.
+pub fn integrity_name(integrity: super::Integrity) -> &'static str {
+    match integrity {
+        super::Integrity::Steps => "steps",
+        super::Integrity::Online => "online",
+        super::Integrity::None => "none",
+    }
+}
+
 /// `summary.json`'s `imu_model`: what `--imu-model` named, its datasheet, the noise measured in the records
 /// and the random walks the filter used (SI).
 pub fn imu_model(spec: &str, datasheet: &ImuDatasheet, measured: Option<&MeasuredNoise>, used: &ImuModel) -> Value {
