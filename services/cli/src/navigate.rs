@@ -68,6 +68,10 @@ pub struct Args {
     /// gravity: the simulator's world.
     #[arg(long, value_name = "DEG", allow_negative_numbers = true)]
     pub latitude: Option<f64>,
+    /// EPSG code of the fixes' projected CRS: the latitude for the WGS 84 mechanisation is then taken from
+    /// the middle fix through GDAL/PROJ (`--latitude` wins when both are given).
+    #[arg(long, value_name = "CODE")]
+    pub epsg: Option<u32>,
     /// Significance level of the innovation tests and the step test.
     #[arg(long, default_value_t = 0.001)]
     pub alpha: f64,
@@ -166,6 +170,32 @@ fn report_screened(rejected: &[ScreenedFix], total: usize, name: &str) {
     }
 }
 
+/// The geodetic latitude (degrees, WGS 84) of the middle fix, whose coordinates are in projected `epsg`.
+fn latitude_from_crs(epsg: u32, gnss: &[plumbline_navigation::GnssFix], name: &str) -> anyhow::Result<f64> {
+    let projected = plumbline_runtime::is_projected(epsg).map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
+    if !projected {
+        return Err(invalid(format!(
+            "--epsg {epsg} is not a projected CRS: navigate reads easting/northing in metres (give --latitude instead)"
+        )));
+    }
+    let Some(middle) = gnss.get(gnss.len() / 2) else {
+        return Err(invalid(format!("{name}: no fixes to take the latitude from")));
+    };
+    let to_geographic = plumbline_runtime::CrsTransform::new(epsg, WGS84_GEOGRAPHIC)
+        .map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
+    let p = middle.position.p;
+    let (_, latitude, _) =
+        to_geographic.transform_point(p.x, p.y, p.z).map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
+    if !latitude.is_finite() || latitude.abs() > 90.0 {
+        return Err(invalid(format!("--epsg {epsg}: the middle fix of {name} maps to latitude {latitude}")));
+    }
+    eprintln!("latitude {latitude:.4}° (WGS 84) from EPSG:{epsg} at the middle fix of {name}");
+    Ok(latitude)
+}
+
+/// EPSG code of WGS 84 geographic coordinates.
+const WGS84_GEOGRAPHIC: u32 = 4326;
+
 /// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
 fn report_steps(steps: &StepScreen, name: &str) {
     let s = steps.scale;
@@ -232,18 +262,23 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let step_test = StepTest { alpha: args.alpha, min_step: args.min_step, ..StepTest::default() };
     step_test.check().or_invalid("--alpha/--min-step")?;
     let datasheet = datasheet_of(ctx, &args.imu_model).await?;
-    let earth = match args.latitude {
+    let gnss = files::gnss(&ctx.read(&args.gnss).await?, file_name(&args.gnss))?;
+    let latitude = match (args.latitude, args.epsg) {
+        (Some(deg), _) => Some(deg),
+        (None, Some(epsg)) => Some(latitude_from_crs(epsg, &gnss, file_name(&args.gnss))?),
+        (None, None) => None,
+    };
+    let earth = match latitude {
         Some(deg) => Earth::Wgs84 { latitude: deg.to_radians() },
         None => {
             eprintln!(
-                "note: no --latitude: flat, non-rotating Earth with standard gravity (simulated data); real IMU \
-                 data senses Earth rotation (15 °/h) and needs --latitude"
+                "note: no --latitude or --epsg: flat, non-rotating Earth with standard gravity (simulated data); \
+                 real IMU data senses Earth rotation (15 °/h) and needs one of them"
             );
             Earth::Flat { gravity: STANDARD_GRAVITY }
         }
     };
     earth.check().or_invalid("--latitude")?;
-    let gnss = files::gnss(&ctx.read(&args.gnss).await?, file_name(&args.gnss))?;
     let imu = files::imu(&ctx.read(&args.imu).await?, file_name(&args.imu))?;
     let imu_name = file_name(&args.imu).to_owned();
     let lever = Vec3::new(args.lever_arm[0], args.lever_arm[1], args.lever_arm[2]);
@@ -329,6 +364,14 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
+    summary["earth"] = match earth {
+        Earth::Wgs84 { latitude } => serde_json::json!({
+            "model": "wgs84",
+            "latitude_deg": latitude.to_degrees(),
+            "latitude_from": if args.latitude.is_some() { "--latitude".to_owned() } else { format!("EPSG:{}", args.epsg.unwrap_or_default()) },
+        }),
+        Earth::Flat { gravity } => serde_json::json!({"model": "flat", "gravity_mps2": gravity}),
+    };
     summary["divergences"] = serde_json::to_value(&diverged)?;
     if let Err(e) = &trajectory {
         summary["trajectory_error"] = format!("{e:#}").into();

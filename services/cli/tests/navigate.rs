@@ -302,3 +302,46 @@ fn a_runaway_filter_stops_with_exit_1_naming_the_span_and_keeps_its_record() {
     assert!(summary["trajectory_error"].as_str().unwrap().contains("diverged"));
     assert!(out.join("innovations.csv").exists() && out.join("flags.csv").exists());
 }
+
+#[test]
+fn the_latitude_comes_from_the_fixes_projected_crs() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate(&sim, 6);
+    // Move the drive so that its middle fix lies on UTM 32N's central meridian at northing 5 427 455.78 m:
+    // 49° N on GRS 80 (meridian arc 5 429 627.63 m × k0 0.9996, integrated independently of PROJ).
+    let text = std::fs::read_to_string(sim.join("nav/gnss.csv")).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    let middle: Vec<f64> = rows[rows.len() / 2].split(',').take(3).map(|x| x.parse().unwrap()).collect();
+    let (de, dn) = (500_000.0 - middle[1], 5_427_455.781 - middle[2]);
+    let mut moved = String::from(text.lines().next().unwrap());
+    moved.push('\n');
+    for row in &rows {
+        let mut f: Vec<String> = row.split(',').map(str::to_owned).collect();
+        f[1] = (f[1].parse::<f64>().unwrap() + de).to_string();
+        f[2] = (f[2].parse::<f64>().unwrap() + dn).to_string();
+        moved += &(f.join(",") + "\n");
+    }
+    let gnss = dir.path().join("gnss_utm.csv");
+    std::fs::write(&gnss, moved).unwrap();
+    let imu = sim.join("nav/imu.csv");
+    let out = dir.path().join("nav");
+    // The simulator's IMU senses no Earth rotation: a consumer-class model takes the 15 °/h in as gyro bias.
+    let r = plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
+        .args(["--lever-arm", "0,0,-0.4", "--imu-model", "consumer", "--epsg", "25832"])
+        .args(["--out", out.to_str().unwrap()])
+        .run();
+    r.success();
+    assert!(r.stderr.contains("latitude 49.0000° (WGS 84) from EPSG:25832"), "{}", r.stderr);
+    let earth = &summary(&out)["earth"];
+    assert_eq!(earth["model"], "wgs84");
+    assert!((earth["latitude_deg"].as_f64().unwrap() - 49.0).abs() < 1e-5, "{earth}");
+    assert_eq!(earth["latitude_from"], "EPSG:25832");
+
+    // A geographic code is refused by name: the fixes are metres.
+    let r = plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
+        .args(["--epsg", "4326", "--out", out.to_str().unwrap()])
+        .run();
+    r.failure_with(2);
+    assert!(r.stderr.contains("--epsg 4326 is not a projected CRS"), "{}", r.stderr);
+}
