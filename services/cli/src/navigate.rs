@@ -170,8 +170,9 @@ fn report_screened(rejected: &[ScreenedFix], total: usize, name: &str) {
     }
 }
 
-/// The geodetic latitude (degrees, WGS 84) of the middle fix, whose coordinates are in projected `epsg`.
-fn latitude_from_crs(epsg: u32, gnss: &[plumbline_navigation::GnssFix], name: &str) -> anyhow::Result<f64> {
+/// The geodetic latitude (degrees, WGS 84) of the middle fix, whose coordinates are in projected `epsg`, and
+/// the meridian convergence there (rad).
+fn place_from_crs(epsg: u32, gnss: &[plumbline_navigation::GnssFix], name: &str) -> anyhow::Result<(f64, f64)> {
     let projected = plumbline_runtime::is_projected(epsg).map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
     if !projected {
         return Err(invalid(format!(
@@ -184,13 +185,18 @@ fn latitude_from_crs(epsg: u32, gnss: &[plumbline_navigation::GnssFix], name: &s
     let to_geographic = plumbline_runtime::CrsTransform::new(epsg, WGS84_GEOGRAPHIC)
         .map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
     let p = middle.position.p;
-    let (_, latitude, _) =
+    let (longitude, latitude, _) =
         to_geographic.transform_point(p.x, p.y, p.z).map_err(|e| invalid(format!("--epsg {epsg}: {e}")))?;
     if !latitude.is_finite() || latitude.abs() > 90.0 {
         return Err(invalid(format!("--epsg {epsg}: the middle fix of {name} maps to latitude {latitude}")));
     }
-    eprintln!("latitude {latitude:.4}° (WGS 84) from EPSG:{epsg} at the middle fix of {name}");
-    Ok(latitude)
+    let convergence = plumbline_runtime::meridian_convergence(epsg, longitude, latitude)
+        .map_err(|e| invalid(format!("--epsg {epsg}: meridian convergence: {e}")))?;
+    eprintln!(
+        "latitude {latitude:.4}° (WGS 84), grid convergence {:.4}° from EPSG:{epsg} at the middle fix of {name}",
+        convergence.to_degrees()
+    );
+    Ok((latitude, convergence))
 }
 
 /// EPSG code of WGS 84 geographic coordinates.
@@ -263,13 +269,14 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     step_test.check().or_invalid("--alpha/--min-step")?;
     let datasheet = datasheet_of(ctx, &args.imu_model).await?;
     let gnss = files::gnss(&ctx.read(&args.gnss).await?, file_name(&args.gnss))?;
-    let latitude = match (args.latitude, args.epsg) {
-        (Some(deg), _) => Some(deg),
-        (None, Some(epsg)) => Some(latitude_from_crs(epsg, &gnss, file_name(&args.gnss))?),
-        (None, None) => None,
+    let from_crs = match args.epsg {
+        Some(epsg) => Some(place_from_crs(epsg, &gnss, file_name(&args.gnss))?),
+        None => None,
     };
+    let latitude = args.latitude.or(from_crs.map(|p| p.0));
+    let convergence = from_crs.map_or(0.0, |p| p.1);
     let earth = match latitude {
-        Some(deg) => Earth::Wgs84 { latitude: deg.to_radians() },
+        Some(deg) => Earth::Wgs84 { latitude: deg.to_radians(), convergence },
         None => {
             eprintln!(
                 "note: no --latitude or --epsg: flat, non-rotating Earth with standard gravity (simulated data); \
@@ -365,9 +372,10 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     summary["earth"] = match earth {
-        Earth::Wgs84 { latitude } => serde_json::json!({
+        Earth::Wgs84 { latitude, convergence } => serde_json::json!({
             "model": "wgs84",
             "latitude_deg": latitude.to_degrees(),
+            "convergence_deg": convergence.to_degrees(),
             "latitude_from": if args.latitude.is_some() { "--latitude".to_owned() } else { format!("EPSG:{}", args.epsg.unwrap_or_default()) },
         }),
         Earth::Flat { gravity } => serde_json::json!({"model": "flat", "gravity_mps2": gravity}),

@@ -332,10 +332,13 @@ fn the_latitude_comes_from_the_fixes_projected_crs() {
         .args(["--out", out.to_str().unwrap()])
         .run();
     r.success();
-    assert!(r.stderr.contains("latitude 49.0000° (WGS 84) from EPSG:25832"), "{}", r.stderr);
+    // On the central meridian grid north is true north.
+    assert!(r.stderr.contains("latitude 49.0000° (WGS 84), grid convergence "), "{}", r.stderr);
+    assert!(r.stderr.contains("° from EPSG:25832 at the middle fix"), "{}", r.stderr);
     let earth = &summary(&out)["earth"];
     assert_eq!(earth["model"], "wgs84");
     assert!((earth["latitude_deg"].as_f64().unwrap() - 49.0).abs() < 1e-5, "{earth}");
+    assert!(earth["convergence_deg"].as_f64().unwrap().abs() < 1e-6, "{earth}");
     assert_eq!(earth["latitude_from"], "EPSG:25832");
 
     // A geographic code is refused by name: the fixes are metres.

@@ -2,9 +2,10 @@
 //! with Earth rotation, transport rate and normal gravity.
 //!
 //! The map frame is the projected east-north-up frame of the fixes, taken as the local-level frame at the
-//! campaign's latitude: its north is grid north, which differs from true north by the grid convergence
-//! (under 3° inside a UTM zone, so the Earth-rate vector is off by less than 0.8 °/h), and the latitude is the
-//! campaign's, not the state's (10 km north moves it by 0.09°).
+//! campaign's latitude. Its north is grid north, which differs from true north by the meridian convergence
+//! γ (grid heading = true heading − γ; up to 3° inside a UTM zone, which would put 0.8 °/h of Earth rate on
+//! the wrong axis): [`Earth::Wgs84`] carries γ and turns the Earth-rate and transport-rate vectors into the
+//! grid frame. The latitude is the campaign's, not the state's (10 km north moves it by 0.09°).
 
 use nalgebra::Vector3;
 use serde::{Deserialize, Serialize};
@@ -40,6 +41,10 @@ pub enum Earth {
     Wgs84 {
         /// Geodetic latitude of the campaign, rad.
         latitude: f64,
+        /// Meridian convergence of the map frame, rad (grid heading = true heading − γ; 0 when the map's
+        /// north is true north).
+        #[serde(default)]
+        convergence: f64,
     },
 }
 
@@ -50,9 +55,13 @@ impl Earth {
             Self::Flat { gravity } if !(gravity.is_finite() && gravity > 0.0) => {
                 Err(NavError::Config { field: "earth.gravity", value: gravity, expected: "a finite number > 0" })
             }
-            Self::Wgs84 { latitude } if !(latitude.is_finite() && latitude.abs() < 89f64.to_radians()) => {
+            Self::Wgs84 { latitude, .. } if !(latitude.is_finite() && latitude.abs() < 89f64.to_radians()) => {
                 let value = latitude.to_degrees();
                 Err(NavError::Config { field: "earth.latitude", value, expected: "a latitude within ±89°" })
+            }
+            Self::Wgs84 { convergence, .. } if !(convergence.is_finite() && convergence.abs() < 0.5) => {
+                let value = convergence.to_degrees();
+                Err(NavError::Config { field: "earth.convergence", value, expected: "a convergence within ±28°" })
             }
             _ => Ok(()),
         }
@@ -62,7 +71,9 @@ impl Earth {
     pub fn earth_rate(&self) -> Vector3<f64> {
         match *self {
             Self::Flat { .. } => Vector3::zeros(),
-            Self::Wgs84 { latitude } => EARTH_RATE * Vector3::new(0.0, latitude.cos(), latitude.sin()),
+            Self::Wgs84 { latitude, convergence } => {
+                to_grid(convergence, EARTH_RATE * Vector3::new(0.0, latitude.cos(), latitude.sin()))
+            }
         }
     }
 
@@ -71,10 +82,11 @@ impl Earth {
     pub fn transport_rate(&self, velocity: &Vector3<f64>, height: f64) -> Vector3<f64> {
         match *self {
             Self::Flat { .. } => Vector3::zeros(),
-            Self::Wgs84 { latitude } => {
+            Self::Wgs84 { latitude, convergence } => {
                 let (m, n) = radii(latitude);
                 let (re, rn) = (n + height, m + height);
-                Vector3::new(-velocity.y / rn, velocity.x / re, velocity.x * latitude.tan() / re)
+                let v = to_grid(-convergence, *velocity);
+                to_grid(convergence, Vector3::new(-v.y / rn, v.x / re, v.x * latitude.tan() / re))
             }
         }
     }
@@ -83,9 +95,16 @@ impl Earth {
     pub fn gravity(&self, height: f64) -> f64 {
         match *self {
             Self::Flat { gravity } => gravity,
-            Self::Wgs84 { latitude } => normal_gravity(latitude, height),
+            Self::Wgs84 { latitude, .. } => normal_gravity(latitude, height),
         }
     }
+}
+
+/// A true east-north-up vector in the grid frame of convergence γ: true north (azimuth 0) lies at grid
+/// azimuth −γ, a turn of +γ counter-clockwise about up.
+fn to_grid(convergence: f64, v: Vector3<f64>) -> Vector3<f64> {
+    let (s, c) = convergence.sin_cos();
+    Vector3::new(v.x * c - v.y * s, v.x * s + v.y * c, v.z)
 }
 
 /// Meridian and prime-vertical radii of curvature at `latitude` (rad), m.
@@ -120,7 +139,7 @@ mod tests {
     /// Earth rate: 15.04 °/h about the axis, split north and up by the latitude; none on the flat Earth.
     #[test]
     fn earth_rate_splits_by_latitude() {
-        let rate = Earth::Wgs84 { latitude: 49f64.to_radians() }.earth_rate();
+        let rate = Earth::Wgs84 { latitude: 49f64.to_radians(), convergence: 0.0 }.earth_rate();
         let deg_per_h = |r: f64| r.to_degrees() * 3600.0;
         assert!((deg_per_h(rate.norm()) - 15.041).abs() < 1e-3);
         assert!((deg_per_h(rate.y) - 15.041 * 49f64.to_radians().cos()).abs() < 1e-3);
@@ -128,10 +147,33 @@ mod tests {
         assert_eq!(rate.x, 0.0);
         assert_eq!(Earth::Flat { gravity: 9.8 }.earth_rate(), Vector3::zeros());
         // 10 m/s east at 49°: the frame turns about north by v/R (≈ 1.57e-6 rad/s) and about up by v·tanφ/R.
-        let transport =
-            Earth::Wgs84 { latitude: 49f64.to_radians() }.transport_rate(&Vector3::new(10.0, 0.0, 0.0), 0.0);
+        let transport = Earth::Wgs84 { latitude: 49f64.to_radians(), convergence: 0.0 }
+            .transport_rate(&Vector3::new(10.0, 0.0, 0.0), 0.0);
         assert!((transport.y - 10.0 / 6_390_000.0).abs() < 0.01e-6, "{transport:?}");
         assert!((transport.z / transport.y - 49f64.to_radians().tan()).abs() < 1e-12);
-        assert!(Earth::Wgs84 { latitude: 1.6 }.check().is_err() && Earth::Flat { gravity: 0.0 }.check().is_err());
+        assert!(
+            Earth::Wgs84 { latitude: 1.6, convergence: 0.0 }.check().is_err()
+                && Earth::Flat { gravity: 0.0 }.check().is_err()
+        );
+    }
+
+    /// In a grid frame of convergence γ the Earth rate's horizontal part points to true north, at grid
+    /// azimuth −γ; the transport rate of a drive due true north equals the true-frame one turned the same way.
+    #[test]
+    fn grid_convergence_turns_the_rates_into_the_grid_frame() {
+        let (latitude, gamma) = (49f64.to_radians(), 2f64.to_radians());
+        let true_frame = Earth::Wgs84 { latitude, convergence: 0.0 };
+        let grid = Earth::Wgs84 { latitude, convergence: gamma };
+        let (t, g) = (true_frame.earth_rate(), grid.earth_rate());
+        assert!((g.norm() - t.norm()).abs() < 1e-18 && (g.z - t.z).abs() < 1e-18);
+        assert!((g.x + t.y * gamma.sin()).abs() < 1e-15 && (g.y - t.y * gamma.cos()).abs() < 1e-15, "{g:?}");
+        // 10 m/s due true north: grid velocity (−10 sin γ, 10 cos γ).
+        let north_true = true_frame.transport_rate(&Vector3::new(0.0, 10.0, 0.0), 0.0);
+        let north_grid = grid.transport_rate(&Vector3::new(-10.0 * gamma.sin(), 10.0 * gamma.cos(), 0.0), 0.0);
+        let expected = to_grid(gamma, north_true);
+        assert!((north_grid - expected).norm() < 1e-15, "{north_grid:?} vs {expected:?}");
+        assert!((north_true.x + 10.0 / radii(latitude).0).abs() < 1e-15);
+        let bad = Earth::Wgs84 { latitude, convergence: 1.0 }.check().unwrap_err();
+        assert!(matches!(bad, NavError::Config { field: "earth.convergence", .. }), "{bad}");
     }
 }

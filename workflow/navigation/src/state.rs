@@ -211,7 +211,7 @@ mod tests {
     /// at rest through 100 s of WGS 84 mechanisation; the flat model, blind to Earth rate, tilts and runs off.
     #[test]
     fn a_unit_at_rest_on_the_rotating_earth_stays_at_rest() {
-        let earth = Earth::Wgs84 { latitude: 49f64.to_radians() };
+        let earth = Earth::Wgs84 { latitude: 49f64.to_radians(), convergence: 0.0 };
         let attitude = *Attitude::new(0.01, -0.02, 0.5).to_rotation().quaternion();
         let start = Nominal {
             time: 0.0,
