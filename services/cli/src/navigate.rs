@@ -202,6 +202,31 @@ fn place_from_crs(epsg: u32, gnss: &[plumbline_navigation::GnssFix], name: &str)
 /// EPSG code of WGS 84 geographic coordinates.
 const WGS84_GEOGRAPHIC: u32 = 4326;
 
+/// How the innovations compare with their modelled covariance, on stderr; a warning where the IMU model is
+/// far too optimistic for the data (the innovation tests then flag model misfit, not faults).
+fn report_consistency(c: &output::Consistency, imu_model: &str) {
+    eprintln!(
+        "innovation consistency: median vᵀC⁻¹v {:.2} against {:.2} for a model that fits (×{:.1}); the local test \
+         flagged {:.1} % of the fixes used (nominal {:.1} %)",
+        c.median_statistic,
+        c.expected_median,
+        c.variance_factor,
+        100.0 * c.local_flagged_share,
+        100.0 * c.nominal_share
+    );
+    if c.variance_factor > MISFIT_FACTOR {
+        eprintln!(
+            "warning: the innovations run {:.1}× their modelled variance: the IMU model `{imu_model}` is too optimistic \
+             for this unit, and flags.csv records model misfit more than faults (a worse --imu-model class or a \
+             datasheet file with larger bias and noise figures fits better); the step test does not depend on it",
+            c.variance_factor
+        );
+    }
+}
+
+/// Above this ratio of the median innovation statistic to its expected value the IMU model is called unfit.
+const MISFIT_FACTOR: f64 = 3.0;
+
 /// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
 fn report_steps(steps: &StepScreen, name: &str) {
     let s = steps.scale;
@@ -366,8 +391,11 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     if let Some(steps) = &steps {
         report_steps(steps, &gnss_name);
     }
+    let consistency = output::consistency(&forward, &flags, args.alpha);
+    report_consistency(&consistency, &args.imu_model);
     let mut summary = output::summary(&forward, &flags, &initial, integrity != Integrity::None);
     summary["integrity"] = output::integrity_name(integrity).into();
+    summary["consistency"] = serde_json::to_value(consistency)?;
     summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);

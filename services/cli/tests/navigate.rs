@@ -109,6 +109,13 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     assert!(worst < 0.1, "the jump bends the smoothed trajectory by {worst} m");
 
     let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    // The model fits the simulator's unit: the innovations stay within their covariance, and the local test
+    // flags about its nominal share of the fixes used.
+    assert!(r.stderr.contains("innovation consistency: median"), "{}", r.stderr);
+    assert!(!r.stderr.contains("too optimistic"), "{}", r.stderr);
+    let consistency = &summary["consistency"];
+    assert!(consistency["variance_factor"].as_f64().unwrap() < 3.0, "{consistency}");
+    assert!(consistency["local_flagged_share"].as_f64().unwrap() < 0.01, "{consistency}");
     let screened = summary["screened_fixes"].as_array().unwrap();
     assert!(screened.iter().any(|s| s["fix"] == outlier), "{screened:?}");
     // The jump's onset is abrupt at 5 Hz: up to three fixes at each edge may be set aside as spikes instead

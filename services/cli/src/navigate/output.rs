@@ -114,6 +114,55 @@ pub fn summary(forward: &ForwardPass, flags: &[Flag], initial: &InitialState, ad
     })
 }
 
+/// `summary.json`'s `consistency`: the innovations of the used fixes against their modelled covariance.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Consistency {
+    /// Median vᵀC_v⁻¹v over the used fixes.
+    pub median_statistic: f64,
+    /// Its value when the model fits (the median of χ² with 3 degrees of freedom).
+    pub expected_median: f64,
+    /// Their ratio: the factor by which the innovations exceed their modelled variance.
+    pub variance_factor: f64,
+    /// Share of the used fixes the local overall test flagged.
+    pub local_flagged_share: f64,
+    /// The test's nominal false-alarm rate (α).
+    pub nominal_share: f64,
+}
+
+/// Median of χ² with 3 degrees of freedom.
+const CHI2_3_MEDIAN: f64 = 2.365_973_884_375_656;
+
+/// The consistency of `forward`'s used innovations, with the local-test flags among `flags`.
+pub fn consistency(forward: &ForwardPass, flags: &[Flag], alpha: f64) -> Consistency {
+    let mut statistics: Vec<f64> = forward
+        .innovations
+        .iter()
+        .filter(|i| i.decision != Decision::Excluded)
+        .filter_map(|i| i.covariance.try_inverse().map(|inv| i.residual.dot(&(inv * i.residual))))
+        .filter(|x| x.is_finite())
+        .collect();
+    let used = statistics.len();
+    let median = if statistics.is_empty() {
+        f64::NAN
+    } else {
+        let mid = statistics.len() / 2;
+        *statistics.select_nth_unstable_by(mid, f64::total_cmp).1
+    };
+    let used_fixes: std::collections::HashSet<usize> =
+        forward.innovations.iter().filter(|i| i.decision != Decision::Excluded).map(|i| i.fix).collect();
+    let local = flags
+        .iter()
+        .filter(|f| f.test == plumbline_navigation::TestKind::LocalOverall && used_fixes.contains(&f.fix))
+        .count();
+    Consistency {
+        median_statistic: median,
+        expected_median: CHI2_3_MEDIAN,
+        variance_factor: median / CHI2_3_MEDIAN,
+        local_flagged_share: if used == 0 { 0.0 } else { local as f64 / used as f64 },
+        nominal_share: alpha,
+    }
+}
+
 /// `summary.json`'s `integrity`: how the fixes were judged.
 pub fn integrity_name(integrity: super::Integrity) -> &'static str {
     match integrity {
