@@ -343,7 +343,13 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
                 Integrity::Steps => {
                     let first = filter(&imu, &gnss, &initial, &config).map_err(name)?;
                     let steps = screen_steps(&first, &gnss, &step_test);
-                    (filter_excluding(&imu, &gnss, &initial, &config, &steps.excluded).map_err(name)?, Some(steps))
+                    // Nothing excluded: the first pass is the final one.
+                    let forward = if steps.excluded_count() == 0 {
+                        first
+                    } else {
+                        filter_excluding(&imu, &gnss, &initial, &config, &steps.excluded).map_err(name)?
+                    };
+                    (forward, Some(steps))
                 }
                 Integrity::Online => {
                     (filter_adaptive(&imu, &gnss, &initial, &config, &adaptation).map_err(name)?, None)

@@ -50,6 +50,23 @@ fn errors(a: &[[f64; 3]], b: &[[f64; 3]], from: f64, to: f64) -> Vec<f64> {
         .collect()
 }
 
+/// A fixes CSV with `edit(row, time, [easting, northing, height])` applied to every data row (0-based); the
+/// header and the other columns kept.
+fn edit_fixes(text: &str, mut edit: impl FnMut(usize, f64, &mut [f64; 3])) -> String {
+    let mut lines = text.lines();
+    let mut out = format!("{}\n", lines.next().unwrap());
+    for (row, line) in lines.enumerate() {
+        let mut f: Vec<String> = line.split(',').map(str::to_owned).collect();
+        let mut xyz = [1, 2, 3].map(|i| f[i].parse::<f64>().unwrap());
+        edit(row, f[0].parse().unwrap(), &mut xyz);
+        for (i, v) in xyz.iter().enumerate() {
+            f[i + 1] = v.to_string();
+        }
+        out += &(f.join(",") + "\n");
+    }
+    out
+}
+
 fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
@@ -67,26 +84,22 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     let sim = dir.path().join("sim");
     simulate(&sim, 3);
     // A 2 m northward jump in the fixes for 10 s, 60 s into the drive (multipath steps are 2–5 m; the step
-    // test leaves steps under `--min-step`, 1 m by default, to the filter's averaging).
+    // test leaves steps under `--min-step`, 1.5 m by default, to the filter's averaging).
     let text = std::fs::read_to_string(sim.join("nav/gnss.csv")).unwrap();
     let t0: f64 = text.lines().nth(1).unwrap().split(',').next().unwrap().parse().unwrap();
     let (a, b) = (t0 + 60.0, t0 + 70.0);
-    let mut jumped = String::new();
     let (mut in_jump, mut outlier) = (0, None);
-    for (i, line) in text.lines().enumerate() {
-        let mut f: Vec<String> = line.split(',').map(str::to_owned).collect();
-        let t: f64 = if i == 0 { f64::NAN } else { f[0].parse().unwrap() };
+    let jumped = edit_fixes(&text, |row, t, f| {
         if t >= a && t < b {
-            f[2] = (f[2].parse::<f64>().unwrap() + 2.0).to_string();
+            f[1] += 2.0;
             in_jump += 1;
         }
         // And one 30 m outlier eastward, 100 s in: set aside before the filter, on the fixes alone.
-        if i > 1 && outlier.is_none() && t >= t0 + 100.0 {
-            f[1] = (f[1].parse::<f64>().unwrap() + 30.0).to_string();
-            outlier = Some(i - 1);
+        if row > 0 && outlier.is_none() && t >= t0 + 100.0 {
+            f[0] += 30.0;
+            outlier = Some(row);
         }
-        jumped += &(f.join(",") + "\n");
-    }
+    });
     let gnss = dir.path().join("gnss_jumped.csv");
     std::fs::write(&gnss, jumped).unwrap();
     let out = dir.path().join("nav");
@@ -321,14 +334,10 @@ fn the_latitude_comes_from_the_fixes_projected_crs() {
     let rows: Vec<&str> = text.lines().skip(1).collect();
     let middle: Vec<f64> = rows[rows.len() / 2].split(',').take(3).map(|x| x.parse().unwrap()).collect();
     let (de, dn) = (500_000.0 - middle[1], 5_427_455.781 - middle[2]);
-    let mut moved = String::from(text.lines().next().unwrap());
-    moved.push('\n');
-    for row in &rows {
-        let mut f: Vec<String> = row.split(',').map(str::to_owned).collect();
-        f[1] = (f[1].parse::<f64>().unwrap() + de).to_string();
-        f[2] = (f[2].parse::<f64>().unwrap() + dn).to_string();
-        moved += &(f.join(",") + "\n");
-    }
+    let moved = edit_fixes(&text, |_, _, f| {
+        f[0] += de;
+        f[1] += dn;
+    });
     let gnss = dir.path().join("gnss_utm.csv");
     std::fs::write(&gnss, moved).unwrap();
     let imu = sim.join("nav/imu.csv");

@@ -31,6 +31,13 @@ pub struct Innovation {
     pub decision: Decision,
 }
 
+impl Innovation {
+    /// vᵀC_v⁻¹v: χ² with 3 degrees of freedom when the model holds (NaN when C_v cannot be inverted).
+    pub fn statistic(&self) -> f64 {
+        self.covariance.try_inverse().map_or(f64::NAN, |inv| self.residual.dot(&(inv * self.residual)))
+    }
+}
+
 /// A GNSS fix the filter did not use, and why.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SkippedFix {

@@ -149,12 +149,13 @@ pub fn screen_steps(first: &ForwardPass, gnss: &[GnssFix], test: &StepTest) -> S
     let lever = first.config.lever_arm.v;
     let r: Vec<Option<Vector3<f64>>> =
         gnss.iter().map(|f| free.at(f.time).map(|(p, attitude)| f.position.p - attitude * lever - p)).collect();
-    let triples = chain_triples(gnss, &r, test.max_gap);
+    let chains = chains_of(gnss, &r, test.max_gap);
+    let triples = chain_triples(gnss, &chains);
     let e: Vec<Vector3<f64>> = triples.iter().map(|t| t.e(&r)).collect();
     // Pairs of consecutive triples in one chain: the antisymmetric part of their e, at the later fix of
     // the first triple.
     let pairs: Vec<(usize, Vector3<f64>)> = (0..triples.len().saturating_sub(1))
-        .filter(|&i| !triples[i + 1].restart)
+        .filter(|&i| triples[i + 1].chain == triples[i].chain)
         .map(|i| (i, (e[i] - e[i + 1]) * 0.5))
         .collect();
     let scale = robust_scale(&pairs.iter().map(|(_, a)| *a).collect::<Vec<_>>());
@@ -184,7 +185,6 @@ pub fn screen_steps(first: &ForwardPass, gnss: &[GnssFix], test: &StepTest) -> S
         }
     }
     let count = declared.len();
-    let chains = chains_of(gnss, &r, test.max_gap);
     let mut excluded = vec![false; gnss.len()];
     let mut episodes = Vec::new();
     for (c, chain) in chains.iter().enumerate() {
@@ -329,8 +329,8 @@ struct Triple {
     k: usize,
     h1: f64,
     h2: f64,
-    /// The first triple of a chain (after the start of the data or a gap).
-    restart: bool,
+    /// Index of its chain.
+    chain: usize,
 }
 
 impl Triple {
@@ -340,27 +340,14 @@ impl Triple {
     }
 }
 
-/// The triples in time order: consecutive usable fixes with gaps of at most `max_gap`.
-fn chain_triples(gnss: &[GnssFix], r: &[Option<Vector3<f64>>], max_gap: f64) -> Vec<Triple> {
+/// The triples of every chain in time order: three consecutive fixes of one chain each.
+fn chain_triples(gnss: &[GnssFix], chains: &[Vec<usize>]) -> Vec<Triple> {
     let mut out = Vec::new();
-    let mut chain: Vec<usize> = Vec::new();
-    let mut restarted = true;
-    for (k, f) in gnss.iter().enumerate() {
-        if r[k].is_none() {
-            continue;
-        }
-        if let Some(&last) = chain.last() {
-            let h = f.time - gnss[last].time;
-            if !(h > 0.0 && h <= max_gap) {
-                chain.clear();
-                restarted = true;
-            }
-        }
-        chain.push(k);
-        if let [.., k0, k1, k2] = chain[..] {
-            let (h1, h2) = (gnss[k1].time - gnss[k0].time, gnss[k2].time - gnss[k1].time);
-            out.push(Triple { k0, k1, k: k2, h1, h2, restart: restarted });
-            restarted = false;
+    for (c, chain) in chains.iter().enumerate() {
+        for w in chain.windows(3) {
+            let (k0, k1, k) = (w[0], w[1], w[2]);
+            let (h1, h2) = (gnss[k1].time - gnss[k0].time, gnss[k].time - gnss[k1].time);
+            out.push(Triple { k0, k1, k, h1, h2, chain: c });
         }
     }
     out

@@ -6,7 +6,9 @@ use std::fmt::Write as _;
 
 use plumbline_geo::Trajectory;
 use plumbline_geo::formats::{self, RawTrajectory};
-use plumbline_navigation::{Decision, Flag, ForwardPass, ImuDatasheet, ImuModel, InitialState, MeasuredNoise};
+use plumbline_navigation::{
+    Decision, Flag, ForwardPass, ImuDatasheet, ImuModel, InitialState, Innovation, MeasuredNoise, chi2_critical,
+};
 use serde_json::{Value, json};
 
 /// The smoothed trajectory as projected CSV with σ.
@@ -50,7 +52,7 @@ pub fn innovations_csv(forward: &ForwardPass) -> Vec<u8> {
     for i in &forward.innovations {
         let r = &i.residual;
         let c = &i.covariance;
-        let statistic = c.try_inverse().map_or(f64::NAN, |inv| r.dot(&(inv * r)));
+        let statistic = i.statistic();
         let _ = writeln!(
             s,
             "{},{},{},{},{},{},{},{},{},{}",
@@ -129,16 +131,13 @@ pub struct Consistency {
     pub nominal_share: f64,
 }
 
-/// Median of χ² with 3 degrees of freedom.
-const CHI2_3_MEDIAN: f64 = 2.365_973_884_375_656;
-
 /// The consistency of `forward`'s used innovations, with the local-test flags among `flags`.
 pub fn consistency(forward: &ForwardPass, flags: &[Flag], alpha: f64) -> Consistency {
     let mut statistics: Vec<f64> = forward
         .innovations
         .iter()
         .filter(|i| i.decision != Decision::Excluded)
-        .filter_map(|i| i.covariance.try_inverse().map(|inv| i.residual.dot(&(inv * i.residual))))
+        .map(Innovation::statistic)
         .filter(|x| x.is_finite())
         .collect();
     let used = statistics.len();
@@ -150,14 +149,16 @@ pub fn consistency(forward: &ForwardPass, flags: &[Flag], alpha: f64) -> Consist
     };
     let used_fixes: std::collections::HashSet<usize> =
         forward.innovations.iter().filter(|i| i.decision != Decision::Excluded).map(|i| i.fix).collect();
+    // The median of χ² with 3 degrees of freedom (2.37).
+    let expected_median = chi2_critical(3.0, 0.5);
     let local = flags
         .iter()
         .filter(|f| f.test == plumbline_navigation::TestKind::LocalOverall && used_fixes.contains(&f.fix))
         .count();
     Consistency {
         median_statistic: median,
-        expected_median: CHI2_3_MEDIAN,
-        variance_factor: median / CHI2_3_MEDIAN,
+        expected_median,
+        variance_factor: median / expected_median,
         local_flagged_share: if used == 0 { 0.0 } else { local as f64 / used as f64 },
         nominal_share: alpha,
     }
