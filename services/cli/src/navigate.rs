@@ -16,11 +16,11 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, EpisodeEnd, Implausible, ImuClass, ImuDatasheet, ImuModel, ImuSample,
-    IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway, STANDARD_GRAVITY, Screened,
-    ScreenedFix, StepScreen, StepTest, VehicleConstraint, align, angle_random_walk_deg_per_sqrt_h, divergences, filter,
-    filter_adaptive, filter_excluding, measure_noise, screen_fixes, screen_steps, smooth, test_innovations,
-    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    Adaptation, AlignmentConfig, Earth, EpisodeEnd, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap, ImuGapModel,
+    ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway,
+    STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, VehicleConstraint, align,
+    angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_noise,
+    screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -94,6 +94,11 @@ pub struct Args {
     /// vertical velocity near zero
     #[arg(long)]
     pub no_vehicle_constraint: bool,
+    /// Take every IMU sample as measured: do not look for stretches a logger filled in (runs of exactly
+    /// interpolated or repeated samples) or lost (intervals over 5 × the median), which otherwise get
+    /// extra process noise for the motion they hide
+    #[arg(long)]
+    pub ignore_imu_gaps: bool,
     /// Directory or object-store prefix for the results.
     #[arg(long, value_name = "DIR|URL")]
     pub out: String,
@@ -228,6 +233,35 @@ fn report_consistency(c: &output::Consistency, imu_model: &str) {
 const MISFIT_FACTOR: f64 = 3.0;
 
 /// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
+/// The IMU's unrecorded stretches, one warning each (all of them are in `summary.json`).
+fn report_imu_gaps(gaps: &[ImuGap], name: &str) {
+    if gaps.is_empty() {
+        return;
+    }
+    let total: f64 = gaps.iter().map(ImuGap::duration).sum();
+    eprintln!(
+        "warning: {name}: {} stretch(es) of {total:.1} s in all were not recorded (filled in or lost); the filter \
+         mechanises them as written with extra process noise for the motion they hide (--ignore-imu-gaps to trust them)",
+        gaps.len()
+    );
+    for g in gaps.iter().take(SKIPPED_LISTED) {
+        let what = match g.kind {
+            GapKind::Filled => "samples interpolated or held",
+            GapKind::Missing => "one interval far longer than the rate",
+        };
+        eprintln!(
+            "warning: {name} lines {}–{}: {what}, {:.2} s from time {:.2} s",
+            g.first + 2,
+            g.last + 2,
+            g.duration(),
+            g.start
+        );
+    }
+    if gaps.len() > SKIPPED_LISTED {
+        eprintln!("warning: {name}: {} more unrecorded stretches (summary.json)", gaps.len() - SKIPPED_LISTED);
+    }
+}
+
 fn report_steps(steps: &StepScreen, name: &str) {
     let s = steps.scale;
     eprintln!(
@@ -244,7 +278,7 @@ fn report_steps(steps: &StepScreen, name: &str) {
     for e in steps.episodes.iter().take(SKIPPED_LISTED) {
         let how = match e.ended {
             EpisodeEnd::Returned => "until the fixes came back",
-            EpisodeEnd::Gap => "until a gap in the fixes",
+            EpisodeEnd::Gap => "until a gap in the fixes or the IMU record",
             EpisodeEnd::Data => "until the end of the data",
         };
         let [e_, n, u] = e.step;
@@ -327,7 +361,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     );
     let (model, noise) = noise_floor(&datasheet, &imu, &imu_name);
     let vehicle = (!args.no_vehicle_constraint).then(VehicleConstraint::default);
-    let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle };
+    let gaps = (!args.ignore_imu_gaps).then(ImuGapModel::default);
+    let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle, gaps };
     config.check().or_invalid("navigation config")?;
     let integrity = if args.no_adapt { Integrity::None } else { args.integrity };
     let gnss_name = file_name(&args.gnss).to_owned();
@@ -341,14 +376,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             let name = |e| files::name_sample(e, &imu_name);
             let (mut forward, steps) = match integrity {
                 Integrity::Steps => {
-                    let first = filter(&imu, &gnss, &initial, &config).map_err(name)?;
-                    let steps = screen_steps(&first, &gnss, &step_test);
-                    // Nothing excluded: the first pass is the final one.
-                    let forward = if steps.excluded_count() == 0 {
-                        first
-                    } else {
-                        filter_excluding(&imu, &gnss, &initial, &config, &steps.excluded).map_err(name)?
-                    };
+                    let (forward, steps) = filter_screened(&imu, &gnss, &initial, &config, &step_test).map_err(name)?;
                     (forward, Some(steps))
                 }
                 Integrity::Online => {
@@ -394,6 +422,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let prefix = if args.out.ends_with('/') { args.out.clone() } else { format!("{}/", args.out) };
     ctx.write(&format!("{prefix}innovations.csv"), output::innovations_csv(&forward)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
+    report_imu_gaps(forward.imu_gaps(), file_name(&args.imu));
     if let Some(steps) = &steps {
         report_steps(steps, &gnss_name);
     }
@@ -404,6 +433,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["consistency"] = serde_json::to_value(consistency)?;
     summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
+    summary["imu_gaps"] = serde_json::to_value(forward.imu_gaps())?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     summary["earth"] = match earth {
         Earth::Wgs84 { latitude, convergence } => serde_json::json!({

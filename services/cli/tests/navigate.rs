@@ -364,3 +364,60 @@ fn the_latitude_comes_from_the_fixes_projected_crs() {
     r.failure_with(2);
     assert!(r.stderr.contains("--epsg 4326 is not a projected CRS"), "{}", r.stderr);
 }
+
+/// Rows `first..=last` of an IMU file rewritten to hold row `first − 1`'s rates: a logger's dropout.
+fn hold_rows(text: &str, first: usize, last: usize) -> String {
+    let header = text.lines().next().unwrap();
+    let rows: Vec<Vec<f64>> =
+        text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap()).collect()).collect();
+    let held = &rows[first - 1];
+    let mut out = format!("{header}\n");
+    for (i, row) in rows.iter().enumerate() {
+        let mut row = row.clone();
+        if (first..=last).contains(&i) {
+            for c in 2..8 {
+                row[c] = held[c] / held[1] * row[1];
+            }
+        }
+        out += &(row.iter().map(f64::to_string).collect::<Vec<_>>().join(",") + "\n");
+    }
+    out
+}
+
+#[test]
+fn a_held_imu_dropout_is_found_named_and_listed() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate(&sim, 2);
+    let imu = dir.path().join("imu.csv");
+    std::fs::write(&imu, hold_rows(&std::fs::read_to_string(sim.join("nav/imu.csv")).unwrap(), 5000, 5149)).unwrap();
+    let gnss = sim.join("nav/gnss.csv");
+    let run = |out: &Path, extra: &[&str]| {
+        plumbline(&["navigate", "--gnss", gnss.to_str().unwrap(), "--imu", imu.to_str().unwrap()])
+            .args(["--lever-arm", "0,0,-0.4", "--imu-model", "navigation", "--out", out.to_str().unwrap()])
+            .args(extra.iter().copied())
+            .run()
+    };
+    let out = dir.path().join("found");
+    let r = run(&out, &[]);
+    r.success();
+    // The last held row cannot be told from a measured one: the run found ends one row early.
+    assert!(
+        r.stderr.contains("imu.csv: 1 stretch(es)")
+            && r.stderr.contains("imu.csv lines 5002–5150: samples interpolated or held"),
+        "{}",
+        r.stderr
+    );
+    let gaps = &summary(&out)["imu_gaps"];
+    assert_eq!(gaps.as_array().unwrap().len(), 1, "{gaps}");
+    assert_eq!(
+        (gaps[0]["kind"].as_str(), gaps[0]["first"].as_u64(), gaps[0]["last"].as_u64()),
+        (Some("filled"), Some(5000), Some(5148))
+    );
+
+    let out = dir.path().join("trusted");
+    let r = run(&out, &["--ignore-imu-gaps"]);
+    r.success();
+    assert!(!r.stderr.contains("not recorded"), "{}", r.stderr);
+    assert_eq!(summary(&out)["imu_gaps"].as_array().unwrap().len(), 0);
+}

@@ -5,6 +5,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::NavError;
 use crate::earth::Earth;
+use crate::gaps::ImuGapModel;
 
 /// Standard gravity, m/s² (the simulator's flat Earth; [`Earth::Wgs84`] uses normal gravity).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
@@ -65,6 +66,9 @@ pub struct NavConfig {
     /// The land vehicle's motion constraint (no sideways or vertical sliding), or `None` for a platform
     /// that may move in any direction (a backpack, a trolley pushed sideways).
     pub vehicle: Option<VehicleConstraint>,
+    /// Find the IMU recording's unrecorded stretches (filled or lost samples) and add process noise for
+    /// the motion they hide ([`crate::find_imu_gaps`]), or `None` to take every sample as measured.
+    pub gaps: Option<ImuGapModel>,
 }
 
 /// A wheeled vehicle does not slide sideways or lift off: the body's lateral and vertical velocity stay
@@ -148,6 +152,9 @@ impl NavConfig {
         self.earth.check()?;
         if let Some(v) = &self.vehicle {
             v.check()?;
+        }
+        if let Some(g) = &self.gaps {
+            g.check()?;
         }
         let positive = [("imu.bias_correlation_time", m.bias_correlation_time)];
         for (field, value) in positive {

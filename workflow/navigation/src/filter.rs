@@ -8,6 +8,7 @@ use plumbline_geo::Rotation;
 
 use crate::adaptive::{Adaptation, Decision, Monitor, reopen};
 use crate::config::{GnssFix, ImuSample, InitialState, NavConfig, VehicleConstraint};
+use crate::gaps::{GapNoise, ImuGap, find_imu_gaps};
 use crate::state::{ATT, BA, BG, POS, VEL};
 use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
 use crate::{NavError, check_fix, check_samples};
@@ -78,6 +79,25 @@ pub struct ForwardPass {
     pub innovations: Vec<Innovation>,
     /// Fixes not used (invalid, or outside the IMU's time span).
     pub skipped: Vec<SkippedFix>,
+    /// The IMU's unrecorded stretches and the noise they add.
+    pub(crate) gap_noise: GapNoise,
+}
+
+impl ForwardPass {
+    /// The IMU's unrecorded stretches the filter found (none when `NavConfig::gaps` is `None`).
+    pub fn imu_gaps(&self) -> &[ImuGap] {
+        self.gap_noise.gaps()
+    }
+
+    /// Process noise of sample `k`: the IMU model's, plus a gap's where sample `k` lies in one.
+    pub(crate) fn noise(&self, k: usize) -> Vec15 {
+        noise_of(&self.config, &self.gap_noise, k, &self.samples[k])
+    }
+}
+
+fn noise_of(config: &NavConfig, gaps: &GapNoise, k: usize, s: &ImuSample) -> Vec15 {
+    let q = process_noise(&config.imu, s.dt);
+    gaps.at(k, s.dt).map_or(q, |extra| q + extra)
 }
 
 /// Run the filter over `imu` (contiguous increments starting at `initial.time`) and `gnss` (time-sorted),
@@ -118,6 +138,12 @@ pub fn filter_excluding(
     run_filter(imu, gnss, initial, config, None, excluded)
 }
 
+/// The forward pass. Where the IMU has gaps it runs twice: a 15° turn hidden in a gap is too large for the
+/// smoother's linear correction (over 400 m a heading error of 15° linearised is 14 m off), so the second
+/// pass re-linearises — it shifts its nominal state at each gap's end by the motion the first smoothing
+/// found hidden there (the smoothed error at the end less the start's carried through the gap). That
+/// motion's prior is the gap's loose process noise, so using the data a second time through it changes the
+/// estimate by a negligible shrinkage.
 fn run_filter(
     imu: &[ImuSample],
     gnss: &[GnssFix],
@@ -129,14 +155,88 @@ fn run_filter(
     config.check()?;
     initial.check()?;
     check_samples(imu, initial.time)?;
+    let gaps = GapNoise::new(config.gaps.map(|m| find_imu_gaps(imu, &m)).unwrap_or_default(), config.gaps);
+    let mut pass = run_once(imu, gnss, initial, config, monitor.clone(), excluded, gaps.clone(), &[]);
+    if gaps.gaps().is_empty() {
+        return Ok(pass);
+    }
+    let mut corrections: Vec<(usize, Vec15)> = Vec::new();
+    for _ in 0..RELINEARISATIONS {
+        // A pass the smoother cannot take is kept as it is.
+        let Ok(found) = hidden_motion(&pass) else { break };
+        let attitude = found.iter().map(|(_, dx)| dx.fixed_rows::<3>(ATT).norm()).fold(0.0, f64::max);
+        corrections = if corrections.is_empty() {
+            found
+        } else {
+            corrections.iter().zip(&found).map(|((k, a), (_, b))| (*k, a + b)).collect()
+        };
+        pass = run_once(imu, gnss, initial, config, monitor.clone(), excluded, gaps.clone(), &corrections);
+        if attitude < LINEAR_ENOUGH {
+            break;
+        }
+    }
+    Ok(pass)
+}
+
+/// Re-linearisations at most.
+const RELINEARISATIONS: usize = 3;
+/// A hidden rotation below this (rad, 0.5°) is linear enough: no further pass.
+const LINEAR_ENOUGH: f64 = 0.009;
+
+/// One forward pass; `corrections` (sample index, error state) shift the nominal state after those samples.
+#[allow(clippy::too_many_arguments)]
+fn run_once(
+    imu: &[ImuSample],
+    gnss: &[GnssFix],
+    initial: &InitialState,
+    config: &NavConfig,
+    monitor: Option<Monitor>,
+    excluded: &[bool],
+    gaps: GapNoise,
+    corrections: &[(usize, Vec15)],
+) -> ForwardPass {
     let mut run = Run::new(imu, initial, config, monitor);
     run.excluded = excluded;
+    run.out.gap_noise = gaps;
     run.updates_at(gnss, imu.first().map_or(0.0, |s| s.dt) * 0.5, None);
-    for s in imu {
-        run.predict(s);
+    let mut next = corrections.iter().peekable();
+    for (k, s) in imu.iter().enumerate() {
+        run.predict(k, s);
+        if let Some((_, dx)) = next.next_if(|(at, _)| *at == k) {
+            run.pending = Some(*dx);
+        }
         run.updates_at(gnss, s.dt * 0.5, Some(s));
     }
-    Ok(run.finish(gnss.len()))
+    run.finish(gnss.len())
+}
+
+/// Per gap of `pass`: the sample it ends with, and the motion the smoother found hidden in it, x̂(end) −
+/// Φ·x̂(start) (position, velocity and attitude; the biases have no gap noise).
+fn hidden_motion(pass: &ForwardPass) -> Result<Vec<(usize, Vec15)>, NavError> {
+    let gaps = pass.imu_gaps();
+    let mut wanted: std::collections::HashMap<usize, Vec15> = std::collections::HashMap::new();
+    for g in gaps {
+        wanted.insert(g.first, Vec15::zeros());
+        wanted.insert(g.last + 1, Vec15::zeros());
+    }
+    crate::smoother::smooth_errors(pass, |k, s, _| {
+        if let Some(slot) = wanted.get_mut(&k) {
+            *slot = *s;
+        }
+    })?;
+    let tau = pass.config.imu.bias_correlation_time;
+    Ok(gaps
+        .iter()
+        .map(|g| {
+            let mut carried = wanted[&g.first];
+            for k in g.first..=g.last {
+                carried = pass.nominal[k].transition(&pass.samples[k], tau, &pass.config.earth) * carried;
+            }
+            let mut dx = wanted[&(g.last + 1)] - carried;
+            dx.fixed_rows_mut::<6>(BA).fill(0.0);
+            (g.last, dx)
+        })
+        .collect())
 }
 
 /// The running filter.
@@ -151,6 +251,8 @@ struct Run<'a> {
     monitor: Option<Monitor>,
     /// Fixes decided out before the run (by index).
     excluded: &'a [bool],
+    /// A re-linearisation shift to inject at the next epoch.
+    pending: Option<Vec15>,
     out: ForwardPass,
 }
 
@@ -183,15 +285,16 @@ impl<'a> Run<'a> {
             }],
             innovations: Vec::new(),
             skipped: Vec::new(),
+            gap_noise: GapNoise::default(),
         };
         let next_constraint = init.time + config.vehicle.map_or(f64::INFINITY, |v| v.interval);
-        Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, excluded: &[], out }
+        Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, excluded: &[], pending: None, out }
     }
 
     /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
-    fn predict(&mut self, s: &ImuSample) {
+    fn predict(&mut self, k: usize, s: &ImuSample) {
         let f = self.state.transition(s, self.config.imu.bias_correlation_time, &self.config.earth);
-        self.p = predict_cov(&f, &self.p, &process_noise(&self.config.imu, s.dt));
+        self.p = predict_cov(&f, &self.p, &noise_of(self.config, &self.out.gap_noise, k, s));
         self.state = self.state.propagate(s, &self.config.earth);
         self.out.nominal.push(self.state);
         self.out.position_cov.push(self.p.fixed_view::<3, 3>(POS, POS).into_owned());
@@ -205,6 +308,11 @@ impl<'a> Run<'a> {
         let mut update = Vec15::zeros();
         let mut spread = Matrix3::zeros();
         let mut fix = false;
+        if let Some(dx) = self.pending.take() {
+            // A known shift of the linearisation point: the smoother carries it back like an update.
+            self.state = self.state.inject(&dx);
+            update += dx;
+        }
         if let (Some(vehicle), Some(s)) = (self.config.vehicle, sample)
             && self.state.time >= self.next_constraint - half
         {

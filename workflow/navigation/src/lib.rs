@@ -12,9 +12,11 @@
 //! ImuClass::Tactical.datasheet() → ImuDatasheet (°/h, °/√h, mg, µg, ppm) → .model() → ImuModel (SI)
 //! align(imu, gnss, lever_arm, &AlignmentConfig) → InitialState (GNSS motion fit + standstill test, levelling
 //!     compensated for the GNSS acceleration, GNSS course; the drive may start standing or moving)
-//! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints)
+//! filter(imu, gnss, initial, config) → ForwardPass (innovations, checkpoints; the IMU's unrecorded stretches,
+//!     find_imu_gaps, mechanised with extra process noise for the motion they hide)
 //! screen_steps(&first_pass, gnss, &StepTest) → StepScreen (GNSS steps and outliers found against the IMU's
-//!     free displacement, independent of the filter's drift; `navigate`'s default) → filter_excluding(…)
+//!     free displacement, independent of the filter's drift) → filter_excluding(…); the three together are
+//!     filter_screened, `navigate`'s default
 //! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
 //!     re-opened where the IMU is blamed (a jump may build up over `transition` s); each innovation
 //!     carries its Decision
@@ -33,6 +35,7 @@ mod consistency;
 mod datasheet;
 mod earth;
 mod filter;
+mod gaps;
 mod guard;
 mod integrity;
 mod screen;
@@ -51,11 +54,12 @@ pub use datasheet::{
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive, filter_excluding};
+pub use gaps::{GapKind, ImuGap, ImuGapModel, find_imu_gaps};
 pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
-pub use steps::{EpisodeEnd, StepEpisode, StepScreen, StepTest, screen_steps};
+pub use steps::{EpisodeEnd, StepEpisode, StepScreen, StepTest, filter_screened, screen_steps};
 
 /// Why the filter or smoother could not run, naming the item and field.
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]

@@ -13,7 +13,7 @@ use plumbline_geo::{Attitude, Map, Point3, PoseStd, Rotation, Trajectory, Trajec
 
 use crate::NavError;
 use crate::filter::ForwardPass;
-use crate::state::{ATT, Mat15, POS, VEL, Vec15, euler_jacobian, predict_cov, process_noise};
+use crate::state::{ATT, Mat15, POS, VEL, Vec15, euler_jacobian, predict_cov};
 
 /// One smoothed epoch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -34,12 +34,22 @@ pub struct SmoothedEpoch {
 
 /// Run the RTS smoother backwards over `forward`; one smoothed epoch per forward epoch.
 pub fn smooth(forward: &ForwardPass) -> Result<Vec<SmoothedEpoch>, NavError> {
-    let cps = &forward.checkpoints;
     let mut out = vec![None; forward.nominal.len()];
+    smooth_errors(forward, |k, s, p| out[k] = Some(epoch(forward, k, s, p)))?;
+    Ok(out.into_iter().flatten().collect())
+}
+
+/// The smoother's recursion, handing each epoch's smoothed error state and covariance (around the forward
+/// pass's nominal state) to `visit`, from the last epoch back to the first.
+pub(crate) fn smooth_errors(
+    forward: &ForwardPass,
+    mut visit: impl FnMut(usize, &Vec15, &Mat15),
+) -> Result<(), NavError> {
+    let cps = &forward.checkpoints;
     let last = cps.last().ok_or(NavError::Empty)?;
     let mut s_next = Vec15::zeros();
     let mut p_next = last.posterior;
-    out[last.epoch] = Some(epoch(forward, last.epoch, &s_next, &p_next));
+    visit(last.epoch, &s_next, &p_next);
     for c in (0..cps.len().saturating_sub(1)).rev() {
         let (cp, nx) = (&cps[c], &cps[c + 1]);
         let chol = ScaledCholesky::new(&nx.prior).ok_or(NavError::Singular { time: forward.nominal[nx.epoch].time })?;
@@ -47,11 +57,11 @@ pub fn smooth(forward: &ForwardPass) -> Result<Vec<SmoothedEpoch>, NavError> {
         let x = chol.solve_mat(&(p_next - nx.prior));
         let big_lambda = chol.solve_mat(&x.transpose());
         let gains = Gains { lambda, big_lambda, spread: nx.spread };
-        let (s, p) = interval(forward, cp.epoch, nx.epoch, &cp.posterior, gains, &mut out);
+        let (s, p) = interval(forward, cp.epoch, nx.epoch, &cp.posterior, gains, &mut visit);
         s_next = s;
         p_next = p;
     }
-    Ok(out.into_iter().flatten().collect())
+    Ok(())
 }
 
 /// What the next checkpoint hands back to an interval: λ and Λ there, and the re-opened position variance to
@@ -74,7 +84,7 @@ fn interval(
     to: usize,
     p_from: &Mat15,
     gains: Gains,
-    out: &mut [Option<SmoothedEpoch>],
+    visit: &mut impl FnMut(usize, &Vec15, &Mat15),
 ) -> (Vec15, Mat15) {
     let tau = fw.config.imu.bias_correlation_time;
     let span: f64 = fw.samples[from..to].iter().map(|s| s.dt).sum();
@@ -85,7 +95,7 @@ fn interval(
         let sample = &fw.samples[k];
         let f = fw.nominal[k].transition(sample, tau, &fw.config.earth);
         steps.push((f, p));
-        p = predict_cov(&f, &p, &process_noise(&fw.config.imu, sample.dt));
+        p = predict_cov(&f, &p, &fw.noise(k));
         if span > 0.0 {
             let mut block = p.fixed_view_mut::<3, 3>(POS, POS);
             block += spread * (sample.dt / span);
@@ -98,7 +108,7 @@ fn interval(
         // paper 001 §2.1: x̂_{k|T} = x̂_{k|k} + B_k(…), C_{k|T} = C_{k|k} + B_k(C_{k+1|T} − C_{k+1|k})B_kᵀ
         let s = p * lambda;
         let ps = p + p * big_lambda * p;
-        out[from + i] = Some(epoch(fw, from + i, &s, &ps));
+        visit(from + i, &s, &ps);
         result = (s, ps);
     }
     result

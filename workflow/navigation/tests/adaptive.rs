@@ -13,7 +13,7 @@ use plumbline_geo::Vec3;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Decision, EpisodeEnd, Flag, ForwardPass, GnssFix, ImuSample, InitialState,
     IntegrityConfig, NavConfig, NavError, Sensor, SmoothedEpoch, StepTest, VehicleConstraint, align, filter,
-    filter_adaptive, filter_excluding, screen_steps, smooth, test_innovations, to_trajectory,
+    filter_adaptive, filter_excluding, filter_screened, screen_steps, smooth, test_innovations, to_trajectory,
 };
 use plumbline_synth::motion::imu::ImuErrors;
 
@@ -447,4 +447,30 @@ fn step_test_parameters_are_checked_by_name() {
         assert!(matches!(e, NavError::Config { field: f, .. } if f == field), "{e}");
     }
     assert!(StepTest::default().check().is_ok());
+}
+
+/// A logger's dropout held through the entry into a corner hides a 15° turn, and a 3 m multipath step
+/// begins 4 s after it: the step test, judging fixes against the IMU's free displacement, excludes the step's
+/// fixes and nothing else (its first pass keeps a stiff heading through the gap, so the hidden turn reads as
+/// a slow drift), and the final pass bridges both.
+#[test]
+fn an_imu_dropout_is_not_taken_for_a_gnss_step_and_hides_none() {
+    let mut s = common::scenario(9, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let onset = common::corner_onset(&s.imu, 30.0);
+    let missed = common::hold_dropout(&mut s.imu, onset - 100, onset + 59);
+    assert!(missed.to_degrees().abs() > 10.0, "{}°", missed.to_degrees());
+    let t = s.imu[onset].time;
+    let multipath = fixes_in(&s.gnss, t + 4.0, t + 19.0);
+    multipath.iter().for_each(|&i| s.gnss[i].position.p += Vector3::new(-2.0, 2.0, 1.0));
+    let (forward, screen) = filter_screened(&s.imu, &s.gnss, &s.initial, &s.config, &StepTest::default()).unwrap();
+    let excluded: Vec<usize> = (0..s.gnss.len()).filter(|&i| screen.excluded[i]).collect();
+    assert_eq!(excluded, multipath, "{:?}", screen.episodes);
+    assert_eq!(forward.imu_gaps().len(), 1);
+    let smoothed = smooth(&forward).unwrap();
+    let worst = worst_smoothed(&smoothed, &s, t - 5.0, t + 25.0);
+    println!(
+        "held 1.6 s dropout missing {:.1}° and a 3 m step after it: smoothed max error {worst:.3} m",
+        missed.to_degrees()
+    );
+    assert!(worst < 0.2, "{worst} m");
 }

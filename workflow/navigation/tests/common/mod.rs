@@ -4,7 +4,9 @@
 
 use nalgebra::Vector3;
 use plumbline_geo::{Attitude, Body, Point3, Rotation, Vec3};
-use plumbline_navigation::{Earth, GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY};
+use plumbline_navigation::{
+    Earth, GnssFix, ImuGapModel, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY,
+};
 use plumbline_synth::motion::imu::{self, ImuErrors};
 use plumbline_synth::motion::routes;
 use plumbline_synth::motion::{Drive, DriveConfig};
@@ -71,6 +73,7 @@ pub fn scenario(seed: u64, route: &Route, grade: &ImuErrors, imu_rate: f64, gnss
         lever_arm: Vec3::from_vector(Vector3::from(LEVER)),
         earth: Earth::Flat { gravity: STANDARD_GRAVITY },
         vehicle: None,
+        gaps: Some(ImuGapModel::default()),
     };
     Scenario { drive, imu, gnss, initial, config }
 }
@@ -141,4 +144,25 @@ pub fn degrade_fixes(gnss: &mut [GnssFix], std: [f64; 3], seed: u64) {
             f.std[i] = f.std[i].hypot(*s);
         }
     }
+}
+
+/// Replace samples `first..=last` by sample `first − 1`'s rates: a logger's dropout filled by holding the
+/// last value. Returns the heading turn the filled samples miss, rad (about the body's z axis).
+pub fn hold_dropout(imu: &mut [ImuSample], first: usize, last: usize) -> f64 {
+    let held = imu[first - 1];
+    let mut missed = 0.0;
+    for sample in &mut imu[first..=last] {
+        let recorded = sample.delta_theta.v.z;
+        sample.delta_theta.v = held.delta_theta.v / held.dt * sample.dt;
+        sample.delta_v.v = held.delta_v.v / held.dt * sample.dt;
+        missed += recorded - sample.delta_theta.v.z;
+    }
+    missed
+}
+
+/// The first sample after `after` seconds from the start whose turn rate exceeds 0.2 rad/s: the simulated
+/// block's corners turn at a constant rate, so this is a corner's onset.
+pub fn corner_onset(imu: &[ImuSample], after: f64) -> usize {
+    let start = imu[0].time;
+    (0..imu.len()).find(|&k| imu[k].time > start + after && (imu[k].delta_theta.v.z / imu[k].dt).abs() > 0.2).unwrap()
 }
