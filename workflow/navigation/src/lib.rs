@@ -38,6 +38,7 @@ mod filter;
 mod gaps;
 mod guard;
 mod integrity;
+mod passes;
 mod screen;
 mod smoother;
 mod state;
@@ -53,10 +54,11 @@ pub use datasheet::{
     velocity_random_walk_m_per_s_per_sqrt_h,
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
-pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix, filter, filter_adaptive, filter_excluding};
+pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix};
 pub use gaps::{GapKind, ImuGap, ImuGapModel, find_imu_gaps};
 pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
+pub use passes::{filter, filter_adaptive, filter_excluding};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};
 pub use steps::{EpisodeEnd, StepEpisode, StepScreen, StepTest, filter_screened, screen_steps};

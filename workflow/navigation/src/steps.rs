@@ -41,8 +41,9 @@ use serde::{Deserialize, Serialize};
 use crate::NavError;
 use crate::chi2::chi2_critical;
 use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
-use crate::filter::{ForwardPass, filter, filter_excluding};
+use crate::filter::ForwardPass;
 use crate::gaps::find_imu_gaps;
+use crate::passes::{filter, filter_excluding};
 
 /// Parameters of the step test.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
