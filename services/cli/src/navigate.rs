@@ -19,8 +19,8 @@ use plumbline_navigation::{
     Adaptation, AlignmentConfig, Earth, EpisodeEnd, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap, ImuGapModel,
     ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway,
     STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, VehicleConstraint, align,
-    angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_noise,
-    screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_mounting,
+    measure_noise, screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -369,11 +369,21 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let screened = screen_fixes(&gnss, &Plausibility::default());
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
-    let (forward, trajectory, flags, initial, diverged, steps) =
+    let (forward, trajectory, flags, initial, diverged, steps, mounting) =
         tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
             let Screened { kept: gnss, index, .. } = screened;
             let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
             let name = |e| files::name_sample(e, &imu_name);
+            // The IMU's mounting in the vehicle, for the vehicle constraint.
+            let mut config = config;
+            let mounting = if config.vehicle.is_some() {
+                measure_mounting(&imu, &gnss, &initial, &config).map_err(name)?
+            } else {
+                None
+            };
+            if let (Some(vehicle), Some(m)) = (config.vehicle.as_mut(), mounting) {
+                vehicle.mounting = m.mounting;
+            }
             let (mut forward, steps) = match integrity {
                 Integrity::Steps => {
                     let (forward, steps) = filter_screened(&imu, &gnss, &initial, &config, &step_test).map_err(name)?;
@@ -415,7 +425,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             };
             let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
             let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-            Ok((forward, trajectory, flags, initial, diverged, steps))
+            Ok((forward, trajectory, flags, initial, diverged, steps, mounting))
         })
         .await
         .context("navigation task")??;
@@ -423,6 +433,19 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     ctx.write(&format!("{prefix}innovations.csv"), output::innovations_csv(&forward)).await?;
     ctx.write(&format!("{prefix}flags.csv"), output::flags_csv(&flags)).await?;
     report_imu_gaps(forward.imu_gaps(), file_name(&args.imu));
+    if let Some(m) = &mounting {
+        eprintln!(
+            "IMU mounting measured over {:.0} s of straight driving: yaw {:.2}°, pitch {:.2}° against the vehicle's \
+             axes (the vehicle constraint holds the vehicle's lateral and vertical velocity)",
+            m.seconds,
+            m.mounting.yaw.to_degrees(),
+            m.mounting.pitch.to_degrees()
+        );
+    } else if config.vehicle.is_some() {
+        eprintln!(
+            "note: too little straight driving to measure the IMU's mounting; the vehicle constraint takes the IMU's axes as the vehicle's"
+        );
+    }
     if let Some(steps) = &steps {
         report_steps(steps, &gnss_name);
     }
@@ -434,6 +457,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_gaps"] = serde_json::to_value(forward.imu_gaps())?;
+    summary["mounting"] = serde_json::to_value(mounting)?;
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     summary["earth"] = match earth {
         Earth::Wgs84 { latitude, convergence } => serde_json::json!({

@@ -6,6 +6,7 @@ use serde::{Deserialize, Serialize};
 use crate::NavError;
 use crate::earth::Earth;
 use crate::gaps::ImuGapModel;
+use crate::mount::Mounting;
 
 /// Standard gravity, m/s² (the simulator's flat Earth; [`Earth::Wgs84`] uses normal gravity).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
@@ -85,11 +86,15 @@ pub struct VehicleConstraint {
     /// Distance from the IMU to the point the vehicle turns about (the rear axle), m: turning at ω moves the
     /// IMU sideways at up to ω·arm, so the lateral σ grows by |ω_z|·arm and the vertical by |ω_y|·arm.
     pub arm: f64,
+    /// How the IMU sits against the vehicle's axes (the constraint holds the vehicle's lateral and vertical
+    /// velocity, not the IMU's); `navigate` measures it ([`crate::measure_mounting`]).
+    #[serde(default)]
+    pub mounting: Mounting,
 }
 
 impl Default for VehicleConstraint {
     fn default() -> Self {
-        Self { interval: 0.1, velocity_std: 0.1, arm: 2.0 }
+        Self { interval: 0.1, velocity_std: 0.1, arm: 2.0, mounting: Mounting::default() }
     }
 }
 
@@ -109,7 +114,7 @@ impl VehicleConstraint {
                 expected: "a finite distance >= 0 m",
             });
         }
-        Ok(())
+        self.mounting.check()
     }
 }
 

@@ -284,10 +284,11 @@ impl<'a> Run<'a> {
         dx
     }
 
-    /// The vehicle constraint (see [`VehicleConstraint`]): the body's lateral and vertical velocity observed
-    /// as zero. With C = R_B^M and C_true = Exp(φ)·C, v_body = Cᵀ(v + δv) + Cᵀ[v]×φ to first order.
+    /// The vehicle constraint (see [`VehicleConstraint`]): the vehicle's lateral and vertical velocity
+    /// observed as zero. With C = R_B^M and C_true = Exp(φ)·C, v_body = Cᵀ(v + δv) + Cᵀ[v]×φ to first order.
     fn constrain(&mut self, vehicle: &VehicleConstraint, s: &ImuSample) -> Vec15 {
-        let ct = self.state.attitude.to_rotation_matrix().into_inner().transpose();
+        // Map to the vehicle's axes (the IMU's, turned by its mounting).
+        let ct = vehicle.mounting.to_vehicle() * self.state.attitude.to_rotation_matrix().into_inner().transpose();
         let body = ct * self.state.velocity;
         let turning = ct * skew(&self.state.velocity);
         let mut h = SMatrix::<f64, 2, 15>::zeros();

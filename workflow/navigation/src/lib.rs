@@ -20,6 +20,8 @@
 //! filter_adaptive(…, &Adaptation) → the same, acting on its tests: rejected fixes excluded, covariances
 //!     re-opened where the IMU is blamed (a jump may build up over `transition` s); each innovation
 //!     carries its Decision
+//! measure_mounting(…) → the IMU's yaw and pitch against the vehicle's axes (velocity direction in straight
+//!     driving, from a pass without the vehicle constraint) → VehicleConstraint::mounting
 //! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
@@ -38,6 +40,7 @@ mod filter;
 mod gaps;
 mod guard;
 mod integrity;
+mod mount;
 mod passes;
 mod screen;
 mod smoother;
@@ -58,6 +61,7 @@ pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix};
 pub use gaps::{GapKind, ImuGap, ImuGapModel, find_imu_gaps};
 pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
+pub use mount::{Mounting, MountingMeasurement, measure_mounting};
 pub use passes::{filter, filter_adaptive, filter_excluding};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};

@@ -4,9 +4,11 @@
 
 mod common;
 
-use nalgebra::{Matrix3, Vector3};
-use plumbline_geo::{Body, Point3};
-use plumbline_navigation::{GapKind, ImuGapModel, NavConfig, NavError, filter, find_imu_gaps, smooth, to_trajectory};
+use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
+use plumbline_geo::{Attitude, Body, Point3};
+use plumbline_navigation::{
+    GapKind, ImuGapModel, Mounting, NavConfig, NavError, filter, find_imu_gaps, measure_mounting, smooth, to_trajectory,
+};
 use plumbline_synth::motion::imu::ImuErrors;
 
 /// With a perfect IMU and exact fixes of the start only, free inertial navigation follows the simulated
@@ -209,4 +211,34 @@ fn a_filled_imu_dropout_in_a_turn_is_found_and_bridged() {
     );
     assert!(bridged < 0.3 * trusted, "found {bridged} m vs trusted {trusted} m");
     assert!(bridged < 1.0, "found {bridged} m");
+}
+
+/// An IMU mounted 1.1° in yaw and 0.9° in pitch off the vehicle's axes: the direction of the velocity in
+/// its axes while driving straight gives both back (roll about the forward axis cannot be seen and stays 0).
+#[test]
+fn the_imus_mounting_in_the_vehicle_is_measured_from_straight_driving() {
+    let mut s = common::scenario(41, &common::block_route(2), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let level = measure_mounting(&s.imu, &s.gnss, &s.initial, &s.config).unwrap().unwrap();
+    let truth = Mounting { yaw: 0.02, pitch: 0.015 };
+    let m = truth.to_vehicle();
+    for sample in &mut s.imu {
+        sample.delta_theta.v = m.transpose() * sample.delta_theta.v;
+        sample.delta_v.v = m.transpose() * sample.delta_v.v;
+    }
+    let vehicle = s.initial.attitude.to_rotation().quaternion().to_owned();
+    let mount = UnitQuaternion::from_rotation_matrix(&Rotation3::from_matrix_unchecked(m));
+    s.initial.attitude = Attitude::from_rotation(&plumbline_geo::Rotation::from_quaternion(vehicle * mount));
+    let measured = measure_mounting(&s.imu, &s.gnss, &s.initial, &s.config).unwrap().unwrap();
+    println!(
+        "mounting measured over {:.0} s: yaw {:.3}° pitch {:.3}° (true 1.146°, 0.859°; unrotated IMU {:.3}°, {:.3}°)",
+        measured.seconds,
+        measured.mounting.yaw.to_degrees(),
+        measured.mounting.pitch.to_degrees(),
+        level.mounting.yaw.to_degrees(),
+        level.mounting.pitch.to_degrees()
+    );
+    assert!(measured.seconds > 60.0, "{measured:?}");
+    assert!((measured.mounting.yaw - truth.yaw).abs() < 0.002, "{measured:?}");
+    assert!((measured.mounting.pitch - truth.pitch).abs() < 0.002, "{measured:?}");
+    assert!(level.mounting.yaw.abs() < 0.002 && level.mounting.pitch.abs() < 0.002, "{level:?}");
 }
