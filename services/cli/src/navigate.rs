@@ -232,7 +232,6 @@ fn report_consistency(c: &output::Consistency, imu_model: &str) {
 /// Above this ratio of the median innovation statistic to its expected value the IMU model is called unfit.
 const MISFIT_FACTOR: f64 = 3.0;
 
-/// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
 /// The IMU's unrecorded stretches, one warning each (all of them are in `summary.json`).
 fn report_imu_gaps(gaps: &[ImuGap], name: &str) {
     if gaps.is_empty() {
@@ -262,6 +261,7 @@ fn report_imu_gaps(gaps: &[ImuGap], name: &str) {
     }
 }
 
+/// The step test's episodes on stderr: counted, the first ones named (all in `summary.json`).
 fn report_steps(steps: &StepScreen, name: &str) {
     let s = steps.scale;
     eprintln!(

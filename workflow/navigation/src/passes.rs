@@ -48,12 +48,12 @@ pub fn filter_excluding(
     run_filter(imu, gnss, initial, config, None, excluded)
 }
 
-/// The forward pass. Where the IMU has gaps it runs again, up to three times: a 15° turn hidden in a gap is too large for the
-/// smoother's linear correction (over 400 m a heading error of 15° linearised is 14 m off), so the next
-/// pass re-linearises — it shifts its nominal state at each gap's end by the motion the first smoothing
-/// found hidden there (the smoothed error at the end less the start's carried through the gap). That
-/// motion's prior is the gap's loose process noise, so using the data a second time through it changes the
-/// estimate by a negligible shrinkage.
+/// The forward pass. Where the IMU has gaps it runs again, up to three times: a 15° turn hidden in a gap
+/// is too large for the smoother's linear correction (over 400 m a heading error of 15° linearised is 14 m
+/// off), so each further pass re-linearises — it shifts its nominal state at each gap's end by the motion
+/// the previous smoothing found hidden there (the smoothed error at the end less the start's carried
+/// through the gap). That motion's prior is the gap's loose process noise, so using the data again through
+/// it changes the estimate by a negligible shrinkage.
 fn run_filter(
     imu: &[ImuSample],
     gnss: &[GnssFix],
