@@ -207,12 +207,15 @@ impl<'a> Run<'a> {
             self.next_constraint = self.state.time + vehicle.interval;
             update += self.constrain(&vehicle, s);
         }
+        // A fix belongs to the epoch nearest it; one the previous epoch's window (half of a shorter interval)
+        // left out still lies in this interval. Only a fix before it is out of place.
+        let earliest = sample.map_or(self.state.time - half, |s| self.state.time - s.dt - half);
         while let Some(f) = gnss.get(self.next_fix).filter(|f| f.time <= self.state.time + half) {
             let index = self.next_fix;
             self.next_fix += 1;
             if let Err(reason) = check_fix(index, f) {
                 self.out.skipped.push(SkippedFix { fix: index, reason });
-            } else if f.time < self.state.time - half {
+            } else if f.time < earliest {
                 let reason = NavError::FixOutsideImu { index, time: f.time };
                 self.out.skipped.push(SkippedFix { fix: index, reason });
             } else {
