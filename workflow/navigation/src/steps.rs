@@ -23,10 +23,11 @@
 //! a = (e_k − e_{k+1}) / 2 — the step's evidence, J = a·h_k — and its symmetric part, which a step leaves
 //! at zero and the IMU's errors fill. Each axis of a is scaled by a robust σ measured on the data itself
 //! (1.4826 × the median absolute a: a real unit's errors set the scale, not its datasheet) and vᵀv is tested
-//! against χ²₃ at `alpha`; a step is declared where the test rejects, J is at least `min_step`, and the
-//! statistic is not a side lobe of a neighbour's (an outlier, +J −2J +J in e, shows as a step out and a
-//! step back). Steps at consecutive fixes (a fault changing level fix by fix) are estimated together by
-//! least squares over their e.
+//! against χ²₃ at `alpha`. A step leaks into the pairs either side at half its size, and a fault changing
+//! level fix by fix puts true steps side by side, so each run of consecutive rejected pairs has its steps
+//! estimated together by least squares over their e: a side lobe's estimate falls to near zero, a true
+//! neighbour keeps its size. A step is declared where its estimate is at least `min_step` (an outlier,
+//! +J −2J +J in e, shows as a step out and a step back).
 //!
 //! The declared steps add up to each fix's offset; a step that lands near a level seen before in the chain
 //! returns to it exactly. Within a chain of fixes (broken by gaps longer than
@@ -191,20 +192,17 @@ pub fn screen_steps(first: &ForwardPass, gnss: &[GnssFix], test: &StepTest) -> S
     let crit = chi2_critical(3.0, test.alpha);
     let z2: Vec<f64> = pairs.iter().map(|(_, a)| a.component_div(&scale).norm_squared()).collect();
     let min_step = test.min_step;
+    // A step's evidence leaks into the pairs on either side at half its size, and a fault that changes
+    // level fix by fix puts true steps side by side: the significant pairs are taken in runs of
+    // consecutive fixes and their steps estimated together; a side lobe then gets a step near zero, a true
+    // neighbouring step keeps its size. Those of at least `min_step` are declared.
+    let significant: Vec<usize> = pairs.iter().zip(&z2).filter(|(_, z)| **z >= crit).map(|((i, _), _)| *i).collect();
     let mut declared: Vec<usize> = Vec::new();
-    for (j, (i, a)) in pairs.iter().enumerate() {
-        let step = a * triples[*i].h2;
-        // A step's evidence leaks into the pairs on either side at half its size (a quarter of the statistic):
-        // a pair whose neighbour's statistic is more than twice its own is such a side lobe. An outlier's
-        // step out and step back are of equal size, and both stand.
-        let neighbour = |n: Option<usize>| {
-            n.and_then(|n| pairs.get(n).map(|p| (n, p.0)))
-                .filter(|(_, ni)| ni.abs_diff(*i) == 1)
-                .map_or(0.0, |(n, _)| z2[n])
-        };
-        let peak = 2.0 * z2[j] >= neighbour(j.checked_sub(1)).max(neighbour(Some(j + 1)));
-        if z2[j] >= crit && step.norm() >= min_step && peak {
-            declared.push(*i);
+    for run in significant.chunk_by(|a, b| b - a == 1) {
+        for (i, step) in run.iter().zip(block_steps(&triples, &e, run)) {
+            if step.norm() >= min_step {
+                declared.push(*i);
+            }
         }
     }
     let mut steps: Vec<Option<Vector3<f64>>> = vec![None; gnss.len()];

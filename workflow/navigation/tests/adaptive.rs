@@ -435,6 +435,24 @@ fn a_chain_that_starts_inside_a_fault_trusts_the_level_most_of_its_fixes_share()
     assert_eq!(screen.episodes[0].ended, EpisodeEnd::Returned);
 }
 
+/// A fault that changes level at consecutive fixes (4 m, then 1.6 m more, then back): the second step's
+/// evidence is small beside the first's side lobe, and only estimating the run of steps together keeps it.
+#[test]
+fn steps_at_consecutive_fixes_are_each_declared() {
+    let mut s = common::scenario(9, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let t0 = s.drive.trajectory.records()[0].time;
+    let fault = fixes_in(&s.gnss, t0 + 50.0, t0 + 56.0);
+    for (n, &i) in fault.iter().enumerate() {
+        s.gnss[i].position.p.x += if n == 0 { 4.0 } else { 5.6 };
+    }
+    let first = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+    let screen = screen_steps(&first, &s.gnss, &StepTest::default());
+    let excluded: Vec<usize> = (0..s.gnss.len()).filter(|&i| screen.excluded[i]).collect();
+    assert_eq!(excluded, fault, "{:?}", screen.episodes);
+    assert_eq!(screen.steps, 3, "out, further out, back: {screen:?}");
+    assert!((Vector3::from(screen.episodes[0].step) - Vector3::new(4.0, 0.0, 0.0)).norm() < 0.2, "{screen:?}");
+}
+
 #[test]
 fn step_test_parameters_are_checked_by_name() {
     let bad = [
