@@ -18,9 +18,10 @@ use plumbline_geo::Vec3;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Earth, EpisodeEnd, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap, ImuGapModel,
     ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway,
-    STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, VehicleConstraint, align,
+    STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, TimeOffsetMeasurement, VehicleConstraint, align,
     angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_mounting,
-    measure_noise, screen_fixes, smooth, test_innovations, to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    measure_noise, measure_time_offset, screen_fixes, shift_samples, smooth, test_innovations, to_trajectory,
+    velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -45,6 +46,23 @@ pub enum Integrity {
     Online,
     /// Every fix used.
     None,
+}
+
+/// `--imu-time-offset`: measured, or given in seconds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TimeOffset {
+    Auto,
+    Fixed(f64),
+}
+
+fn time_offset(text: &str) -> Result<TimeOffset, String> {
+    if text == "auto" {
+        return Ok(TimeOffset::Auto);
+    }
+    match text.parse::<f64>() {
+        Ok(v) if v.is_finite() && v.abs() <= 1.0 => Ok(TimeOffset::Fixed(v)),
+        _ => Err(format!("expected `auto` or seconds within ±1 (e.g. 0.065), got {text:?}")),
+    }
 }
 
 /// Arguments of `navigate`.
@@ -99,6 +117,12 @@ pub struct Args {
     /// extra process noise for the motion they hide
     #[arg(long)]
     pub ignore_imu_gaps: bool,
+    /// How far the IMU's time tags lag the GNSS's, seconds (IMU time − GNSS time of the same instant), or
+    /// `auto`: measured from the data within ±0.3 s and applied when a likelihood-ratio test finds it
+    /// (units that filter their output, loggers that stamp on arrival). The IMU's tags are moved back by it;
+    /// the outputs are in GNSS time. `0` takes the tags as they are
+    #[arg(long, value_name = "SECONDS|auto", default_value = "auto", value_parser = time_offset, allow_negative_numbers = true)]
+    pub imu_time_offset: TimeOffset,
     /// Directory or object-store prefix for the results.
     #[arg(long, value_name = "DIR|URL")]
     pub out: String,
@@ -317,6 +341,52 @@ fn runaway_text(r: Runaway) -> &'static str {
     }
 }
 
+fn imu_name_of(args: &Args) -> String {
+    file_name(&args.imu).to_owned()
+}
+
+/// The IMU's time offset on stderr: what was measured and whether it was applied.
+fn report_time_offset(mode: TimeOffset, measured: Option<&TimeOffsetMeasurement>, imu: &str) {
+    match (mode, measured) {
+        (TimeOffset::Fixed(v), _) => {
+            eprintln!("{imu}: time tags moved back by the given {:.1} ms (--imu-time-offset)", v * 1e3);
+        }
+        (TimeOffset::Auto, None) => eprintln!(
+            "note: {imu}: too few fixes to measure the IMU's time offset against the GNSS; tags taken as they are"
+        ),
+        (TimeOffset::Auto, Some(m)) if m.at_edge => eprintln!(
+            "warning: {imu}: the innovations fit best at the edge of the ±{:.1} s searched for the IMU's time \
+             offset against the GNSS; tags taken as they are (give --imu-time-offset if the offset is known)",
+            plumbline_navigation::TIME_OFFSET_SEARCH
+        ),
+        (TimeOffset::Auto, Some(m)) if m.significant() => eprintln!(
+            "{imu}: time tags lag the GNSS by {:.1} ms (measured over {} fixes: the innovations' χ² sum {:.0} → \
+             {:.0}; the drive's fifths {}); moved back by it",
+            m.offset * 1e3,
+            m.fixes,
+            m.cost_at_zero,
+            m.cost,
+            milliseconds(&m.segments)
+        ),
+        (TimeOffset::Auto, Some(m)) => eprintln!(
+            "{imu}: no significant time offset against the GNSS (best {:.1} ms lowers the innovations' χ² sum by \
+             {:.1}, needed {:.1}; the drive's fifths {} agree to t = {:.1}, needed {:.1}); tags taken as they are",
+            m.best * 1e3,
+            m.cost_at_zero - m.cost,
+            m.critical,
+            milliseconds(&m.segments),
+            m.t,
+            plumbline_navigation::TIME_OFFSET_T_CRITICAL
+        ),
+    }
+}
+
+/// Offsets in ms, e.g. "55/61/58 ms".
+fn milliseconds(offsets: &[f64]) -> String {
+    let v: Vec<String> = offsets.iter().map(|o| format!("{:.0}", o * 1e3)).collect();
+    format!("{} ms", v.join("/"))
+}
+
 /// Skipped fixes named one by one on stderr (all of them are in `summary.json`).
 const SKIPPED_LISTED: usize = 10;
 
@@ -369,10 +439,16 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let screened = screen_fixes(&gnss, &Plausibility::default());
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
-    let (forward, trajectory, flags, initial, diverged, steps, mounting) =
+    let time_offset = args.imu_time_offset;
+    let (forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset) =
         tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
             let Screened { kept: gnss, index, .. } = screened;
-            let initial = align(&imu, &gnss, &lever, &AlignmentConfig::default()).or_invalid("coarse alignment")?;
+            let mut imu = imu;
+            if let TimeOffset::Fixed(offset) = time_offset {
+                shift_samples(&mut imu, offset);
+            }
+            let alignment = AlignmentConfig::default();
+            let mut initial = align(&imu, &gnss, &lever, &alignment).or_invalid("coarse alignment")?;
             let name = |e| files::name_sample(e, &imu_name);
             // The IMU's mounting in the vehicle, for the vehicle constraint.
             let mut config = config;
@@ -383,6 +459,15 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             };
             if let (Some(vehicle), Some(m)) = (config.vehicle.as_mut(), mounting) {
                 vehicle.mounting = m.mounting;
+            }
+            // The IMU's time-tag lag, then everything again on the corrected tags.
+            let measured_offset = match time_offset {
+                TimeOffset::Auto => measure_time_offset(&imu, &gnss, &initial, &config).map_err(name)?,
+                TimeOffset::Fixed(_) => None,
+            };
+            if let Some(m) = measured_offset.as_ref().filter(|m| m.significant()) {
+                shift_samples(&mut imu, m.offset);
+                initial = align(&imu, &gnss, &lever, &alignment).or_invalid("coarse alignment")?;
             }
             let (mut forward, steps) = match integrity {
                 Integrity::Steps => {
@@ -425,7 +510,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             };
             let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
             let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-            Ok((forward, trajectory, flags, initial, diverged, steps, mounting))
+            Ok((forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset))
         })
         .await
         .context("navigation task")??;
@@ -446,6 +531,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             "note: too little straight driving to measure the IMU's mounting; the vehicle constraint takes the IMU's axes as the vehicle's"
         );
     }
+    report_time_offset(time_offset, measured_offset.as_ref(), &imu_name_of(&args));
     if let Some(steps) = &steps {
         report_steps(steps, &gnss_name);
     }
@@ -458,6 +544,14 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
     summary["imu_gaps"] = serde_json::to_value(forward.imu_gaps())?;
     summary["mounting"] = serde_json::to_value(mounting)?;
+    summary["imu_time_offset"] = serde_json::json!({
+        "mode": if time_offset == TimeOffset::Auto { "auto" } else { "given" },
+        "offset_s": match time_offset {
+            TimeOffset::Fixed(v) => v,
+            TimeOffset::Auto => measured_offset.as_ref().map_or(0.0, |m| m.offset),
+        },
+        "measurement": &measured_offset,
+    });
     summary["imu_model"] = output::imu_model(&args.imu_model, &datasheet, noise.as_ref(), &config.imu);
     summary["earth"] = match earth {
         Earth::Wgs84 { latitude, convergence } => serde_json::json!({

@@ -22,6 +22,8 @@
 //!     carries its Decision
 //! measure_mounting(…) → the IMU's yaw and pitch against the vehicle's axes (velocity direction in straight
 //!     driving, from a pass without the vehicle constraint) → VehicleConstraint::mounting
+//! measure_time_offset(…) → the IMU's time-tag lag behind the GNSS (the offset that minimises the
+//!     innovations' capped χ² sum, kept when a likelihood-ratio test finds it) → shift_samples
 //! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
@@ -40,6 +42,7 @@ mod filter;
 mod gaps;
 mod guard;
 mod integrity;
+mod latency;
 mod mount;
 mod passes;
 mod screen;
@@ -61,6 +64,10 @@ pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix};
 pub use gaps::{GapKind, ImuGap, ImuGapModel, find_imu_gaps};
 pub use guard::{Divergence, Physics, Runaway, divergences};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
+pub use latency::{
+    SEARCH as TIME_OFFSET_SEARCH, T_CRITICAL as TIME_OFFSET_T_CRITICAL, TimeOffsetMeasurement, measure_time_offset,
+    shift_samples,
+};
 pub use mount::{Mounting, MountingMeasurement, measure_mounting};
 pub use passes::{filter, filter_adaptive, filter_excluding};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};

@@ -7,7 +7,8 @@ mod common;
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use plumbline_geo::{Attitude, Body, Point3};
 use plumbline_navigation::{
-    GapKind, ImuGapModel, Mounting, NavConfig, NavError, filter, find_imu_gaps, measure_mounting, smooth, to_trajectory,
+    GapKind, ImuGapModel, Mounting, NavConfig, NavError, filter, find_imu_gaps, measure_mounting, measure_time_offset,
+    shift_samples, smooth, to_trajectory,
 };
 use plumbline_synth::motion::imu::ImuErrors;
 
@@ -241,4 +242,22 @@ fn the_imus_mounting_in_the_vehicle_is_measured_from_straight_driving() {
     assert!((measured.mounting.yaw - truth.yaw).abs() < 0.002, "{measured:?}");
     assert!((measured.mounting.pitch - truth.pitch).abs() < 0.002, "{measured:?}");
     assert!(level.mounting.yaw.abs() < 0.002 && level.mounting.pitch.abs() < 0.002, "{level:?}");
+}
+
+/// IMU tags 80 ms late (a unit that filters its output): the offset that makes the innovations fit is
+/// measured back, the fit improves by far more than the likelihood-ratio test asks, and on the same drive
+/// with true tags no offset is found significant.
+#[test]
+fn the_imus_time_offset_against_the_gnss_is_measured() {
+    let s = common::scenario(43, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let on_time = measure_time_offset(&s.imu, &s.gnss, &s.initial, &s.config).unwrap().unwrap();
+    let mut late = s.imu.clone();
+    shift_samples(&mut late, -0.08);
+    let initial = plumbline_navigation::InitialState { time: s.initial.time + 0.08, ..s.initial };
+    let measured = measure_time_offset(&late, &s.gnss, &initial, &s.config).unwrap().unwrap();
+    println!("80 ms late: {measured:?}; on time: {on_time:?}");
+    assert!((measured.offset - 0.08).abs() < 0.01, "{measured:?}");
+    assert!(measured.cost_at_zero - measured.cost > 10.0 * measured.critical, "{measured:?}");
+    assert_eq!(on_time.offset, 0.0, "{on_time:?}");
+    assert!(on_time.best.abs() < 0.01, "{on_time:?}");
 }
