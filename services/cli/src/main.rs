@@ -12,6 +12,7 @@ mod exit;
 mod io;
 mod matching;
 mod navigate;
+mod poles;
 mod run;
 mod serve;
 mod simulate;
@@ -60,6 +61,9 @@ enum Command {
     Adjust(adjust::Args),
     /// Fuse raw GNSS and IMU (Kalman filter + RTS smoother) with integrity tests; write the smoothed trajectory.
     Navigate(navigate::Args),
+    /// Pole tools: detect poles and tree trunks in static LAS/LAZ clouds.
+    #[command(subcommand)]
+    Poles(poles::Command),
     /// Run a service of the distributed path (NATS JetStream + object store).
     #[command(subcommand)]
     Serve(serve::Command),
@@ -91,6 +95,7 @@ fn main() -> ExitCode {
             Command::Cadastre(cmd) => cadastre::run(&ctx, cmd).await,
             Command::Adjust(args) => adjust::run(&ctx, args).await,
             Command::Navigate(args) => navigate::run(&ctx, args).await,
+            Command::Poles(cmd) => poles::run(&ctx, cmd).await,
             Command::Serve(cmd) => serve::run(&ctx, cmd).await,
             Command::Submit(args) => submit::run(&ctx, args).await,
             Command::Status(args) => status::run(&ctx, args).await,

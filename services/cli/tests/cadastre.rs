@@ -1,4 +1,5 @@
-//! End-to-end tests of `plumbline cadastre inspect` on GeoPackages made by `ogr2ogr` from GeoJSON and CSV.
+//! End-to-end tests of `plumbline cadastre inspect` on GeoPackages made by `ogr2ogr` from GeoJSON and CSV,
+//! and of `plumbline poles detect`, the pole and tree inventory that goes beside a cadastre.
 
 #![allow(clippy::unwrap_used)] // test helpers outside #[test] functions
 
@@ -97,4 +98,105 @@ fn a_file_that_is_not_a_geopackage_or_missing_exits_2() {
     assert!(r.stderr.contains("trees.gpkg") && r.stderr.contains("GeoPackage"), "{}", r.stderr);
     let r = plumbline(&["cadastre", "inspect", dir.path().join("absent.gpkg").to_str().unwrap()]).run();
     r.failure_with(2);
+}
+
+/// The scanned street of `plumbline_synth::scan` as a LAS 1.2 file (format 0; LAZ when `compressed`), with
+/// a GeoTIFF-keys CRS record of `epsg` when given.
+fn street_cloud(compressed: bool, epsg: Option<u16>) -> (Vec<u8>, Vec<plumbline_synth::scan::StemTruth>) {
+    let (points, truth) = plumbline_synth::scan::scan_scene(&plumbline_synth::scan::ScanScene::default(), 3);
+    let mut builder = las::Builder::from((1, 2));
+    builder.point_format = las::point::Format::new(0).unwrap();
+    builder.point_format.is_compressed = compressed;
+    let t = |offset: f64| las::Transform { scale: 0.001, offset };
+    builder.transforms = las::Vector { x: t(512_000.0), y: t(5_403_000.0), z: t(0.0) };
+    if let Some(code) = epsg {
+        // GeoKeyDirectory: version 1.1.0, two keys: GTModelType = projected, ProjectedCSType = code.
+        let keys: [u16; 12] = [1, 1, 0, 2, 1024, 0, 1, 1, 3072, 0, 1, code];
+        let data = keys.iter().flat_map(|k| k.to_le_bytes()).collect();
+        builder.vlrs.push(las::Vlr {
+            user_id: "LASF_Projection".to_owned(),
+            record_id: 34735,
+            description: String::new(),
+            data,
+        });
+    }
+    let mut writer = las::Writer::new(std::io::Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+    for p in points {
+        writer.write_point(las::Point { x: p[0], y: p[1], z: p[2], ..Default::default() }).unwrap();
+    }
+    (writer.into_inner().unwrap().into_inner(), truth)
+}
+
+/// `plumbline poles detect` on a scanned street (two trees, two poles, a facade, a car, a bush): the four
+/// stems in a GeoPackage layer with the cloud's CRS, centres within 3 cm and diameters within 2 cm; a cloud
+/// without a CRS record is written without one and said so, or takes `--epsg`; a truncated LAZ is an error
+/// naming the file and the records; a cloud with no stem is a warning.
+#[test]
+fn poles_detect_writes_the_stems_of_a_scanned_street() {
+    use gdal::vector::LayerAccess as _;
+    let dir = tempfile::tempdir().unwrap();
+    let (laz, truth) = street_cloud(true, Some(25832));
+    let cloud = dir.path().join("street.laz");
+    std::fs::write(&cloud, &laz).unwrap();
+    let out = dir.path().join("poles.gpkg");
+    let r = plumbline(&["poles", "detect", cloud.to_str().unwrap(), "--out", out.to_str().unwrap()]).run();
+    r.success();
+    assert!(r.stderr.contains("street.laz: LAS 1.2, point format 0 (LAZ)") && r.stderr.contains("CRS EPSG:25832"));
+    assert!(r.stderr.contains("4 stems: 2 poles, 2 trunks, 0 unclassified"), "{}", r.stderr);
+    let ds = gdal::Dataset::open(&out).unwrap();
+    let mut layer = ds.layer_by_name("detected_poles").unwrap();
+    assert_eq!(layer.spatial_ref().unwrap().auth_code().unwrap(), 25832);
+    let (di, ci) = (layer.defn().field_index("diameter_m").unwrap(), layer.defn().field_index("class").unwrap());
+    let found: Vec<(f64, f64, f64, String)> = layer
+        .features()
+        .map(|f| {
+            let (x, y, _) = f.geometry().unwrap().get_point(0);
+            let d = f.field_as_double(di).unwrap().unwrap();
+            (x, y, d, f.field_as_string(ci).unwrap().unwrap())
+        })
+        .collect();
+    assert_eq!(found.len(), 4, "{found:?}");
+    for t in &truth {
+        let c = t.centre_at(1.3);
+        let (x, y, d, class) = found
+            .iter()
+            .min_by(|a, b| (a.0 - c[0]).hypot(a.1 - c[1]).total_cmp(&(b.0 - c[0]).hypot(b.1 - c[1])))
+            .unwrap();
+        assert!((x - c[0]).hypot(y - c[1]) < 0.03 && (d - t.diameter_m).abs() < 0.02, "{t:?}: {found:?}");
+        assert_eq!(class, if t.crown { "trunk" } else { "pole" });
+    }
+
+    let (las, _) = street_cloud(false, None);
+    let plain = dir.path().join("street.las");
+    std::fs::write(&plain, &las).unwrap();
+    let r = plumbline(&["poles", "detect", plain.to_str().unwrap(), "--out", out.to_str().unwrap()]).run();
+    r.success();
+    assert!(r.stderr.contains("CRS not recorded") && r.stderr.contains("written without a CRS"), "{}", r.stderr);
+    let r = plumbline(&["poles", "detect", plain.to_str().unwrap(), "--epsg", "25832", "--out", out.to_str().unwrap()])
+        .run();
+    r.success();
+    assert!(!r.stderr.contains("without a CRS"), "{}", r.stderr);
+
+    let cut = dir.path().join("cut.laz");
+    std::fs::write(&cut, &laz[..laz.len() / 2]).unwrap();
+    let r = plumbline(&["poles", "detect", cut.to_str().unwrap(), "--out", out.to_str().unwrap()]).run();
+    r.failure_with(2);
+    assert!(r.stderr.contains("point cloud cut.laz") && r.stderr.contains("the file is truncated"), "{}", r.stderr);
+
+    let ground: Vec<u8> = {
+        let mut builder = las::Builder::from((1, 2));
+        builder.point_format = las::point::Format::new(0).unwrap();
+        let mut w = las::Writer::new(std::io::Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+        for i in 0..400 {
+            w.write_point(las::Point { x: f64::from(i % 20), y: f64::from(i / 20), z: 5.0, ..Default::default() })
+                .unwrap();
+        }
+        w.into_inner().unwrap().into_inner()
+    };
+    let flat = dir.path().join("flat.las");
+    std::fs::write(&flat, ground).unwrap();
+    let r = plumbline(&["poles", "detect", flat.to_str().unwrap(), "--epsg", "25832", "--out", out.to_str().unwrap()])
+        .run();
+    r.success();
+    assert!(r.stderr.contains("warning: no pole or trunk found in 400 points"), "{}", r.stderr);
 }

@@ -136,13 +136,19 @@ fn take(path: &str) -> Result<Vec<u8>, GdalWriteError> {
 
 /// A GeoPackage with the given point layers, all in CRS `epsg`.
 pub fn geopackage(layers: &[PointLayer], epsg: u32) -> Result<Vec<u8>, GdalWriteError> {
+    geopackage_in(layers, Some(epsg))
+}
+
+/// A GeoPackage with the given point layers in CRS `epsg`, or with no CRS recorded (GeoPackage's
+/// "undefined Cartesian SRS") when `None`.
+pub fn geopackage_in(layers: &[PointLayer], epsg: Option<u32>) -> Result<Vec<u8>, GdalWriteError> {
     route_gdal_messages();
     check_layers(layers)?;
-    let srs = srs(epsg)?;
+    let srs = epsg.map(srs).transpose()?;
     let path = vsimem_path("gpkg");
     let driver = DriverManager::get_driver_by_name("GPKG").map_err(failed("find the GPKG driver"))?;
     let mut ds = driver.create_vector_only(&path).map_err(failed("create a GeoPackage"))?;
-    let result = write_layers(&mut ds, layers, &srs);
+    let result = write_layers(&mut ds, layers, srs.as_ref());
     let closed = ds.close().map_err(failed("close the GeoPackage"));
     let bytes = take(&path);
     result?;
@@ -167,10 +173,10 @@ fn check_layers(layers: &[PointLayer]) -> Result<(), GdalWriteError> {
     Ok(())
 }
 
-fn write_layers(ds: &mut Dataset, layers: &[PointLayer], srs: &SpatialRef) -> Result<(), GdalWriteError> {
+fn write_layers(ds: &mut Dataset, layers: &[PointLayer], srs: Option<&SpatialRef>) -> Result<(), GdalWriteError> {
     for layer in layers {
         let name = &layer.name;
-        let options = LayerOptions { name, srs: Some(srs), ty: OGRwkbGeometryType::wkbPoint, options: None };
+        let options = LayerOptions { name, srs, ty: OGRwkbGeometryType::wkbPoint, options: None };
         let mut txn = ds.start_transaction().map_err(failed("start a transaction"))?;
         let lyr = txn.create_layer(options).map_err(failed(format!("create layer {name}")))?;
         for (field, ty) in &layer.fields {

@@ -18,7 +18,8 @@ use plumbline_campaign::Location;
 use plumbline_campaign::manifest::{CameraMount as ManifestMount, DepthCamera};
 use plumbline_poles::pipeline::DepthFrame;
 use plumbline_poles::{
-    DetectConfig, PoleConfig, decode_depth_png, depth_points, detect, process_depth_frames, read_las,
+    DetectConfig, PoleConfig, StemConfig, StemDetector, decode_depth_png, depth_points, detect, process_depth_frames,
+    read_las, stream_las_xyz,
 };
 use plumbline_synth::sensors::Mount;
 use plumbline_synth::world::Preset;
@@ -34,6 +35,10 @@ fn main() {
     let seed: u64 = env("POLE_BENCH_SEED", 1);
     let threads = rayon::current_num_threads();
     println!("plumbline-poles benchmark ({threads} rayon threads)\n");
+    if env("POLE_BENCH_STEMS_ONLY", false) {
+        stems_throughput();
+        return;
+    }
     let started = Instant::now();
     let sc = Scenario::new(Preset::District, seed, length, (width, width * 9 / 16), rate);
     let pngs: Vec<Vec<u8>> = (0..sc.shots.len()).map(|i| sc.png(i)).collect();
@@ -47,6 +52,7 @@ fn main() {
     depth_throughput(&sc, &pngs);
     accuracy(&sc, &pngs);
     las_throughput();
+    stems_throughput();
 }
 
 fn depth_throughput(sc: &Scenario, pngs: &[Vec<u8>]) {
@@ -137,5 +143,54 @@ fn las_throughput() {
         assert_eq!(read.points.len(), n);
         let name = if compressed { "LAZ" } else { "LAS" };
         println!("| {name} | {size} | {s:.3} s | {:.2} M |", n as f64 / s / 1e6);
+    }
+}
+
+/// `poles detect`'s core on a scanned street of 600 m (`plumbline_synth::scan`, about 2.6 M points): the
+/// cloud streamed twice from LAS and LAZ bytes (ground, then the points above it), and the detection on the
+/// kept points; one thread.
+fn stems_throughput() {
+    use plumbline_synth::scan::{ScanScene, scan_scene};
+    let scene = ScanScene { length_m: 600.0, ..ScanScene::default() };
+    let (points, _) = scan_scene(&scene, 1);
+    let n = points.len();
+    println!(
+        "\n| stems ({n} points, format 0) | bytes | two streamed passes | points / s | finish | stems |\n|---|---|---|---|---|---|"
+    );
+    for compressed in [false, true] {
+        let mut builder = Builder::from((1, 2));
+        builder.point_format = Format::new(0).unwrap();
+        builder.point_format.is_compressed = compressed;
+        let t = |offset| Transform { scale: 0.001, offset };
+        builder.transforms = Vector { x: t(512_000.0), y: t(5_403_000.0), z: t(0.0) };
+        let mut writer = Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+        for p in &points {
+            writer.write_point(Point { x: p[0], y: p[1], z: p[2], ..Default::default() }).unwrap();
+        }
+        let bytes = std::sync::Arc::new(writer.into_inner().unwrap().into_inner());
+        let size = bytes.len();
+        let mut d = StemDetector::new(StemConfig::default());
+        let started = Instant::now();
+        stream_las_xyz("bench", ArcBytes(bytes.clone()), |b| d.ground(b)).unwrap();
+        stream_las_xyz("bench", ArcBytes(bytes), |b| d.collect(b)).unwrap();
+        let read = started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let stems = d.finish();
+        let finish = started.elapsed().as_secs_f64();
+        let name = if compressed { "LAZ" } else { "LAS" };
+        println!(
+            "| {name} | {size} | {read:.2} s | {:.2} M | {finish:.2} s | {} |",
+            2.0 * n as f64 / read / 1e6,
+            stems.len()
+        );
+    }
+}
+
+/// Shared bytes for the streaming reader.
+struct ArcBytes(std::sync::Arc<Vec<u8>>);
+
+impl AsRef<[u8]> for ArcBytes {
+    fn as_ref(&self) -> &[u8] {
+        self.0.as_slice()
     }
 }

@@ -139,6 +139,44 @@ pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
     Ok(LasPoints { points, compressed: format.is_compressed })
 }
 
+/// Stream a LAS or LAZ file's coordinates from memory in batches of up to 65 536 points, checked as in
+/// [`read_las`] (header and extents before anything is allocated, a decoder panic turned into an error); GPS
+/// time is not needed. Returns the header and the points read. A record whose coordinates are not finite is
+/// an error naming it.
+pub fn stream_las_xyz<B: AsRef<[u8]> + Send + Sync + 'static>(
+    file: &str,
+    bytes: B,
+    mut visit: impl FnMut(&[[f64; 3]]),
+) -> Result<(LasHeader, u64), LasError> {
+    let header = check_extents(file, bytes.as_ref())?;
+    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
+        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
+    let total = reader.header().number_of_points();
+    let mut first = 0u64;
+    let mut xyz: Vec<[f64; 3]> = Vec::new();
+    while first < total {
+        let n = BATCH.min(total - first);
+        let records = |source| LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source };
+        let batch = unpanicked(|| reader.read_points(n)).map_err(records)?;
+        if (batch.len() as u64) < n {
+            let missing = format!("{} records missing", n - batch.len() as u64);
+            return Err(records(las::Error::Io(std::io::Error::new(std::io::ErrorKind::UnexpectedEof, missing))));
+        }
+        xyz.clear();
+        for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
+            for (field, v) in [("x", x), ("y", y), ("z", z)] {
+                if !v.is_finite() {
+                    return Err(LasError::NotFinite { file: file.to_owned(), record: first + i as u64, field });
+                }
+            }
+            xyz.push([x, y, z]);
+        }
+        visit(&xyz);
+        first += n;
+    }
+    Ok((header, total))
+}
+
 /// `read`, with a panic inside (the `laz` decoder on corrupt data) turned into an error. The reader is not
 /// used after a panic: its error ends the read.
 fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
@@ -194,7 +232,17 @@ fn check_chunk_table(file: &str, bytes: &[u8], data_start: u64, record_length: u
     if table <= data_start {
         return Ok(());
     }
-    let Some(chunks) = take::<4>(bytes, table + 4).map(u32::from_le_bytes) else { return Ok(()) };
+    let Some(chunks) = take::<4>(bytes, table + 4).map(u32::from_le_bytes) else {
+        let problem = format!(
+            "announces the LAZ chunk table at byte {table}, past the end of the file ({} bytes): the file is truncated",
+            bytes.len()
+        );
+        return Err(LasError::HeaderField(LasHeaderError::Invalid {
+            file: file.to_owned(),
+            field: "laz_chunk_table_offset",
+            problem,
+        }));
+    };
     // Every chunk but a last, empty one starts with its first point stored whole.
     let room = table.saturating_sub(data_start + 8);
     let max = room / u64::from(record_length) + 1;

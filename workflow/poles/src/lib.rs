@@ -14,6 +14,8 @@
 //! the same fed a batch of frames at a time, holding the points of a bounded number of frames (the worker's
 //! way through a tile of any length).
 //! [`las_header::parse_las_header`] checks a point cloud's header from its first bytes, without the points.
+//! [`stems::StemDetector`] finds poles and trunks in a static cloud (no trajectory, time or scanner needed),
+//! fed by [`las::stream_las_xyz`]: `plumbline poles detect`.
 
 pub mod cupt;
 pub mod depth;
@@ -24,6 +26,7 @@ pub mod matching;
 pub mod pipeline;
 pub mod points;
 pub mod report;
+pub mod stems;
 
 pub use cupt::{CuptConfig, coordinate_updates};
 pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
@@ -31,7 +34,7 @@ pub use detect::{
     DetectConfig, DetectError, Detection, FrameDetections, GROUND_WINDOW, ViewSector, detect, detect_on_ground,
     estimate_ground, ground_among_neighbours, ground_from_neighbours,
 };
-pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las};
+pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las, stream_las_xyz};
 pub use las_header::{LAS_PREFIX_BYTES, LasCrs, LasHeader, LasHeaderError, parse_las_header};
 pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};
 pub use pipeline::{
@@ -39,3 +42,4 @@ pub use pipeline::{
 };
 pub use points::{FramePoint, FramePoints};
 pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};
+pub use stems::{Stem, StemClass, StemConfig, StemDetector};

@@ -11,6 +11,7 @@ pub mod observations;
 pub mod ortho;
 pub mod render;
 pub mod route;
+pub mod scan;
 pub mod sensors;
 pub mod texture;
 pub mod world;

@@ -118,3 +118,15 @@ pub fn is_projected(epsg: u32) -> Result<bool, CrsError> {
 pub fn crs_name(epsg: u32) -> Result<String, CrsError> {
     Ok(spatial_ref(epsg)?.name().unwrap_or_else(|| format!("EPSG:{epsg}")))
 }
+
+/// The EPSG code of a CRS given as WKT (e.g. a LAS file's `LASF_Projection` record), when GDAL/PROJ can
+/// identify one; `None` for a WKT it cannot parse or a CRS without a code.
+pub fn epsg_of_wkt(wkt: &str) -> Option<u32> {
+    crate::gdal_messages::route_gdal_messages();
+    let mut srs = SpatialRef::from_wkt(wkt).ok()?;
+    let code = |s: &SpatialRef| match s.auth_name().as_deref() {
+        Some("EPSG") => s.auth_code().ok().and_then(|c| u32::try_from(c).ok()),
+        _ => None,
+    };
+    code(&srs).or_else(|| srs.auto_identify_epsg().ok().and_then(|()| code(&srs)))
+}

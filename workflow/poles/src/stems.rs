@@ -1,0 +1,681 @@
+//! Vertical stems — poles and tree trunks — in a static point cloud: the product an agency asks of a
+//! mobile-laser-scanning delivery (a pole or tree inventory), with no trajectory, GPS time or scanner
+//! position needed. The detector of [`crate::detect`] works in one scan's polar view; this one works on a
+//! merged cloud in map coordinates.
+//!
+//! Two passes over the points, each fed in batches so that a file is streamed, never held:
+//! 1. [`StemDetector::ground`]: the ground as the third-lowest height of every 1 m cell (a few stray low
+//!    points do not pull it down);
+//! 2. [`StemDetector::collect`]: the points 0.2 m or more above that ground and under `max_height_m` are
+//!    kept, as (x, y, height above ground).
+//!
+//! [`StemDetector::finish`] then
+//! - takes the breast-height band (1.2–1.4 m above ground, the forester's 1.3 m) and links its points into
+//!   clusters (points within `link_m` of each other);
+//! - fits a circle to each cluster (algebraic fit, then Gauss–Newton on the geometric distances), keeping
+//!   those of a plausible diameter, a small residual and an arc of at least `min_arc_deg` (a facade or a
+//!   car's side is a long line: no circle fits it);
+//! - follows the stem slice by slice (`slice_m`) up and down from the band while the slice's points lie on
+//!   the circle and little lies just outside it — a stem must reach from `max_base_m` to `min_top_m` above
+//!   ground;
+//! - fits the centres of the stem's slices against height: the lean (metres per metre) and its azimuth;
+//! - guesses the class from what stands above the stem's top: a crown (many points within 3 m around, up to
+//!   5 m above) makes a trunk, nothing but a thin stem a pole.
+//!
+//! The centre's covariance and the diameter's σ come from the geometric fit: σ̂²·(JᵀJ)⁻¹ with σ̂² the fit's
+//! residual variance.
+
+use std::collections::HashMap;
+
+use nalgebra::{Matrix3, Vector3};
+use serde::{Deserialize, Serialize};
+
+/// Parameters of the stem detector.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct StemConfig {
+    /// Ground grid cell, m.
+    pub ground_cell_m: f64,
+    /// Height of the diameter's band above ground, m (1.3: diameter at breast height).
+    pub breast_height_m: f64,
+    /// Half the band's thickness, m.
+    pub band_half_m: f64,
+    /// Points closer than this are linked into one cluster, m.
+    pub link_m: f64,
+    /// Fewest band points for a stem.
+    pub min_points: usize,
+    /// Smallest diameter, m.
+    pub min_diameter_m: f64,
+    /// Largest diameter, m.
+    pub max_diameter_m: f64,
+    /// Largest RMS of the circle fit, as a share of the radius (with a floor of 1.5 cm).
+    pub max_rms_share: f64,
+    /// Smallest arc of the circle the band's points must cover, degrees (one side of a stem seen by a passing
+    /// scanner covers about 150°).
+    pub min_arc_deg: f64,
+    /// Height step of the stem's slices, m.
+    pub slice_m: f64,
+    /// The stem must reach down to this height above ground, m.
+    pub max_base_m: f64,
+    /// The stem must reach up to this height above ground, m.
+    pub min_top_m: f64,
+    /// Points higher above ground are not kept, m.
+    pub max_height_m: f64,
+}
+
+impl Default for StemConfig {
+    fn default() -> Self {
+        Self {
+            ground_cell_m: 1.0,
+            breast_height_m: 1.3,
+            band_half_m: 0.1,
+            link_m: 0.1,
+            min_points: 10,
+            min_diameter_m: 0.04,
+            max_diameter_m: 1.5,
+            max_rms_share: 0.15,
+            min_arc_deg: 60.0,
+            slice_m: 0.25,
+            max_base_m: 0.7,
+            min_top_m: 2.0,
+            max_height_m: 20.0,
+        }
+    }
+}
+
+impl StemConfig {
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), String> {
+        let positive = [
+            ("ground_cell_m", self.ground_cell_m),
+            ("breast_height_m", self.breast_height_m),
+            ("band_half_m", self.band_half_m),
+            ("link_m", self.link_m),
+            ("min_diameter_m", self.min_diameter_m),
+            ("max_diameter_m", self.max_diameter_m),
+            ("max_rms_share", self.max_rms_share),
+            ("slice_m", self.slice_m),
+            ("min_top_m", self.min_top_m),
+            ("max_height_m", self.max_height_m),
+        ];
+        for (field, value) in positive {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("stems.{field} = {value}: expected a finite number > 0"));
+            }
+        }
+        if self.min_diameter_m >= self.max_diameter_m {
+            return Err(format!(
+                "stems.min_diameter_m = {} is not under max_diameter_m = {}",
+                self.min_diameter_m, self.max_diameter_m
+            ));
+        }
+        if !(self.min_arc_deg.is_finite() && (0.0..=360.0).contains(&self.min_arc_deg)) {
+            return Err(format!("stems.min_arc_deg = {}: expected 0–360", self.min_arc_deg));
+        }
+        if self.min_points < 5 {
+            return Err(format!("stems.min_points = {}: expected at least 5", self.min_points));
+        }
+        Ok(())
+    }
+}
+
+/// What a stem looks like it is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StemClass {
+    /// A thin stem with nothing above it: a street light, sign post, mast.
+    Pole,
+    /// A stem under a crown: a tree.
+    Trunk,
+    /// Neither clearly.
+    Unknown,
+}
+
+impl StemClass {
+    /// Its name in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            StemClass::Pole => "pole",
+            StemClass::Trunk => "trunk",
+            StemClass::Unknown => "unknown",
+        }
+    }
+}
+
+/// One detected stem.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct Stem {
+    /// Centre of the band's circle (easting, northing), m.
+    pub centre: [f64; 2],
+    /// Covariance of the centre, m² (row-major, symmetric).
+    pub covariance: [[f64; 2]; 2],
+    /// Diameter at the band, m.
+    pub diameter_m: f64,
+    /// σ of the diameter, m.
+    pub diameter_sigma_m: f64,
+    /// Ground height under it, m.
+    pub ground_m: f64,
+    /// Lowest and highest height above ground the stem was followed to, m.
+    pub extent_m: [f64; 2],
+    /// Lean, metres per metre of height.
+    pub lean: f64,
+    /// Direction it leans toward, degrees clockwise from grid north.
+    pub lean_azimuth_deg: f64,
+    /// The class guessed from what stands above it.
+    pub class: StemClass,
+    /// Points in the band.
+    pub points: usize,
+    /// Arc of the circle the band's points cover, degrees.
+    pub arc_deg: f64,
+    /// RMS of the band's circle fit, m.
+    pub rms_m: f64,
+}
+
+/// The detector, fed in two passes (see the module).
+#[derive(Clone, Debug)]
+pub struct StemDetector {
+    config: StemConfig,
+    /// The three lowest heights per ground cell.
+    cells: HashMap<(i64, i64), [f64; 3]>,
+    /// Points kept in the second pass: x, y, height above ground.
+    kept: Vec<[f64; 3]>,
+    /// Points with no ground cell within reach in the second pass.
+    groundless: u64,
+}
+
+impl StemDetector {
+    /// A detector with `config` (checked by the caller with [`StemConfig::check`]).
+    pub fn new(config: StemConfig) -> Self {
+        Self { config, cells: HashMap::new(), kept: Vec::new(), groundless: 0 }
+    }
+
+    fn cell(&self, x: f64, y: f64) -> (i64, i64) {
+        let c = self.config.ground_cell_m;
+        ((x / c).floor() as i64, (y / c).floor() as i64)
+    }
+
+    /// First pass: a batch of points (x, y, z) for the ground.
+    pub fn ground(&mut self, batch: &[[f64; 3]]) {
+        for p in batch {
+            let key = self.cell(p[0], p[1]);
+            let low = self.cells.entry(key).or_insert([f64::INFINITY; 3]);
+            if p[2] < low[2] {
+                low[2] = p[2];
+                low.sort_by(f64::total_cmp);
+            }
+        }
+    }
+
+    /// The ground height at (x, y): its cell's, or the lowest of its neighbours' when it has none.
+    fn ground_at(&self, x: f64, y: f64) -> Option<f64> {
+        let (i, j) = self.cell(x, y);
+        let level = |low: &[f64; 3]| low.iter().rev().copied().find(|v| v.is_finite());
+        if let Some(g) = self.cells.get(&(i, j)).and_then(level) {
+            return Some(g);
+        }
+        (-1..=1)
+            .flat_map(|di| (-1..=1).map(move |dj| (i + di, j + dj)))
+            .filter_map(|k| self.cells.get(&k).and_then(level))
+            .min_by(f64::total_cmp)
+    }
+
+    /// Second pass: the same points again; those between 0.2 m and `max_height_m` above ground are kept.
+    pub fn collect(&mut self, batch: &[[f64; 3]]) {
+        for p in batch {
+            match self.ground_at(p[0], p[1]) {
+                Some(g) => {
+                    let h = p[2] - g;
+                    if (0.2..=self.config.max_height_m).contains(&h) {
+                        self.kept.push([p[0], p[1], h]);
+                    }
+                }
+                None => self.groundless += 1,
+            }
+        }
+    }
+
+    /// Points kept above ground so far.
+    pub fn kept(&self) -> usize {
+        self.kept.len()
+    }
+
+    /// The stems found.
+    pub fn finish(&self) -> Vec<Stem> {
+        let c = &self.config;
+        let band: Vec<[f64; 2]> = self
+            .kept
+            .iter()
+            .filter(|p| (p[2] - c.breast_height_m).abs() <= c.band_half_m)
+            .map(|p| [p[0], p[1]])
+            .collect();
+        let index = GridIndex::new(&self.kept, 1.0);
+        let mut stems: Vec<Stem> = clusters(&band, c.link_m)
+            .into_iter()
+            .filter(|cluster| cluster.len() >= c.min_points)
+            .filter_map(|cluster| {
+                let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| band[i]).collect();
+                self.stem_of(&pts, &index)
+            })
+            .collect();
+        // Two clusters of one stem (a gap in the band): the one with more points stays.
+        stems.sort_by_key(|s| std::cmp::Reverse(s.points));
+        let mut out: Vec<Stem> = Vec::new();
+        for s in stems {
+            let overlaps = out.iter().any(|o| {
+                let d = (o.centre[0] - s.centre[0]).hypot(o.centre[1] - s.centre[1]);
+                d < 0.5 * (o.diameter_m.max(s.diameter_m)) + c.link_m
+            });
+            if !overlaps {
+                out.push(s);
+            }
+        }
+        out.sort_by(|a, b| a.centre[0].total_cmp(&b.centre[0]).then(a.centre[1].total_cmp(&b.centre[1])));
+        out
+    }
+
+    fn stem_of(&self, pts: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
+        let c = &self.config;
+        let (min, max) = bounds(pts);
+        if (max[0] - min[0]).hypot(max[1] - min[1]) > c.max_diameter_m + 2.0 * c.link_m {
+            return None;
+        }
+        let fit = fit_circle(pts)?;
+        let diameter = 2.0 * fit.r;
+        if !(c.min_diameter_m..=c.max_diameter_m).contains(&diameter) {
+            return None;
+        }
+        if fit.rms > (c.max_rms_share * fit.r).max(0.015) {
+            return None;
+        }
+        let arc = arc_deg(pts, fit.centre);
+        if arc < c.min_arc_deg {
+            return None;
+        }
+        let ground = self.ground_at(fit.centre[0], fit.centre[1])?;
+        // Follow the stem up and down from the band, each slice from the centre of the one before (a leaning
+        // stem moves), while the slice's points lie on the circle and no more lie just outside it.
+        let tolerance = (0.25 * fit.r).max(0.03);
+        let on_stem = |h0: f64, centre: [f64; 2]| -> Option<[f64; 2]> {
+            let mut ring = Vec::new();
+            let mut outside = 0usize;
+            for p in index.near(centre, fit.r + 0.5, &self.kept) {
+                if p[2] < h0 || p[2] >= h0 + c.slice_m {
+                    continue;
+                }
+                let d = (p[0] - centre[0]).hypot(p[1] - centre[1]);
+                if (d - fit.r).abs() <= tolerance {
+                    ring.push([p[0], p[1]]);
+                } else if d > fit.r + tolerance && d <= fit.r + 0.5 {
+                    outside += 1;
+                }
+            }
+            (ring.len() >= 3 && outside <= ring.len()).then(|| centroid_on_circle(&ring, centre, fit.r))
+        };
+        let band_low = c.breast_height_m - c.band_half_m;
+        let mut centres: Vec<(f64, [f64; 2])> = vec![(c.breast_height_m, fit.centre)];
+        let follow = |start: f64, step: f64, centres: &mut Vec<(f64, [f64; 2])>| -> f64 {
+            let (mut h, mut reached, mut centre, mut misses) = (start, start, fit.centre, 0);
+            while (0.2 - c.slice_m..c.max_height_m).contains(&h) && misses < 2 {
+                match on_stem(h, centre) {
+                    Some(next) => {
+                        centres.push((h + 0.5 * c.slice_m, next));
+                        centre = next;
+                        reached = if step > 0.0 { h + c.slice_m } else { h.max(0.2) };
+                        misses = 0;
+                    }
+                    None => misses += 1,
+                }
+                h += step;
+            }
+            reached
+        };
+        let top = follow(c.breast_height_m + c.band_half_m, c.slice_m, &mut centres);
+        let base = follow(band_low - c.slice_m, -c.slice_m, &mut centres).min(band_low);
+        if base > c.max_base_m || top < c.min_top_m {
+            return None;
+        }
+        let (lean, lean_azimuth_deg) = lean_of(&centres);
+        let class = self.class_of(fit.centre, fit.r, top, index);
+        let cov = fit.covariance;
+        Some(Stem {
+            centre: fit.centre,
+            covariance: [[cov[(0, 0)], cov[(0, 1)]], [cov[(1, 0)], cov[(1, 1)]]],
+            diameter_m: diameter,
+            diameter_sigma_m: 2.0 * cov[(2, 2)].max(0.0).sqrt(),
+            ground_m: ground,
+            extent_m: [base, top],
+            lean,
+            lean_azimuth_deg,
+            class,
+            points: pts.len(),
+            arc_deg: arc,
+            rms_m: fit.rms,
+        })
+    }
+
+    /// A crown above the top makes a trunk; a thin stem with (almost) nothing around its top a pole.
+    fn class_of(&self, centre: [f64; 2], r: f64, top: f64, index: &GridIndex) -> StemClass {
+        let crown = index
+            .near(centre, 3.0, &self.kept)
+            .filter(|p| p[2] >= top && p[2] <= top + 5.0)
+            .filter(|p| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= 3.0)
+            .count();
+        if crown >= CROWN_POINTS && r >= 0.05 {
+            StemClass::Trunk
+        } else if crown < CROWN_POINTS && 2.0 * r <= 0.5 {
+            StemClass::Pole
+        } else {
+            StemClass::Unknown
+        }
+    }
+}
+
+/// Points above a stem's top that make a crown.
+const CROWN_POINTS: usize = 50;
+
+/// Connected clusters of `points` linked at `link` (grid-hashed union–find).
+fn clusters(points: &[[f64; 2]], link: f64) -> Vec<Vec<usize>> {
+    let mut grid: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+    let key = |p: &[f64; 2]| ((p[0] / link).floor() as i64, (p[1] / link).floor() as i64);
+    for (i, p) in points.iter().enumerate() {
+        grid.entry(key(p)).or_default().push(i);
+    }
+    let mut parent: Vec<usize> = (0..points.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    let link2 = link * link;
+    for (i, p) in points.iter().enumerate() {
+        let (ci, cj) = key(p);
+        for di in -1..=1 {
+            for dj in -1..=1 {
+                let Some(others) = grid.get(&(ci + di, cj + dj)) else { continue };
+                for &j in others {
+                    if j <= i {
+                        continue;
+                    }
+                    let q = &points[j];
+                    if (p[0] - q[0]).powi(2) + (p[1] - q[1]).powi(2) <= link2 {
+                        let (a, b) = (root(&mut parent, i), root(&mut parent, j));
+                        if a != b {
+                            parent[a] = b;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    let mut groups: HashMap<usize, Vec<usize>> = HashMap::new();
+    for i in 0..points.len() {
+        let r = root(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    let mut out: Vec<Vec<usize>> = groups.into_values().collect();
+    out.sort_by_key(|g| g[0]);
+    out
+}
+
+/// Kept points hashed on a horizontal grid, for neighbourhood queries.
+struct GridIndex {
+    cell: f64,
+    cells: HashMap<(i64, i64), Vec<usize>>,
+}
+
+impl GridIndex {
+    fn new(points: &[[f64; 3]], cell: f64) -> Self {
+        let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        for (i, p) in points.iter().enumerate() {
+            cells.entry(((p[0] / cell).floor() as i64, (p[1] / cell).floor() as i64)).or_default().push(i);
+        }
+        Self { cell, cells }
+    }
+
+    /// Points in the cells within `radius` of `centre` (a superset of the disc).
+    fn near<'a>(&'a self, centre: [f64; 2], radius: f64, points: &'a [[f64; 3]]) -> impl Iterator<Item = &'a [f64; 3]> {
+        let lo = [((centre[0] - radius) / self.cell).floor() as i64, ((centre[1] - radius) / self.cell).floor() as i64];
+        let hi = [((centre[0] + radius) / self.cell).floor() as i64, ((centre[1] + radius) / self.cell).floor() as i64];
+        (lo[0]..=hi[0])
+            .flat_map(move |i| (lo[1]..=hi[1]).map(move |j| (i, j)))
+            .filter_map(|k| self.cells.get(&k))
+            .flatten()
+            .map(|&i| &points[i])
+    }
+}
+
+fn bounds(pts: &[[f64; 2]]) -> ([f64; 2], [f64; 2]) {
+    let mut min = [f64::INFINITY; 2];
+    let mut max = [f64::NEG_INFINITY; 2];
+    for p in pts {
+        for k in 0..2 {
+            min[k] = min[k].min(p[k]);
+            max[k] = max[k].max(p[k]);
+        }
+    }
+    (min, max)
+}
+
+/// A fitted circle.
+#[derive(Clone, Copy, Debug)]
+struct Circle {
+    centre: [f64; 2],
+    r: f64,
+    rms: f64,
+    /// Covariance of (cx, cy, r).
+    covariance: Matrix3<f64>,
+}
+
+/// Algebraic (Kåsa) fit, refined by Gauss–Newton on the geometric distances. Coordinates are taken
+/// relative to the points' mean, so that map coordinates of millions of metres lose nothing.
+fn fit_circle(pts: &[[f64; 2]]) -> Option<Circle> {
+    let n = pts.len();
+    if n < 3 {
+        return None;
+    }
+    let mean = pts.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0], a[1] + p[1]]);
+    let mean = [mean[0] / n as f64, mean[1] / n as f64];
+    let local: Vec<[f64; 2]> = pts.iter().map(|p| [p[0] - mean[0], p[1] - mean[1]]).collect();
+    // x² + y² + D x + E y + F = 0.
+    let mut ata = Matrix3::zeros();
+    let mut atb = Vector3::zeros();
+    for p in &local {
+        let row = Vector3::new(p[0], p[1], 1.0);
+        ata += row * row.transpose();
+        atb += row * -(p[0] * p[0] + p[1] * p[1]);
+    }
+    let sol = ata.try_inverse()? * atb;
+    let (mut cx, mut cy) = (-sol[0] / 2.0, -sol[1] / 2.0);
+    let r2 = cx * cx + cy * cy - sol[2];
+    if r2.is_nan() || r2 <= 0.0 {
+        return None;
+    }
+    let mut r = r2.sqrt();
+    let mut jtj = Matrix3::zeros();
+    let mut ss = 0.0;
+    for _ in 0..20 {
+        jtj = Matrix3::zeros();
+        let mut jtr = Vector3::zeros();
+        ss = 0.0;
+        for p in &local {
+            let (dx, dy) = (p[0] - cx, p[1] - cy);
+            let d = dx.hypot(dy).max(1e-12);
+            let res = d - r;
+            let j = Vector3::new(-dx / d, -dy / d, -1.0);
+            jtj += j * j.transpose();
+            jtr += j * res;
+            ss += res * res;
+        }
+        let step = jtj.try_inverse()? * jtr;
+        cx -= step[0];
+        cy -= step[1];
+        r -= step[2];
+        if step.norm() < 1e-9 {
+            break;
+        }
+    }
+    if !(r.is_finite() && r > 0.0 && cx.is_finite() && cy.is_finite()) {
+        return None;
+    }
+    let dof = (n as f64 - 3.0).max(1.0);
+    let covariance = jtj.try_inverse()? * (ss / dof);
+    Some(Circle { centre: [cx + mean[0], cy + mean[1]], r, rms: (ss / n as f64).sqrt(), covariance })
+}
+
+/// The arc of directions from `centre` the points cover: 360° less the largest empty gap, degrees.
+fn arc_deg(pts: &[[f64; 2]], centre: [f64; 2]) -> f64 {
+    let mut angles: Vec<f64> = pts.iter().map(|p| (p[1] - centre[1]).atan2(p[0] - centre[0])).collect();
+    angles.sort_by(f64::total_cmp);
+    let mut gap: f64 = 0.0;
+    for w in angles.windows(2) {
+        gap = gap.max(w[1] - w[0]);
+    }
+    if let (Some(first), Some(last)) = (angles.first(), angles.last()) {
+        gap = gap.max(first + std::f64::consts::TAU - last);
+    }
+    (std::f64::consts::TAU - gap).to_degrees()
+}
+
+/// The centre of a slice's points on a circle of known radius near `guess`: the guess moved by the mean
+/// of each point's offset from the circle along its direction (one Gauss–Newton step in the centre only).
+fn centroid_on_circle(ring: &[[f64; 2]], guess: [f64; 2], r: f64) -> [f64; 2] {
+    let mut c = guess;
+    for _ in 0..5 {
+        let mut jtj = nalgebra::Matrix2::zeros();
+        let mut jtr = nalgebra::Vector2::zeros();
+        for p in ring {
+            let (dx, dy) = (p[0] - c[0], p[1] - c[1]);
+            let d = dx.hypot(dy).max(1e-12);
+            let j = nalgebra::Vector2::new(-dx / d, -dy / d);
+            jtj += j * j.transpose();
+            jtr += j * (d - r);
+        }
+        let Some(inv) = jtj.try_inverse() else { return c };
+        let step = inv * jtr;
+        c = [c[0] - step[0], c[1] - step[1]];
+    }
+    c
+}
+
+/// Lean from the slice centres against height: |slope| and its azimuth (clockwise from north), by least
+/// squares; zero with fewer than three slices.
+fn lean_of(centres: &[(f64, [f64; 2])]) -> (f64, f64) {
+    if centres.len() < 3 {
+        return (0.0, 0.0);
+    }
+    let n = centres.len() as f64;
+    let mh = centres.iter().map(|c| c.0).sum::<f64>() / n;
+    let mx = centres.iter().map(|c| c.1[0]).sum::<f64>() / n;
+    let my = centres.iter().map(|c| c.1[1]).sum::<f64>() / n;
+    let shh: f64 = centres.iter().map(|c| (c.0 - mh).powi(2)).sum();
+    if shh <= 0.0 {
+        return (0.0, 0.0);
+    }
+    let sx: f64 = centres.iter().map(|c| (c.0 - mh) * (c.1[0] - mx)).sum::<f64>() / shh;
+    let sy: f64 = centres.iter().map(|c| (c.0 - mh) * (c.1[1] - my)).sum::<f64>() / shh;
+    let azimuth = sx.atan2(sy).to_degrees().rem_euclid(360.0);
+    (sx.hypot(sy), azimuth)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_circle_is_fitted_from_an_arc_far_from_the_origin() {
+        let (cx, cy, r) = (512_345.678, 5_401_234.5, 0.2);
+        let pts: Vec<[f64; 2]> = (0..40)
+            .map(|k| {
+                let a = -1.2 + 2.4 * f64::from(k) / 39.0;
+                [cx + r * a.cos(), cy + r * a.sin()]
+            })
+            .collect();
+        let fit = fit_circle(&pts).unwrap();
+        assert!((fit.centre[0] - cx).abs() < 1e-6 && (fit.centre[1] - cy).abs() < 1e-6, "{fit:?}");
+        assert!((fit.r - r).abs() < 1e-7, "{fit:?}");
+        assert!((arc_deg(&pts, fit.centre) - 2.4f64.to_degrees()).abs() < 1e-6);
+    }
+
+    #[test]
+    fn clusters_link_points_closer_than_the_link() {
+        let pts = [[0.0, 0.0], [0.05, 0.0], [0.1, 0.0], [0.5, 0.0], [0.55, 0.02]];
+        let mut c = clusters(&pts, 0.06);
+        c.sort();
+        assert_eq!(c, vec![vec![0, 1, 2], vec![3, 4]]);
+    }
+
+    #[test]
+    fn lean_points_the_way_the_stem_goes() {
+        let centres: Vec<(f64, [f64; 2])> =
+            (0..8).map(|k| (f64::from(k) * 0.25, [0.02 * f64::from(k) * 0.25, 0.0])).collect();
+        let (lean, azimuth) = lean_of(&centres);
+        assert!((lean - 0.02).abs() < 1e-12 && (azimuth - 90.0).abs() < 1e-9, "{lean} {azimuth}");
+    }
+
+    #[test]
+    fn bad_parameters_are_named() {
+        let bad = StemConfig { min_diameter_m: 2.0, ..StemConfig::default() };
+        assert!(bad.check().unwrap_err().contains("min_diameter_m"));
+        assert!(StemConfig::default().check().is_ok());
+    }
+}
+
+#[cfg(test)]
+mod scene_tests {
+    use plumbline_synth::scan::{ScanScene, scan_scene};
+
+    use super::*;
+
+    /// A scanned street: two trees, two poles, a facade, a parked car and a bush, one side of each stem seen.
+    #[test]
+    fn stems_of_a_scanned_street_are_found_with_centre_diameter_lean_and_class() {
+        let (points, truth) = scan_scene(&ScanScene::default(), 5);
+        let mut d = StemDetector::new(StemConfig::default());
+        for batch in points.chunks(10_000) {
+            d.ground(batch);
+        }
+        for batch in points.chunks(10_000) {
+            d.collect(batch);
+        }
+        let stems = d.finish();
+        for s in &stems {
+            println!(
+                "{:?} centre ({:.3}, {:.3}) d {:.3}±{:.3} extent {:?} lean {:.3} → {:.0}° arc {:.0}° rms {:.4} pts {}",
+                s.class,
+                s.centre[0],
+                s.centre[1],
+                s.diameter_m,
+                s.diameter_sigma_m,
+                s.extent_m,
+                s.lean,
+                s.lean_azimuth_deg,
+                s.arc_deg,
+                s.rms_m,
+                s.points
+            );
+        }
+        assert_eq!(stems.len(), truth.len(), "{stems:#?}");
+        for t in &truth {
+            let c = t.centre_at(1.3);
+            let s = stems
+                .iter()
+                .min_by(|a, b| {
+                    let da = (a.centre[0] - c[0]).hypot(a.centre[1] - c[1]);
+                    let db = (b.centre[0] - c[0]).hypot(b.centre[1] - c[1]);
+                    da.total_cmp(&db)
+                })
+                .unwrap();
+            let off = (s.centre[0] - c[0]).hypot(s.centre[1] - c[1]);
+            assert!(off < 0.03, "centre {off} m off for {t:?}: {s:?}");
+            assert!((s.diameter_m - t.diameter_m).abs() < 0.02, "diameter for {t:?}: {s:?}");
+            assert_eq!(s.class, if t.crown { StemClass::Trunk } else { StemClass::Pole }, "{t:?}: {s:?}");
+            let lean = t.lean[0].hypot(t.lean[1]);
+            assert!((s.lean - lean).abs() < 0.01, "lean {} for {t:?}", s.lean);
+            // The centre's σ covers the error it made (4σ).
+            let sigma = s.covariance[0][0].max(s.covariance[1][1]).sqrt();
+            assert!(off < 4.0 * sigma.max(0.002), "centre {off} m off with σ {sigma}: {s:?}");
+        }
+    }
+}
