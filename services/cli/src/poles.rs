@@ -1,6 +1,10 @@
 //! `plumbline poles detect`: poles and tree trunks in static LAS/LAZ point clouds (a pole or tree inventory,
 //! no trajectory, GPS time or scanner position needed), written as a GeoPackage point layer
-//! `detected_poles`: class guess, centre with covariance, diameter at 1.3 m, height, lean.
+//! `detected_poles`: class guess, centre with covariance, diameter at 1.3 m, height, lean; and
+//! `covered_cells`, the 10 m cells the clouds hold ground in.
+//!
+//! `plumbline poles compare`: such a layer against a cadastre — matched (with the distance), in the cloud but
+//! not in the cadastre, in the cadastre but not seen (within the covered cells).
 //!
 //! Each cloud is streamed twice from its bytes (ground, then the points above it), never decoded whole;
 //! all clouds given are one scene (tiles of a block). The CRS is `--epsg`, else the one the clouds record
@@ -10,17 +14,53 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand};
+use plumbline_campaign::manifest::{Cadastre, ClassAccuracy, PoleClass};
+use plumbline_campaign::{CadastreFeature, Epsg, Location};
 use plumbline_poles::{LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz};
+use plumbline_runtime::cadastre::{CadastreSource, inspect_cadastre, read_cadastre};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer, geopackage_in};
 
 use crate::exit::invalid;
 use crate::io::{Context, file_name};
+
+/// The layer of the cells the clouds cover (centres), which `poles compare` needs to tell a cadastre object
+/// the cloud did not see from one outside it.
+const COVERAGE_LAYER: &str = "covered_cells";
+/// Size of those cells, m.
+const COVERAGE_CELL_M: f64 = 10.0;
 
 /// Pole tools.
 #[derive(Debug, Subcommand)]
 pub enum Command {
     /// Find poles and tree trunks in static LAS/LAZ clouds; write them as a GeoPackage layer.
     Detect(DetectArgs),
+    /// Compare `poles detect`'s layer with a cadastre: matched, not in the cadastre, not seen.
+    Compare(CompareArgs),
+}
+
+/// Arguments of `poles compare`.
+#[derive(Debug, ClapArgs)]
+pub struct CompareArgs {
+    /// The GeoPackage `poles detect` wrote (path or URL).
+    pub detected: String,
+    /// The cadastre GeoPackage (path or URL).
+    #[arg(long, value_name = "FILE.gpkg")]
+    pub cadastre: String,
+    /// The cadastre's point layers to read.
+    #[arg(long = "layer", value_name = "NAME", required = true)]
+    pub layers: Vec<String>,
+    /// The class of every cadastre object (pole, light, sign, tree); or give --class-attribute.
+    #[arg(long, value_name = "CLASS", conflicts_with = "class_attribute")]
+    pub class: Option<String>,
+    /// The cadastre attribute holding each object's class (values pole, light, sign, tree).
+    #[arg(long, value_name = "FIELD")]
+    pub class_attribute: Option<String>,
+    /// A detection and a cadastre object farther apart than this are not the same object, metres.
+    #[arg(long, value_name = "M", default_value_t = 1.5)]
+    pub gate: f64,
+    /// The GeoPackage to write: layers `matched`, `not_in_cadastre`, `not_seen` (path or URL).
+    #[arg(long, value_name = "FILE.gpkg")]
+    pub out: String,
 }
 
 /// Arguments of `poles detect`.
@@ -44,6 +84,7 @@ pub struct DetectArgs {
 pub async fn run(ctx: &Context, command: Command) -> anyhow::Result<ExitCode> {
     match command {
         Command::Detect(args) => detect(ctx, args).await,
+        Command::Compare(args) => compare(ctx, args).await,
     }
 }
 
@@ -122,7 +163,10 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
         eprintln!("warning: the clouds hold no points: nothing to detect");
     }
     let kept = detector.kept();
-    let stems = tokio::task::spawn_blocking(move || detector.finish()).await.context("the detection task failed")?;
+    let (stems, detector_cells) =
+        tokio::task::spawn_blocking(move || (detector.finish(), detector.covered_cells(COVERAGE_CELL_M)))
+            .await
+            .context("the detection task failed")?;
     let count = |c: StemClass| stems.iter().filter(|s| s.class == c).count();
     eprintln!(
         "{total} points read, {kept} above ground kept; {} stems: {} poles, {} trunks, {} unclassified",
@@ -138,8 +182,16 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
             total, config.min_diameter_m, config.max_diameter_m, config.max_base_m, config.min_top_m
         );
     }
-    let layer = layer_of(&stems);
-    let bytes = tokio::task::spawn_blocking(move || geopackage_in(&[layer], epsg))
+    let covered = PointLayer {
+        name: COVERAGE_LAYER.to_owned(),
+        fields: vec![("cell_m".to_owned(), FieldType::Real)],
+        features: detector_cells
+            .iter()
+            .map(|c| PointFeature { x: c[0], y: c[1], values: vec![FieldValue::Real(COVERAGE_CELL_M)] })
+            .collect(),
+    };
+    let layers = [layer_of(&stems), covered];
+    let bytes = tokio::task::spawn_blocking(move || geopackage_in(&layers, epsg))
         .await
         .context("the GeoPackage task failed")??;
     ctx.write(&args.out, bytes).await?;
@@ -192,5 +244,236 @@ fn layer_of(stems: &[Stem]) -> PointLayer {
         name: "detected_poles".to_owned(),
         fields: fields.iter().map(|(n, t)| ((*n).to_owned(), *t)).collect(),
         features,
+    }
+}
+
+/// A class name as the manifest spells it.
+fn pole_class(name: &str) -> anyhow::Result<PoleClass> {
+    serde_json::from_value(serde_json::Value::String(name.to_owned()))
+        .map_err(|_| invalid(format!("--class {name}: expected pole, light, sign or tree")))
+}
+
+/// The objects of `layer` in `file`'s bytes: every feature as one class (`class_values` empty) or classed
+/// by `attribute` through `values`.
+fn read_points(name: &str, bytes: &[u8], spec: &Cadastre, epsg: Epsg) -> anyhow::Result<Vec<CadastreFeature>> {
+    let read = read_cadastre(CadastreSource::Bytes { name, bytes }, spec, epsg, None)
+        .map_err(|e| if e.is_file_problem() { invalid(e.to_string()) } else { anyhow::Error::from(e) })?;
+    for d in read.diagnostics.iter().take(10) {
+        eprintln!("warning: {name}: {d:?}");
+    }
+    Ok(read.features)
+}
+
+async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
+    if !(args.gate.is_finite() && args.gate > 0.0) {
+        return Err(invalid(format!("--gate {}: expected a distance > 0 m", args.gate)));
+    }
+    if args.class.is_none() && args.class_attribute.is_none() {
+        return Err(invalid("give --class or --class-attribute for the cadastre's objects"));
+    }
+    let class = args.class.as_deref().map(pole_class).transpose()?;
+    let detected_bytes = ctx.read(&args.detected).await?;
+    let cadastre_bytes = ctx.read(&args.cadastre).await?;
+    let (detected_name, cadastre_name) = (file_name(&args.detected).to_owned(), file_name(&args.cadastre).to_owned());
+    let gate = args.gate;
+    let (layers, class_attribute) = (args.layers.clone(), args.class_attribute.clone());
+    let report = tokio::task::spawn_blocking(move || -> anyhow::Result<Comparison> {
+        let inspection =
+            inspect_cadastre(CadastreSource::Bytes { name: &detected_name, bytes: &detected_bytes }, None)
+                .map_err(|e| invalid(e.to_string()))?;
+        let layer = |name: &str| inspection.layers.iter().find(|l| l.name == name);
+        let Some(stems) = layer("detected_poles") else {
+            return Err(invalid(format!("{detected_name} has no layer `detected_poles`: is it what `poles detect` wrote?")));
+        };
+        let Some(code) = stems.crs.epsg else {
+            return Err(invalid(format!(
+                "{detected_name}: layer `detected_poles` has no CRS (its clouds recorded none); run `poles detect` with \
+                 --epsg"
+            )));
+        };
+        let epsg = Epsg(code);
+        let own = |layer: &str, class_attribute: Option<String>| Cadastre {
+            url: Location(detected_name.clone()),
+            layers: vec![layer.to_owned()],
+            class_attribute,
+            class_values: [("pole", PoleClass::Pole), ("trunk", PoleClass::Tree), ("unknown", PoleClass::Pole)]
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v))
+                .collect(),
+            class: None,
+            accuracy: ClassAccuracy::default(),
+            diameter_attribute: Some("diameter_m".to_owned()),
+            epsg: None,
+        };
+        let detections = read_points(&detected_name, &detected_bytes, &own("detected_poles", Some("class".to_owned())), epsg)?;
+        let cells = if layer(COVERAGE_LAYER).is_some() {
+            let spec = Cadastre { class: Some(PoleClass::Pole), class_values: Default::default(), diameter_attribute: None, ..own(COVERAGE_LAYER, None) };
+            read_points(&detected_name, &detected_bytes, &spec, epsg)?
+        } else {
+            eprintln!("warning: {detected_name} has no `{COVERAGE_LAYER}` layer: every cadastre object not matched is listed as not seen");
+            Vec::new()
+        };
+        let spec = Cadastre {
+            url: Location(cadastre_name.clone()),
+            layers,
+            class_attribute,
+            class_values: Default::default(),
+            class,
+            accuracy: ClassAccuracy::default(),
+            diameter_attribute: None,
+            epsg: None,
+        };
+        let cadastre = read_points(&cadastre_name, &cadastre_bytes, &spec, epsg)?;
+        Ok(compare_sets(&detections, &cadastre, &cells, gate, epsg))
+    })
+    .await
+    .context("the comparison task failed")??;
+    let distances: Vec<f64> = report.matched.iter().map(|(_, _, d)| *d).collect();
+    eprintln!(
+        "{} detections, {} cadastre objects in the covered cells ({} outside): {} matched (distance median {:.3} m, max \
+         {:.3} m), {} in the cloud but not in the cadastre, {} in the cadastre but not seen",
+        report.detections,
+        report.in_coverage,
+        report.outside,
+        report.matched.len(),
+        median(&distances),
+        distances.iter().copied().fold(0.0, f64::max),
+        report.not_in_cadastre.len(),
+        report.not_seen.len()
+    );
+    let layers = report.layers();
+    let epsg = report.epsg.0;
+    let bytes = tokio::task::spawn_blocking(move || geopackage_in(&layers, Some(epsg)))
+        .await
+        .context("the GeoPackage task failed")??;
+    ctx.write(&args.out, bytes).await?;
+    println!("{}", args.out);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn median(v: &[f64]) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    let mut s = v.to_vec();
+    s.sort_by(f64::total_cmp);
+    s[s.len() / 2]
+}
+
+/// The outcome of a comparison.
+struct Comparison {
+    epsg: Epsg,
+    detections: usize,
+    in_coverage: usize,
+    outside: usize,
+    /// (detection, cadastre object, distance m).
+    matched: Vec<(CadastreFeature, CadastreFeature, f64)>,
+    not_in_cadastre: Vec<CadastreFeature>,
+    not_seen: Vec<CadastreFeature>,
+}
+
+/// One-to-one pairs nearest first within `gate`; cadastre objects outside the covered `cells` (10 m cell
+/// centres; none: all count as covered) are neither matched nor missed.
+fn compare_sets(
+    detections: &[CadastreFeature],
+    cadastre: &[CadastreFeature],
+    cells: &[CadastreFeature],
+    gate: f64,
+    epsg: Epsg,
+) -> Comparison {
+    let half = COVERAGE_CELL_M / 2.0;
+    let covered = |o: &CadastreFeature| {
+        cells.is_empty()
+            || cells.iter().any(|c| (c.easting - o.easting).abs() <= half && (c.northing - o.northing).abs() <= half)
+    };
+    let (inside, outside): (Vec<&CadastreFeature>, Vec<&CadastreFeature>) = cadastre.iter().partition(|o| covered(o));
+    let mut pairs: Vec<(f64, usize, usize)> = Vec::new();
+    for (i, d) in detections.iter().enumerate() {
+        for (j, o) in inside.iter().enumerate() {
+            let dist = (d.easting - o.easting).hypot(d.northing - o.northing);
+            if dist <= gate {
+                pairs.push((dist, i, j));
+            }
+        }
+    }
+    pairs.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let (mut used_d, mut used_c) = (vec![false; detections.len()], vec![false; inside.len()]);
+    let mut matched = Vec::new();
+    for (dist, i, j) in pairs {
+        if !used_d[i] && !used_c[j] {
+            used_d[i] = true;
+            used_c[j] = true;
+            matched.push((detections[i], *inside[j], dist));
+        }
+    }
+    Comparison {
+        epsg,
+        detections: detections.len(),
+        in_coverage: inside.len(),
+        outside: outside.len(),
+        matched,
+        not_in_cadastre: detections.iter().zip(&used_d).filter(|(_, u)| !**u).map(|(d, _)| *d).collect(),
+        not_seen: inside.iter().zip(&used_c).filter(|(_, u)| !**u).map(|(o, _)| **o).collect(),
+    }
+}
+
+fn class_name(c: PoleClass) -> String {
+    serde_json::to_value(c).ok().and_then(|v| v.as_str().map(str::to_owned)).unwrap_or_default()
+}
+
+impl Comparison {
+    fn layers(&self) -> Vec<PointLayer> {
+        let id = |o: &CadastreFeature| FieldValue::Integer(i64::try_from(o.id.fid).unwrap_or(i64::MAX));
+        let matched = PointLayer {
+            name: "matched".to_owned(),
+            fields: [
+                ("detected_fid", FieldType::Integer),
+                ("cadastre_fid", FieldType::Integer),
+                ("cadastre_layer", FieldType::Integer),
+                ("cadastre_class", FieldType::Text),
+                ("distance_m", FieldType::Real),
+                ("d_east_m", FieldType::Real),
+                ("d_north_m", FieldType::Real),
+                ("diameter_m", FieldType::Real),
+            ]
+            .iter()
+            .map(|(n, t)| ((*n).to_owned(), *t))
+            .collect(),
+            features: self
+                .matched
+                .iter()
+                .map(|(d, o, dist)| PointFeature {
+                    x: d.easting,
+                    y: d.northing,
+                    values: vec![
+                        id(d),
+                        id(o),
+                        FieldValue::Integer(i64::from(o.id.layer)),
+                        FieldValue::Text(class_name(o.class)),
+                        FieldValue::Real(*dist),
+                        FieldValue::Real(d.easting - o.easting),
+                        FieldValue::Real(d.northing - o.northing),
+                        FieldValue::Real(d.diameter_m.unwrap_or(f64::NAN)),
+                    ],
+                })
+                .collect(),
+        };
+        let list = |name: &str, objects: &[CadastreFeature], fid: &str| PointLayer {
+            name: name.to_owned(),
+            fields: vec![(fid.to_owned(), FieldType::Integer), ("class".to_owned(), FieldType::Text)],
+            features: objects
+                .iter()
+                .map(|o| PointFeature {
+                    x: o.easting,
+                    y: o.northing,
+                    values: vec![id(o), FieldValue::Text(class_name(o.class))],
+                })
+                .collect(),
+        };
+        vec![
+            matched,
+            list("not_in_cadastre", &self.not_in_cadastre, "detected_fid"),
+            list("not_seen", &self.not_seen, "cadastre_fid"),
+        ]
     }
 }

@@ -166,6 +166,40 @@ fn poles_detect_writes_the_stems_of_a_scanned_street() {
         assert_eq!(class, if t.crown { "trunk" } else { "pole" });
     }
 
+    // A cadastre of three of the four stems (10 cm off), one object the cloud covers but does not hold, and
+    // one far outside the cloud: three matched, one not in the cadastre, one not seen, one outside.
+    let mut csv = String::from("id,wkt,typ\n");
+    for (i, t) in truth.iter().enumerate().skip(1) {
+        let c = t.centre_at(1.3);
+        csv += &format!("{i},\"POINT ({} {})\",{}\n", c[0] + 0.1, c[1], if t.crown { "tree" } else { "light" });
+    }
+    csv += "7,\"POINT (512006.0 5403050.0)\",sign\n8,\"POINT (513000.0 5404000.0)\",pole\n";
+    let (csv_path, registry) = (dir.path().join("objects.csv"), dir.path().join("registry.gpkg"));
+    std::fs::write(&csv_path, csv).unwrap();
+    let options =
+        ["-oo", "GEOM_POSSIBLE_NAMES=wkt", "-oo", "KEEP_GEOM_COLUMNS=NO", "-nln", "objects", "-a_srs", "EPSG:25832"];
+    ogr2ogr(&[&[registry.to_str().unwrap(), csv_path.to_str().unwrap()][..], &options].concat());
+    let compared = dir.path().join("compared.gpkg");
+    let r = plumbline(&["poles", "compare", out.to_str().unwrap(), "--cadastre", registry.to_str().unwrap()])
+        .args(["--layer", "objects", "--class-attribute", "typ", "--out", compared.to_str().unwrap()])
+        .run();
+    r.success();
+    assert!(
+        r.stderr.contains("4 detections, 4 cadastre objects in the covered cells (1 outside): 3 matched")
+            && r.stderr.contains("1 in the cloud but not in the cadastre, 1 in the cadastre but not seen"),
+        "{}",
+        r.stderr
+    );
+    let ds = gdal::Dataset::open(&compared).unwrap();
+    let count = |name: &str| ds.layer_by_name(name).unwrap().feature_count();
+    assert_eq!((count("matched"), count("not_in_cadastre"), count("not_seen")), (3, 1, 1));
+    let mut matched = ds.layer_by_name("matched").unwrap();
+    let di = matched.defn().field_index("distance_m").unwrap();
+    for f in matched.features() {
+        let d = f.field_as_double(di).unwrap().unwrap();
+        assert!((d - 0.1).abs() < 0.04, "distance {d}");
+    }
+
     let (las, _) = street_cloud(false, None);
     let plain = dir.path().join("street.las");
     std::fs::write(&plain, &las).unwrap();

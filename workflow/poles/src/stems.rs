@@ -234,6 +234,22 @@ impl StemDetector {
         }
     }
 
+    /// Centres of the `size`-metre cells that hold ground (what the cloud covers), sorted.
+    pub fn covered_cells(&self, size: f64) -> Vec<[f64; 2]> {
+        let c = self.config.ground_cell_m;
+        let mut keys: Vec<(i64, i64)> = self
+            .cells
+            .keys()
+            .map(|&(i, j)| {
+                let (x, y) = ((i as f64 + 0.5) * c, (j as f64 + 0.5) * c);
+                ((x / size).floor() as i64, (y / size).floor() as i64)
+            })
+            .collect();
+        keys.sort_unstable();
+        keys.dedup();
+        keys.into_iter().map(|(i, j)| [(i as f64 + 0.5) * size, (j as f64 + 0.5) * size]).collect()
+    }
+
     /// Points kept above ground so far.
     pub fn kept(&self) -> usize {
         self.kept.len()
