@@ -289,13 +289,15 @@ impl StemDetector {
         out
     }
 
-    fn stem_of(&self, pts: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
+    fn stem_of(&self, cluster: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
         let c = &self.config;
-        let (min, max) = bounds(pts);
-        if (max[0] - min[0]).hypot(max[1] - min[1]) > c.max_diameter_m + 2.0 * c.link_m {
+        let (min, max) = bounds(cluster);
+        // A cluster wider than any stem with its twigs is a wall, a hedge or a car.
+        if (max[0] - min[0]).hypot(max[1] - min[1]) > 2.0 * c.max_diameter_m + 2.0 * c.link_m {
             return None;
         }
-        let fit = fit_circle(pts)?;
+        // Twigs and branch stubs at breast height (a real pine) are outliers of the stem's circle.
+        let (fit, pts) = fit_circle_robust(cluster, c.min_points)?;
         let diameter = 2.0 * fit.r;
         if !(c.min_diameter_m..=c.max_diameter_m).contains(&diameter) {
             return None;
@@ -303,7 +305,7 @@ impl StemDetector {
         if fit.rms > (c.max_rms_share * fit.r).max(0.015) {
             return None;
         }
-        let arc = arc_deg(pts, fit.centre);
+        let arc = arc_deg(&pts, fit.centre);
         if arc < c.min_arc_deg {
             return None;
         }
@@ -314,18 +316,18 @@ impl StemDetector {
         let on_stem = |h0: f64, centre: [f64; 2]| -> Option<[f64; 2]> {
             let mut ring = Vec::new();
             let mut outside = 0usize;
-            for p in index.near(centre, fit.r + 0.5, &self.kept) {
+            for p in index.near(centre, fit.r + OUTSIDE_M, &self.kept) {
                 if p[2] < h0 || p[2] >= h0 + c.slice_m {
                     continue;
                 }
                 let d = (p[0] - centre[0]).hypot(p[1] - centre[1]);
                 if (d - fit.r).abs() <= tolerance {
                     ring.push([p[0], p[1]]);
-                } else if d > fit.r + tolerance && d <= fit.r + 0.5 {
+                } else if d > fit.r + tolerance && d <= fit.r + OUTSIDE_M {
                     outside += 1;
                 }
             }
-            (ring.len() >= 3 && outside <= ring.len()).then(|| centroid_on_circle(&ring, centre, fit.r))
+            (ring.len() >= 3 && outside <= 2 * ring.len()).then(|| centroid_on_circle(&ring, centre, fit.r))
         };
         let band_low = c.breast_height_m - c.band_half_m;
         let mut centres: Vec<(f64, [f64; 2])> = vec![(c.breast_height_m, fit.centre)];
@@ -385,6 +387,10 @@ impl StemDetector {
         }
     }
 }
+
+/// Width of the ring just outside a stem's circle where other points (a wall, a car, foliage) end the stem:
+/// more than twice the points on the circle in a slice, m. Twigs and branch stubs stay under that.
+const OUTSIDE_M: f64 = 0.25;
 
 /// Points above a stem's top that make a crown.
 const CROWN_POINTS: usize = 50;
@@ -538,6 +544,31 @@ fn fit_circle(pts: &[[f64; 2]]) -> Option<Circle> {
     let dof = (n as f64 - 3.0).max(1.0);
     let covariance = jtj.try_inverse()? * (ss / dof);
     Some(Circle { centre: [cx + mean[0], cy + mean[1]], r, rms: (ss / n as f64).sqrt(), covariance })
+}
+
+/// [`fit_circle`], then refitted without the points farther from the circle than 3 robust σ (1.4826 × the
+/// median absolute residual, at least 5 mm) until none is dropped (at most four times); `None` when fewer
+/// than `min_points` or under half the points are left. Returns the circle and the points it kept.
+fn fit_circle_robust(pts: &[[f64; 2]], min_points: usize) -> Option<(Circle, Vec<[f64; 2]>)> {
+    let mut kept = pts.to_vec();
+    let mut fit = fit_circle(&kept)?;
+    for _ in 0..4 {
+        let residual = |p: &[f64; 2]| ((p[0] - fit.centre[0]).hypot(p[1] - fit.centre[1]) - fit.r).abs();
+        let mut abs: Vec<f64> = kept.iter().map(residual).collect();
+        let mid = abs.len() / 2;
+        let median = *abs.select_nth_unstable_by(mid, f64::total_cmp).1;
+        let limit = 3.0 * (1.4826 * median).max(0.005);
+        let inliers: Vec<[f64; 2]> = kept.iter().copied().filter(|p| residual(p) <= limit).collect();
+        if inliers.len() == kept.len() {
+            break;
+        }
+        if inliers.len() < min_points.max(3) || 2 * inliers.len() < pts.len() {
+            return None;
+        }
+        kept = inliers;
+        fit = fit_circle(&kept)?;
+    }
+    Some((fit, kept))
 }
 
 /// The arc of directions from `centre` the points cover: 360° less the largest empty gap, degrees.
