@@ -1,6 +1,6 @@
 //! Vertical stems — poles and tree trunks — in a static point cloud: the product an agency asks of a
 //! mobile-laser-scanning delivery (a pole or tree inventory), with no trajectory, GPS time or scanner
-//! position needed. The detector of [`crate::detect`] works in one scan's polar view; this one works on a
+//! position needed. The detector of [`mod@crate::detect`] works in one scan's polar view; this one works on a
 //! merged cloud in map coordinates.
 //!
 //! Two passes over the points, each fed in batches so that a file is streamed, never held:
