@@ -71,7 +71,9 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
         out.push(InputWarning {
             input: format!("point_clouds[{i}]"),
             location: cloud.as_str().to_owned(),
-            message: "point clouds are not read as control by this version: the run used none of its points".to_owned(),
+            message: "point clouds are not read as control by this version: the run used none of its points \
+                      (`plumbline poles detect` makes a pole and tree inventory of it)"
+                .to_owned(),
         });
     }
     out

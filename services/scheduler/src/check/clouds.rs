@@ -49,7 +49,7 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, location: &Loc
         field,
         format!(
             "`{url}` (LAS {}.{}, format {}, {} points) is not read as control by this version: the run uses depth \
-             images for poles",
+             images for poles (`plumbline poles detect` makes a pole and tree inventory of the cloud)",
             header.version.0, header.version.1, header.point_format, header.point_count
         ),
     );
