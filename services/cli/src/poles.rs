@@ -6,7 +6,8 @@
 //! `plumbline poles compare`: such a layer against a cadastre — matched (with the distance), in the cloud but
 //! not in the cadastre, in the cadastre but not seen (within the covered cells).
 //!
-//! Each cloud is streamed twice from its bytes (ground, then the points above it), never decoded whole;
+//! Each cloud is streamed three times from its bytes (ground, breast-height band, the surroundings of the
+//! band's circles), never decoded whole;
 //! all clouds given are one scene (tiles of a block). The CRS is `--epsg`, else the one the clouds record
 //! (GeoTIFF keys or WKT, all the same), else none — the layer then has no CRS and stderr says so.
 
@@ -140,13 +141,15 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     }
     let mut detector = StemDetector::new(config);
     let mut total = 0u64;
-    for pass in 0..2 {
+    for pass in 0..3 {
         for url in &args.clouds {
             let bytes = ctx.read(url).await?;
             let name = file_name(url).to_owned();
             let (returned, read) = tokio::task::spawn_blocking(move || {
-                let read = stream_las_xyz(&name, bytes, |batch| {
-                    if pass == 0 { detector.ground(batch) } else { detector.collect(batch) }
+                let read = stream_las_xyz(&name, bytes, |batch| match pass {
+                    0 => detector.ground(batch),
+                    1 => detector.collect(batch),
+                    _ => detector.surroundings(batch),
                 });
                 (detector, read)
             })
@@ -162,14 +165,15 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     if total == 0 {
         eprintln!("warning: the clouds hold no points: nothing to detect");
     }
-    let kept = detector.kept();
+    let (band, kept) = (detector.band_points(), detector.kept());
     let (stems, detector_cells) =
         tokio::task::spawn_blocking(move || (detector.finish(), detector.covered_cells(COVERAGE_CELL_M)))
             .await
             .context("the detection task failed")?;
     let count = |c: StemClass| stems.iter().filter(|s| s.class == c).count();
     eprintln!(
-        "{total} points read, {kept} above ground kept; {} stems: {} poles, {} trunks, {} unclassified",
+        "{total} points read ({band} in the 1.2–1.4 m band, {kept} around its circles kept); {} stems: {} poles, {} \
+         trunks, {} unclassified",
         stems.len(),
         count(StemClass::Pole),
         count(StemClass::Trunk),

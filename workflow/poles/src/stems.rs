@@ -3,18 +3,20 @@
 //! position needed. The detector of [`mod@crate::detect`] works in one scan's polar view; this one works on a
 //! merged cloud in map coordinates.
 //!
-//! Two passes over the points, each fed in batches so that a file is streamed, never held:
+//! Three passes over the points, each fed in batches so that a file is streamed, never held:
 //! 1. [`StemDetector::ground`]: the ground as the third-lowest height of every 1 m cell (a few stray low
 //!    points do not pull it down);
-//! 2. [`StemDetector::collect`]: the points 0.2 m or more above that ground and under `max_height_m` are
-//!    kept, as (x, y, height above ground).
+//! 2. [`StemDetector::collect`]: the points of the breast-height band (1.2–1.4 m above that ground, the
+//!    forester's 1.3 m) are kept; at the pass's end they are linked into clusters (points within `link_m`
+//!    of each other) and a circle is fitted to each (algebraic fit, then Gauss–Newton on the geometric
+//!    distances, refitted without the points beyond 3 robust σ — twigs, branch stubs), keeping those of a
+//!    plausible diameter, a small residual and an arc of at least `min_arc_deg` (a facade or a car's side
+//!    is a long line: no circle fits it): the candidates;
+//! 3. [`StemDetector::surroundings`]: the points within 3.5 m of a candidate, 0.2 m to `max_height_m` above
+//!    ground, are kept — what the stems are followed in. Memory grows with the band and the stems'
+//!    surroundings, not with the cloud.
 //!
 //! [`StemDetector::finish`] then
-//! - takes the breast-height band (1.2–1.4 m above ground, the forester's 1.3 m) and links its points into
-//!   clusters (points within `link_m` of each other);
-//! - fits a circle to each cluster (algebraic fit, then Gauss–Newton on the geometric distances), keeping
-//!   those of a plausible diameter, a small residual and an arc of at least `min_arc_deg` (a facade or a
-//!   car's side is a long line: no circle fits it);
 //! - follows the stem slice by slice (`slice_m`) up and down from the band while the slice's points lie on
 //!   the circle and little lies just outside it — a stem must reach from `max_base_m` to `min_top_m` above
 //!   ground;
@@ -177,16 +179,27 @@ pub struct StemDetector {
     config: StemConfig,
     /// The three lowest heights per ground cell.
     cells: HashMap<(i64, i64), [f64; 3]>,
-    /// Points kept in the second pass: x, y, height above ground.
+    /// The band's points (second pass).
+    band: Vec<[f64; 2]>,
+    /// The circles fitted in the band, with their points (after the second pass).
+    candidates: Option<Vec<(Circle, Vec<[f64; 2]>)>>,
+    /// 1 m cells within reach of a candidate.
+    near: std::collections::HashSet<(i64, i64)>,
+    /// Points kept in the third pass: x, y, height above ground.
     kept: Vec<[f64; 3]>,
-    /// Points with no ground cell within reach in the second pass.
-    groundless: u64,
 }
 
 impl StemDetector {
     /// A detector with `config` (checked by the caller with [`StemConfig::check`]).
     pub fn new(config: StemConfig) -> Self {
-        Self { config, cells: HashMap::new(), kept: Vec::new(), groundless: 0 }
+        Self {
+            config,
+            cells: HashMap::new(),
+            band: Vec::new(),
+            candidates: None,
+            near: std::collections::HashSet::new(),
+            kept: Vec::new(),
+        }
     }
 
     fn cell(&self, x: f64, y: f64) -> (i64, i64) {
@@ -219,19 +232,67 @@ impl StemDetector {
             .min_by(f64::total_cmp)
     }
 
-    /// Second pass: the same points again; those between 0.2 m and `max_height_m` above ground are kept.
+    /// Height above ground of a point, when a ground cell is within reach.
+    fn height(&self, p: &[f64; 3]) -> Option<f64> {
+        self.ground_at(p[0], p[1]).map(|g| p[2] - g)
+    }
+
+    /// Second pass: the same points again; those of the breast-height band are kept.
     pub fn collect(&mut self, batch: &[[f64; 3]]) {
+        let (centre, half) = (self.config.breast_height_m, self.config.band_half_m);
         for p in batch {
-            match self.ground_at(p[0], p[1]) {
-                Some(g) => {
-                    let h = p[2] - g;
-                    if (0.2..=self.config.max_height_m).contains(&h) {
-                        self.kept.push([p[0], p[1], h]);
-                    }
-                }
-                None => self.groundless += 1,
+            if self.height(p).is_some_and(|h| (h - centre).abs() <= half) {
+                self.band.push([p[0], p[1]]);
             }
         }
+    }
+
+    /// The band's circles, fitted once after the second pass.
+    fn candidates(&mut self) -> &[(Circle, Vec<[f64; 2]>)] {
+        if self.candidates.is_none() {
+            let c = self.config;
+            let found: Vec<(Circle, Vec<[f64; 2]>)> = clusters(&self.band, c.link_m)
+                .into_iter()
+                .filter(|cluster| cluster.len() >= c.min_points)
+                .filter_map(|cluster| {
+                    let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| self.band[i]).collect();
+                    candidate(&pts, &c)
+                })
+                .collect();
+            for (fit, _) in &found {
+                let reach = fit.r + CROWN_RADIUS_M + 0.5;
+                let (lo_i, hi_i) = (((fit.centre[0] - reach).floor()) as i64, ((fit.centre[0] + reach).floor()) as i64);
+                let (lo_j, hi_j) = (((fit.centre[1] - reach).floor()) as i64, ((fit.centre[1] + reach).floor()) as i64);
+                for i in lo_i..=hi_i {
+                    for j in lo_j..=hi_j {
+                        self.near.insert((i, j));
+                    }
+                }
+            }
+            self.candidates = Some(found);
+        }
+        self.candidates.as_deref().unwrap_or_default()
+    }
+
+    /// Third pass: the same points again; those near a candidate, 0.2 m to `max_height_m` above ground,
+    /// are kept.
+    pub fn surroundings(&mut self, batch: &[[f64; 3]]) {
+        self.candidates();
+        for p in batch {
+            if !self.near.contains(&(p[0].floor() as i64, p[1].floor() as i64)) {
+                continue;
+            }
+            if let Some(h) = self.height(p)
+                && (0.2..=self.config.max_height_m).contains(&h)
+            {
+                self.kept.push([p[0], p[1], h]);
+            }
+        }
+    }
+
+    /// Points of the band (second pass).
+    pub fn band_points(&self) -> usize {
+        self.band.len()
     }
 
     /// Centres of the `size`-metre cells that hold ground (what the cloud covers), sorted.
@@ -250,29 +311,18 @@ impl StemDetector {
         keys.into_iter().map(|(i, j)| [(i as f64 + 0.5) * size, (j as f64 + 0.5) * size]).collect()
     }
 
-    /// Points kept above ground so far.
+    /// Points kept around the candidates (third pass).
     pub fn kept(&self) -> usize {
         self.kept.len()
     }
 
     /// The stems found.
-    pub fn finish(&self) -> Vec<Stem> {
-        let c = &self.config;
-        let band: Vec<[f64; 2]> = self
-            .kept
-            .iter()
-            .filter(|p| (p[2] - c.breast_height_m).abs() <= c.band_half_m)
-            .map(|p| [p[0], p[1]])
-            .collect();
+    pub fn finish(&mut self) -> Vec<Stem> {
+        let c = self.config;
+        self.candidates();
         let index = GridIndex::new(&self.kept, 1.0);
-        let mut stems: Vec<Stem> = clusters(&band, c.link_m)
-            .into_iter()
-            .filter(|cluster| cluster.len() >= c.min_points)
-            .filter_map(|cluster| {
-                let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| band[i]).collect();
-                self.stem_of(&pts, &index)
-            })
-            .collect();
+        let candidates = self.candidates.as_deref().unwrap_or_default();
+        let mut stems: Vec<Stem> = candidates.iter().filter_map(|(fit, pts)| self.stem_of(fit, pts, &index)).collect();
         // Two clusters of one stem (a gap in the band): the one with more points stays.
         stems.sort_by_key(|s| std::cmp::Reverse(s.points));
         let mut out: Vec<Stem> = Vec::new();
@@ -289,26 +339,10 @@ impl StemDetector {
         out
     }
 
-    fn stem_of(&self, cluster: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
+    fn stem_of(&self, fit: &Circle, pts: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
         let c = &self.config;
-        let (min, max) = bounds(cluster);
-        // A cluster wider than any stem with its twigs is a wall, a hedge or a car.
-        if (max[0] - min[0]).hypot(max[1] - min[1]) > 2.0 * c.max_diameter_m + 2.0 * c.link_m {
-            return None;
-        }
-        // Twigs and branch stubs at breast height (a real pine) are outliers of the stem's circle.
-        let (fit, pts) = fit_circle_robust(cluster, c.min_points)?;
         let diameter = 2.0 * fit.r;
-        if !(c.min_diameter_m..=c.max_diameter_m).contains(&diameter) {
-            return None;
-        }
-        if fit.rms > (c.max_rms_share * fit.r).max(0.015) {
-            return None;
-        }
-        let arc = arc_deg(&pts, fit.centre);
-        if arc < c.min_arc_deg {
-            return None;
-        }
+        let arc = arc_deg(pts, fit.centre);
         let ground = self.ground_at(fit.centre[0], fit.centre[1])?;
         // Follow the stem up and down from the band, each slice from the centre of the one before (a leaning
         // stem moves), while the slice's points lie on the circle and no more lie just outside it.
@@ -374,9 +408,9 @@ impl StemDetector {
     /// A crown above the top makes a trunk; a thin stem with (almost) nothing around its top a pole.
     fn class_of(&self, centre: [f64; 2], r: f64, top: f64, index: &GridIndex) -> StemClass {
         let crown = index
-            .near(centre, 3.0, &self.kept)
+            .near(centre, CROWN_RADIUS_M, &self.kept)
             .filter(|p| p[2] >= top && p[2] <= top + 5.0)
-            .filter(|p| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= 3.0)
+            .filter(|p| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= CROWN_RADIUS_M)
             .count();
         if crown >= CROWN_POINTS && r >= 0.05 {
             StemClass::Trunk
@@ -387,6 +421,24 @@ impl StemDetector {
         }
     }
 }
+
+/// A band cluster's circle, when it can be a stem's: not wider than any stem with its twigs, a circle
+/// fitting it robustly (twigs and branch stubs are outliers), of a plausible diameter, residual and arc.
+fn candidate(cluster: &[[f64; 2]], c: &StemConfig) -> Option<(Circle, Vec<[f64; 2]>)> {
+    let (min, max) = bounds(cluster);
+    if (max[0] - min[0]).hypot(max[1] - min[1]) > 2.0 * c.max_diameter_m + 2.0 * c.link_m {
+        return None;
+    }
+    let (fit, pts) = fit_circle_robust(cluster, c.min_points)?;
+    let diameter = 2.0 * fit.r;
+    if !(c.min_diameter_m..=c.max_diameter_m).contains(&diameter) || fit.rms > (c.max_rms_share * fit.r).max(0.015) {
+        return None;
+    }
+    (arc_deg(&pts, fit.centre) >= c.min_arc_deg).then_some((fit, pts))
+}
+
+/// Radius around a stem searched for a crown, m.
+const CROWN_RADIUS_M: f64 = 3.0;
 
 /// Width of the ring just outside a stem's circle where other points (a wall, a car, foliage) end the stem:
 /// more than twice the points on the circle in a slice, m. Twigs and branch stubs stay under that.
@@ -685,6 +737,9 @@ mod scene_tests {
         }
         for batch in points.chunks(10_000) {
             d.collect(batch);
+        }
+        for batch in points.chunks(10_000) {
+            d.surroundings(batch);
         }
         let stems = d.finish();
         for s in &stems {
