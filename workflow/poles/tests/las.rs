@@ -233,3 +233,57 @@ proptest! {
         check_read(mutate(VALID[which].clone(), &edits))?;
     }
 }
+
+/// `poles detect`'s reader takes the point formats of LAS 1.2 (0–3) and 1.4 (0–3, 6–8), plain and LAZ, with
+/// or without GPS time, colour or NIR, and hands over the coordinates in batches; a file cut inside its
+/// records is an error naming them. The waveform formats (4, 5, 9, 10) are not written here: the `las`
+/// crate's writer needs a waveform value its API does not let a caller build.
+#[test]
+fn every_point_format_streams_its_coordinates() {
+    use plumbline_poles::stream_las_xyz;
+    let versions: [((u8, u8), &[u8]); 2] = [((1, 2), &[0, 1, 2, 3]), ((1, 4), &[0, 1, 2, 3, 6, 7, 8])];
+    for (version, formats) in versions {
+        for &format in formats {
+            for compressed in [false, true] {
+                let mut builder = Builder::from(version);
+                builder.point_format = Format::new(format).unwrap();
+                builder.point_format.is_compressed = compressed;
+                let t = |offset| Transform { scale: 0.001, offset };
+                builder.transforms = Vector { x: t(565_000.0), y: t(5_933_000.0), z: t(0.0) };
+                let mut writer = Writer::new(Cursor::new(Vec::new()), builder.into_header().unwrap()).unwrap();
+                let n = 70_000;
+                for i in 0..n {
+                    let f = f64::from(i);
+                    let mut p = Point { x: 565_000.0 + f * 0.01, y: 5_933_000.0, z: 8.0, ..Default::default() };
+                    if Format::new(format).unwrap().has_gps_time {
+                        p.gps_time = Some(f);
+                    }
+                    if Format::new(format).unwrap().has_color {
+                        p.color = Some(las::Color::new(1, 2, 3));
+                    }
+                    if Format::new(format).unwrap().has_nir {
+                        p.nir = Some(4);
+                    }
+                    writer.write_point(p).unwrap();
+                }
+                let bytes = writer.into_inner().unwrap().into_inner();
+                let what = format!("LAS {version:?} format {format} compressed {compressed}");
+                let (mut count, mut batches, mut last) = (0usize, 0usize, [0.0; 3]);
+                let (header, total) = stream_las_xyz("cloud", bytes.clone(), |b| {
+                    count += b.len();
+                    batches += 1;
+                    last = b[b.len() - 1];
+                })
+                .unwrap_or_else(|e| panic!("{what}: {e}"));
+                assert_eq!((total, count, batches), (70_000, 70_000, 2), "{what}");
+                assert_eq!((header.point_format, header.compressed), (format, compressed), "{what}");
+                assert!((last[0] - (565_000.0 + 69_999.0 * 0.01)).abs() < 1e-3, "{what}: {last:?}");
+                if !compressed {
+                    let cut = bytes[..bytes.len() - 10 * usize::from(header.point_record_length)].to_vec();
+                    let err = stream_las_xyz("cut.las", cut, |_| {}).unwrap_err();
+                    assert!(err.to_string().contains("point records 65536–69999"), "{what}: {err}");
+                }
+            }
+        }
+    }
+}
