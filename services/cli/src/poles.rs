@@ -188,7 +188,7 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     }
     let covered = PointLayer {
         name: COVERAGE_LAYER.to_owned(),
-        fields: vec![("cell_m".to_owned(), FieldType::Real)],
+        fields: columns(&[("cell_m", FieldType::Real)]),
         features: detector_cells
             .iter()
             .map(|c| PointFeature { x: c[0], y: c[1], values: vec![FieldValue::Real(COVERAGE_CELL_M)] })
@@ -201,6 +201,11 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     ctx.write(&args.out, bytes).await?;
     println!("{}", args.out);
     Ok(ExitCode::SUCCESS)
+}
+
+/// A layer's attribute columns from their names and types.
+fn columns(fields: &[(&str, FieldType)]) -> Vec<(String, FieldType)> {
+    fields.iter().map(|(n, t)| ((*n).to_owned(), *t)).collect()
 }
 
 /// The `detected_poles` layer.
@@ -244,11 +249,7 @@ fn layer_of(stems: &[Stem]) -> PointLayer {
             ],
         })
         .collect();
-    PointLayer {
-        name: "detected_poles".to_owned(),
-        fields: fields.iter().map(|(n, t)| ((*n).to_owned(), *t)).collect(),
-        features,
-    }
+    PointLayer { name: "detected_poles".to_owned(), fields: columns(&fields), features }
 }
 
 /// A class name as the manifest spells it.
@@ -430,7 +431,7 @@ impl Comparison {
         let id = |o: &CadastreFeature| FieldValue::Integer(i64::try_from(o.id.fid).unwrap_or(i64::MAX));
         let matched = PointLayer {
             name: "matched".to_owned(),
-            fields: [
+            fields: columns(&[
                 ("detected_fid", FieldType::Integer),
                 ("cadastre_fid", FieldType::Integer),
                 ("cadastre_layer", FieldType::Integer),
@@ -439,10 +440,7 @@ impl Comparison {
                 ("d_east_m", FieldType::Real),
                 ("d_north_m", FieldType::Real),
                 ("diameter_m", FieldType::Real),
-            ]
-            .iter()
-            .map(|(n, t)| ((*n).to_owned(), *t))
-            .collect(),
+            ]),
             features: self
                 .matched
                 .iter()
@@ -464,7 +462,7 @@ impl Comparison {
         };
         let list = |name: &str, objects: &[CadastreFeature], fid: &str| PointLayer {
             name: name.to_owned(),
-            fields: vec![(fid.to_owned(), FieldType::Integer), ("class".to_owned(), FieldType::Text)],
+            fields: columns(&[(fid, FieldType::Integer), ("class", FieldType::Text)]),
             features: objects
                 .iter()
                 .map(|o| PointFeature {

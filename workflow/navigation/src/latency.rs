@@ -27,7 +27,7 @@ use crate::NavError;
 use crate::chi2::chi2_critical;
 use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
 use crate::filter::run_once;
-use crate::gaps::{GapNoise, find_imu_gaps};
+use crate::passes::prepare;
 
 /// Largest offset searched, s.
 pub const SEARCH: f64 = 0.3;
@@ -89,10 +89,7 @@ pub fn measure_time_offset(
     initial: &InitialState,
     config: &NavConfig,
 ) -> Result<Option<TimeOffsetMeasurement>, NavError> {
-    config.check()?;
-    initial.check()?;
-    crate::check_samples(imu, initial.time)?;
-    let gaps = GapNoise::new(config.gaps.map(|m| find_imu_gaps(imu, &m)).unwrap_or_default(), config.gaps);
+    let gaps = prepare(imu, initial, config)?;
     let cap = chi2_critical(3.0, ALPHA);
     let mut shifted = gnss.to_vec();
     let mut evaluations: Vec<Evaluation> = Vec::new();

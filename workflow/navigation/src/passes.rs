@@ -62,10 +62,7 @@ fn run_filter(
     monitor: Option<Monitor>,
     excluded: &[bool],
 ) -> Result<ForwardPass, NavError> {
-    config.check()?;
-    initial.check()?;
-    check_samples(imu, initial.time)?;
-    let gaps = GapNoise::new(config.gaps.map(|m| find_imu_gaps(imu, &m)).unwrap_or_default(), config.gaps);
+    let gaps = prepare(imu, initial, config)?;
     let mut pass = run_once(imu, gnss, initial, config, monitor.clone(), excluded, gaps.clone(), &[]);
     if gaps.gaps().is_empty() {
         return Ok(pass);
@@ -86,6 +83,14 @@ fn run_filter(
         }
     }
     Ok(pass)
+}
+
+/// Check the inputs of a forward pass and find the IMU's gaps with the noise `config` gives them.
+pub(crate) fn prepare(imu: &[ImuSample], initial: &InitialState, config: &NavConfig) -> Result<GapNoise, NavError> {
+    config.check()?;
+    initial.check()?;
+    check_samples(imu, initial.time)?;
+    Ok(GapNoise::new(config.gaps.map(|m| find_imu_gaps(imu, &m)).unwrap_or_default(), config.gaps))
 }
 
 /// Re-linearisations at most.

@@ -181,8 +181,8 @@ pub struct StemDetector {
     cells: HashMap<(i64, i64), [f64; 3]>,
     /// The band's points (second pass).
     band: Vec<[f64; 2]>,
-    /// The circles fitted in the band, with their points (after the second pass).
-    candidates: Option<Vec<(Circle, Vec<[f64; 2]>)>>,
+    /// The circles fitted in the band (after the second pass).
+    candidates: Option<Vec<Candidate>>,
     /// 1 m cells within reach of a candidate.
     near: std::collections::HashSet<(i64, i64)>,
     /// Points kept in the third pass: x, y, height above ground.
@@ -248,10 +248,10 @@ impl StemDetector {
     }
 
     /// The band's circles, fitted once after the second pass.
-    fn candidates(&mut self) -> &[(Circle, Vec<[f64; 2]>)] {
+    fn candidates(&mut self) -> &[Candidate] {
         if self.candidates.is_none() {
             let c = self.config;
-            let found: Vec<(Circle, Vec<[f64; 2]>)> = clusters(&self.band, c.link_m)
+            let found: Vec<Candidate> = clusters(&self.band, c.link_m)
                 .into_iter()
                 .filter(|cluster| cluster.len() >= c.min_points)
                 .filter_map(|cluster| {
@@ -259,7 +259,7 @@ impl StemDetector {
                     candidate(&pts, &c)
                 })
                 .collect();
-            for (fit, _) in &found {
+            for Candidate { fit, .. } in &found {
                 let reach = fit.r + CROWN_RADIUS_M + 0.5;
                 let (lo_i, hi_i) = (((fit.centre[0] - reach).floor()) as i64, ((fit.centre[0] + reach).floor()) as i64);
                 let (lo_j, hi_j) = (((fit.centre[1] - reach).floor()) as i64, ((fit.centre[1] + reach).floor()) as i64);
@@ -322,7 +322,7 @@ impl StemDetector {
         self.candidates();
         let index = GridIndex::new(&self.kept, 1.0);
         let candidates = self.candidates.as_deref().unwrap_or_default();
-        let mut stems: Vec<Stem> = candidates.iter().filter_map(|(fit, pts)| self.stem_of(fit, pts, &index)).collect();
+        let mut stems: Vec<Stem> = candidates.iter().filter_map(|k| self.stem_of(k, &index)).collect();
         // Two clusters of one stem (a gap in the band): the one with more points stays.
         stems.sort_by_key(|s| std::cmp::Reverse(s.points));
         let mut out: Vec<Stem> = Vec::new();
@@ -339,10 +339,11 @@ impl StemDetector {
         out
     }
 
-    fn stem_of(&self, fit: &Circle, pts: &[[f64; 2]], index: &GridIndex) -> Option<Stem> {
+    fn stem_of(&self, candidate: &Candidate, index: &GridIndex) -> Option<Stem> {
         let c = &self.config;
+        let Candidate { fit, arc, points } = candidate;
+        let (arc, points) = (*arc, *points);
         let diameter = 2.0 * fit.r;
-        let arc = arc_deg(pts, fit.centre);
         let ground = self.ground_at(fit.centre[0], fit.centre[1])?;
         // Follow the stem up and down from the band, each slice from the centre of the one before (a leaning
         // stem moves), while the slice's points lie on the circle and no more lie just outside it.
@@ -399,7 +400,7 @@ impl StemDetector {
             lean,
             lean_azimuth_deg,
             class,
-            points: pts.len(),
+            points,
             arc_deg: arc,
             rms_m: fit.rms,
         })
@@ -422,9 +423,19 @@ impl StemDetector {
     }
 }
 
+/// A band cluster's circle that can be a stem's.
+#[derive(Clone, Copy, Debug)]
+struct Candidate {
+    fit: Circle,
+    /// Arc of the circle its points cover, degrees.
+    arc: f64,
+    /// Points the fit kept.
+    points: usize,
+}
+
 /// A band cluster's circle, when it can be a stem's: not wider than any stem with its twigs, a circle
 /// fitting it robustly (twigs and branch stubs are outliers), of a plausible diameter, residual and arc.
-fn candidate(cluster: &[[f64; 2]], c: &StemConfig) -> Option<(Circle, Vec<[f64; 2]>)> {
+fn candidate(cluster: &[[f64; 2]], c: &StemConfig) -> Option<Candidate> {
     let (min, max) = bounds(cluster);
     if (max[0] - min[0]).hypot(max[1] - min[1]) > 2.0 * c.max_diameter_m + 2.0 * c.link_m {
         return None;
@@ -434,7 +445,8 @@ fn candidate(cluster: &[[f64; 2]], c: &StemConfig) -> Option<(Circle, Vec<[f64; 
     if !(c.min_diameter_m..=c.max_diameter_m).contains(&diameter) || fit.rms > (c.max_rms_share * fit.r).max(0.015) {
         return None;
     }
-    (arc_deg(&pts, fit.centre) >= c.min_arc_deg).then_some((fit, pts))
+    let arc = arc_deg(&pts, fit.centre);
+    (arc >= c.min_arc_deg).then_some(Candidate { fit, arc, points: pts.len() })
 }
 
 /// Radius around a stem searched for a crown, m.

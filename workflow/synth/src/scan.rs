@@ -7,6 +7,8 @@
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
+use crate::observations::normal;
+
 /// A stem of the scene and its truth.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct StemTruth {
@@ -163,16 +165,10 @@ pub fn scan_scene(scene: &ScanScene, seed: u64) -> (Vec<[f64; 3]>, Vec<StemTruth
             let s = [0.0, p[1], ground(0.0, p[1]) - oz + scene.scanner_height_m];
             let d = [p[0] - s[0], p[1] - s[1], p[2] - s[2]];
             let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt().max(1e-9);
-            let e = scene.range_sigma_m * gauss(&mut rng);
+            let e = scene.range_sigma_m * normal(&mut rng);
             [ox + p[0] + e * d[0] / n, oy + p[1] + e * d[1] / n, oz + p[2] + e * d[2] / n]
         })
         .collect();
     let stems = stems.into_iter().map(|s| StemTruth { base: [ox + s.base[0], oy + s.base[1]], ..s }).collect();
     (points, stems)
-}
-
-fn gauss(rng: &mut ChaCha8Rng) -> f64 {
-    let u1: f64 = rng.random::<f64>().max(1e-300);
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
 }
