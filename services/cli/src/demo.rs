@@ -54,6 +54,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         depth_rate: None,
         aerial_frame_px: None,
         aerial_format: simulate::FrameFormat::Jpeg,
+        point_cloud: simulate::PointCloudOutput::None,
+        no_depth: false,
     };
     let manifest = simulate::write(ctx, sim).await?;
     progress.end("simulate");

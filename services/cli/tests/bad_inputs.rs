@@ -484,7 +484,10 @@ fn cases() -> Vec<Case> {
         case("point cloud: bad point format", INVALID, &["point_clouds[0]", "a.las", "format"], |o| { let mut b = las(1, drive_start(o), 10); b[104] = 42; clouds(o, &[("a.las", b)]) }),
         case("point cloud: far from the drive", INVALID, &["point_clouds[0]", "a.las", "misses the drive"], |o| clouds(o, &[("a.las", las(1, (100_000.0, 100_000.0), 10))])),
         case("point cloud: no GPS time is a warning", 0, &["point_clouds[0]", "a.las", "GPS time", "warning"], |o| { let at = drive_start(o); clouds(o, &[("a.las", las(0, at, 10))]) }),
-        case("point cloud: a good one is still a warning (not read as control)", 0, &["point_clouds[0]", "a.las", "not read as control"], |o| { let at = drive_start(o); clouds(o, &[("a.las", las(1, at, 10))]) }),
+        case("point cloud: no CRS record is a warning", 0, &["point_clouds[0]", "a.las", "names no CRS", "warning"], |o| { let at = drive_start(o); clouds(o, &[("a.las", las(1, at, 10))]) }),
+        case("point cloud: declared in another CRS", INVALID, &["point_clouds[0]", "a.las", "epsg = 25833", "reproject"], |o| { let at = drive_start(o); o.write("lidar/a.las", &las(1, at, 10)); manifest_edit(o, |m| m.replacen("output = ", "point_clouds = [{ url = \"lidar/a.las\", epsg = 25833 }]\noutput = ", 1)) }),
+        case("point cloud: declared without time is a warning", 0, &["point_clouds[0]", "a.las", "without GPS time", "warning"], |o| { let at = drive_start(o); o.write("lidar/a.las", &las(1, at, 10)); manifest_edit(o, |m| m.replacen("output = ", "point_clouds = [{ url = \"lidar/a.las\", time = \"none\" }]\noutput = ", 1)) }),
+        case("point cloud: unknown time scale", INVALID, &["point_clouds", "gps_seconds"], |o| { let at = drive_start(o); o.write("lidar/a.las", &las(1, at, 10)); manifest_edit(o, |m| m.replacen("output = ", "point_clouds = [{ url = \"lidar/a.las\", time = \"gps_seconds\" }]\noutput = ", 1)) }),
 
         // navigate and adjust inputs.
         case("navigate: empty GNSS file", INVALID, &["gnss.csv"], |o| navigate(o, Some(b""), None)),
@@ -561,7 +564,7 @@ fn item_level_defects_are_skipped_and_the_run_goes_on() {
         ],
     );
 
-    // A point cloud is named but not read as control: the run warns, and with --strict exits 4.
+    // A point cloud of 10 points yields no pole: the run warns, and with --strict exits 4.
     clouds(&o, &[("a.las", las(1, drive_start(&o), 10))]);
 
     let v = run(&validate(&o));

@@ -169,3 +169,60 @@ fn a_campaign_without_a_usable_trajectory_stops_before_any_work() {
     assert!(run.stderr.contains("missing.csv"), "{}", run.stderr);
     assert!(!dir.path().join("results/tiles").exists(), "no tile may be processed");
 }
+
+/// Rows of a CSV file with a header, as numbers where they parse (NaN otherwise).
+fn csv_rows(path: &Path) -> Vec<Vec<f64>> {
+    let text = std::fs::read_to_string(path).unwrap();
+    text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect()
+}
+
+/// A campaign whose only pole sensor is the simulated roof laser scanner: `run` reads its LAZ strips, finds
+/// the stems per time slice and every coordinate update it makes is of the right cadastre object, its
+/// observed position off the truth by the DG error of its time only (within a few centimetres; trees lean).
+#[test]
+fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
+    let dir = tempfile::tempdir().unwrap();
+    let campaign = dir.path().join("mls");
+    let out = campaign.to_str().unwrap();
+    let args = ["--length", "200", "--panorama-width", "512", "--point-cloud", "laz", "--no-depth", "--out", out];
+    plumbline(&[&["simulate", "--preset", "tiny", "--seed", "3", "--profile", "canyon"][..], &args].concat())
+        .run()
+        .success();
+    let manifest = std::fs::read_to_string(campaign.join("campaign.toml")).unwrap();
+    assert!(manifest.contains("[[point_clouds]]") && !manifest.contains("[[depth]]"), "{manifest}");
+    let run = plumbline(&["run", "--quiet", campaign.join("campaign.toml").to_str().unwrap()]).run();
+    run.success();
+
+    let results = campaign.join("results");
+    let mut updates = Vec::new();
+    let mut cloud_frames = 0;
+    for entry in std::fs::read_dir(results.join("tiles")).unwrap() {
+        let tile: Value = serde_json::from_slice(&std::fs::read(entry.unwrap().path()).unwrap()).unwrap();
+        updates.extend(tile["poles"].as_array().cloned().unwrap_or_default());
+        let frames = tile["pole_frames"].as_array().cloned().unwrap_or_default();
+        cloud_frames += frames.iter().filter(|f| f["frame"].as_str().unwrap().starts_with("point_clouds[")).count();
+    }
+    assert!(cloud_frames > 0, "no time slice of the cloud was searched");
+    assert!(updates.len() >= 5, "{} pole updates from the cloud", updates.len());
+
+    // Truth: DG error per epoch (time, east, north) and the poles (true and listed positions).
+    let dg_errors = csv_rows(&campaign.join("truth/dg_errors.csv"));
+    let poles: Vec<Vec<f64>> =
+        csv_rows(&campaign.join("truth/poles.csv")).into_iter().filter(|p| p[6].is_finite()).collect();
+    for u in &updates {
+        let (t, cadastre, observed) = (u["time"].as_f64().unwrap(), &u["cadastre"], &u["observed"]);
+        let at = dg_errors.partition_point(|r| r[0] < t).min(dg_errors.len() - 1);
+        let (de, dn) = (dg_errors[at][1], dg_errors[at][2]);
+        let (ce, cn) = (cadastre[0].as_f64().unwrap(), cadastre[1].as_f64().unwrap());
+        let listed = poles.iter().min_by(|a, b| (a[6] - ce).hypot(a[7] - cn).total_cmp(&(b[6] - ce).hypot(b[7] - cn)));
+        let pole = listed.unwrap();
+        let (oe, on) = (observed[0].as_f64().unwrap() - de, observed[1].as_f64().unwrap() - dn);
+        let off = (oe - pole[4]).hypot(on - pole[5]);
+        assert!(off < 0.15, "update {u}: the observed position less the DG error is {off:.3} m off the pole it names");
+    }
+    let report: Value = serde_json::from_slice(&std::fs::read(results.join("report.json")).unwrap()).unwrap();
+    let acc = &report["accuracy"];
+    let (before, after) = (acc["before"]["rmse_2d"].as_f64().unwrap(), acc["after"]["rmse_2d"].as_f64().unwrap());
+    eprintln!("{} pole updates from the cloud; 2D RMSE {before:.3} -> {after:.3} m", updates.len());
+    assert!(after < before, "2D RMSE {before:.3} -> {after:.3} m");
+}

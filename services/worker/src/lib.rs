@@ -7,6 +7,7 @@
 //! and listed in the tile's output; the tile goes on.
 
 mod aerial;
+mod clouds;
 mod config;
 mod fetch;
 mod fingerprint;

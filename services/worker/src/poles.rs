@@ -1,5 +1,6 @@
 //! The pole side of a tile (paper 002): its depth images read with their DG records, the cadastre objects
-//! around it, and a `plumbline_poles::PoleStream` per depth camera fed batch by batch.
+//! around it, and a `plumbline_poles::PoleStream` per depth camera fed batch by batch; the point clouds'
+//! slices of the tile (module `clouds`) are matched against the same cadastre objects.
 
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
@@ -7,7 +8,7 @@ use std::time::Instant;
 
 use bytes::Bytes;
 use plumbline_adjustment::PoleUpdate;
-use plumbline_campaign::manifest::{Cadastre, DepthCamera};
+use plumbline_campaign::manifest::{Cadastre, CloudTime, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
 use plumbline_geo::TrajectoryRecord;
@@ -31,7 +32,7 @@ const CADASTRE_MARGIN_M: f64 = 5.0;
 pub(crate) struct PoleResults {
     /// Coordinate updates.
     pub updates: Vec<PoleUpdate>,
-    /// One report per depth frame.
+    /// One report per depth frame and point-cloud slice.
     pub reports: Vec<FrameReport>,
     /// What was left out.
     pub skipped: Vec<SkippedInput>,
@@ -70,20 +71,34 @@ pub(crate) async fn process(
 ) -> anyhow::Result<PoleResults> {
     let mut out = PoleResults::default();
     let depth = campaign.plan.depth_of(tile);
-    if depth.is_empty() || campaign.manifest.depth.is_empty() {
+    let clouds = campaign.manifest.point_clouds.iter().any(|c| c.time != CloudTime::None);
+    let depth_here = !depth.is_empty() && !campaign.manifest.depth.is_empty();
+    if !depth_here {
         progress.skip(POLES, depth.len() as u64);
+    }
+    if !depth_here && !clouds {
         return Ok(out);
     }
     let t0 = Instant::now();
-    let range =
-        campaign.manifest.depth.iter().map(|c| c.intrinsics.max_range_m).fold(config.detect.max_range_m, f64::max);
+    let range = campaign
+        .manifest
+        .depth
+        .iter()
+        .map(|c| c.intrinsics.max_range_m)
+        .fold(config.detect.max_range_m.max(config.clouds.reliable_range_m), f64::max);
     let features = cadastre_features(files, campaign, fetch, range + CADASTRE_MARGIN_M, &mut out.skipped).await?;
     out.read_s = t0.elapsed().as_secs_f64();
+    let features = Arc::new(features);
+    if clouds {
+        crate::clouds::process(files, campaign, tile, fetch, config, &features, &mut out).await?;
+    }
+    if !depth_here {
+        return Ok(out);
+    }
     let wanted = wanted_frames(campaign, depth, &mut out.skipped);
     let listed: usize = wanted.values().map(Vec::len).sum();
     progress.skip(POLES, depth.len().saturating_sub(listed) as u64);
     let urls: HashMap<String, String> = wanted.values().flatten().map(|w| (w.id.clone(), w.url.clone())).collect();
-    let features = Arc::new(features);
     for (camera, frames) in wanted {
         let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
             progress.skip(POLES, frames.len() as u64);

@@ -24,7 +24,7 @@ impl ManifestV1 {
             out.push((root.field("depth").index(i).field("index"), &d.index));
         }
         for (i, l) in self.point_clouds.iter().enumerate() {
-            out.push((root.field("point_clouds").index(i), l));
+            out.push((root.field("point_clouds").index(i).field("url"), &l.url));
         }
         if let Some(aerial) = &self.aerial {
             let path = root.field("aerial");

@@ -166,6 +166,26 @@ impl CampaignPlan {
         self.tile_depth.iter().find(|t| &t.tile == tile).map_or(&[], |t| &t.depth)
     }
 
+    /// The share of the drive's time a tile owns: the times nearer to one of its panoramas than to any other
+    /// panorama (the rule depth images are assigned by), as sorted, merged spans; the drive's first and last
+    /// spans reach to ±∞. Point-cloud slices go to the tile whose spans hold their middle time.
+    pub fn time_spans_of(&self, tile: &TileId) -> Vec<std::ops::Range<f64>> {
+        let p = &self.panoramas;
+        let mut out: Vec<std::ops::Range<f64>> = Vec::new();
+        for (i, pano) in p.iter().enumerate() {
+            if self.tiles.tile_of(pano.id) != Some(tile) {
+                continue;
+            }
+            let start = i.checked_sub(1).map_or(f64::NEG_INFINITY, |j| 0.5 * (p[j].time + pano.time));
+            let end = p.get(i + 1).map_or(f64::INFINITY, |next| 0.5 * (pano.time + next.time));
+            match out.last_mut() {
+                Some(last) if last.end >= start => last.end = end,
+                _ => out.push(start..end),
+            }
+        }
+        out
+    }
+
     /// `plan.json`: the versioned document.
     pub fn to_json(&self) -> Vec<u8> {
         serde_json::to_vec_pretty(&PlanDoc::V1(self.clone())).unwrap_or_default()

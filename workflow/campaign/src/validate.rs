@@ -97,11 +97,7 @@ impl ManifestV1 {
             camera.check(&root.field("depth").index(i), c);
         }
         for (i, cloud) in self.point_clouds.iter().enumerate() {
-            let at = root.field("point_clouds").index(i);
-            c.location(&at, cloud);
-            if !matches!(cloud.extension().as_deref(), Some("las" | "laz")) {
-                c.report(&at, format!("{cloud} is not a .las or .laz file"), "a LAS or LAZ point cloud");
-            }
+            cloud.check(&root.field("point_clouds").index(i), c);
         }
     }
 

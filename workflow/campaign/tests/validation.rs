@@ -2,6 +2,7 @@
 //! in manifest order, so a case with several faults shows that all are reported at once.
 
 use plumbline_campaign::Manifest;
+use plumbline_campaign::manifest::CloudTime;
 
 /// A valid manifest that cases extend with tables or edit.
 const BASE: &str = r#"
@@ -110,7 +111,24 @@ fn point_clouds() {
         BASE.replace("output = \"results/\"", &format!("output = \"results/\"\npoint_clouds = {clouds}"))
     };
     check_doc(&with("[\"lidar/a.laz\", \"s3://b/c.LAS\"]"), &[]);
-    check_doc(&with("[\"lidar/a.e57\", \"../b.laz\"]"), &["point_clouds[0]", "point_clouds[1]"]);
+    check_doc(&with("[\"lidar/a.e57\", \"../b.laz\"]"), &["point_clouds[0].url", "point_clouds[1].url"]);
+    // The table form says how to read the cloud; a location alone reads it as its header says.
+    let table = "[\"a.laz\", { url = \"b.laz\", epsg = 25832, time = \"adjusted_standard\", \
+                 mount = { lever_arm_m = [-0.9, 0.0, -1.2], boresight_deg = [0.0, 0.0, 0.0] } }]";
+    let Manifest::V1(m) = Manifest::from_toml_str(&with(table)).unwrap();
+    assert_eq!(m.point_clouds[0].time, CloudTime::Header);
+    assert_eq!(
+        (m.point_clouds[1].time, m.point_clouds[1].epsg.map(|e| e.0)),
+        (CloudTime::AdjustedStandard, Some(25832))
+    );
+    assert_eq!(m.point_clouds[1].mount.unwrap().lever_arm_m, [-0.9, 0.0, -1.2]);
+    let far = "[{ url = \"b.laz\", mount = { lever_arm_m = [40.0, 0.0, 0.0], boresight_deg = [0.0, 0.0, 0.0] } }]";
+    check_doc(&with(far), &["point_clouds[0].mount.lever_arm_m[0]"]);
+    // A misspelt key or time scale is an error naming it.
+    for bad in ["[{ url = \"b.laz\", tme = \"none\" }]", "[{ url = \"b.laz\", time = \"gps\" }]"] {
+        let e = Manifest::from_toml_str(&with(bad)).unwrap_err().to_string();
+        assert!(e.contains("point_clouds") && (e.contains("tme") || e.contains("gps")), "{e}");
+    }
 }
 
 const FRAMES: &str = "[aerial.frames]\nindex = \"aerial/eo.csv\"\nimages = \"aerial/\"\n";

@@ -110,33 +110,26 @@ pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
     let checked = check_extents(file, &bytes)?;
     // Never more than the bytes hold uncompressed (LAZ grows the vector as points arrive).
     let capacity = (bytes.len() as u64 / u64::from(checked.point_record_length)).min(checked.point_count);
-    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
-        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
-    let format = *reader.header().point_format();
-    if !format.has_gps_time {
-        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
-    }
-    let total = reader.header().number_of_points();
     let mut points = Vec::with_capacity(usize::try_from(capacity).unwrap_or(0));
-    let mut first = 0u64;
-    while first < total {
-        let n = BATCH.min(total - first);
-        let batch = unpanicked(|| reader.read_points(n)).map_err(|source| LasError::Records {
-            file: file.to_owned(),
-            first,
-            last: first + n - 1,
-            total,
-            source,
-        })?;
-        if (batch.len() as u64) < n {
-            let missing = format!("{} records missing", n - batch.len() as u64);
-            let source = las::Error::Io(std::io::Error::new(std::io::ErrorKind::UnexpectedEof, missing));
-            return Err(LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source });
-        }
-        append(file, first, &batch, &mut points)?;
-        first += n;
-    }
-    Ok(LasPoints { points, compressed: format.is_compressed })
+    stream_las_points(file, bytes, |batch| points.extend_from_slice(batch))?;
+    Ok(LasPoints { points, compressed: checked.compressed })
+}
+
+/// Stream a LAS or LAZ file's points with their GPS times from memory in batches of up to 65 536, checked as
+/// in [`read_las`]. Returns the header and the points read. A format without GPS time is an error, and so is
+/// a record whose coordinates or time are not finite, naming it.
+pub fn stream_las_points<B: AsRef<[u8]> + Send + Sync + 'static>(
+    file: &str,
+    bytes: B,
+    mut visit: impl FnMut(&[LasPoint]),
+) -> Result<(LasHeader, u64), LasError> {
+    let mut points = Vec::new();
+    stream_batches(file, bytes, true, |first, batch| {
+        points.clear();
+        append(file, first, batch, &mut points)?;
+        visit(&points);
+        Ok(())
+    })
 }
 
 /// Stream a LAS or LAZ file's coordinates from memory in batches of up to 65 536 points, checked as in
@@ -148,20 +141,8 @@ pub fn stream_las_xyz<B: AsRef<[u8]> + Send + Sync + 'static>(
     bytes: B,
     mut visit: impl FnMut(&[[f64; 3]]),
 ) -> Result<(LasHeader, u64), LasError> {
-    let header = check_extents(file, bytes.as_ref())?;
-    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
-        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
-    let total = reader.header().number_of_points();
-    let mut first = 0u64;
     let mut xyz: Vec<[f64; 3]> = Vec::new();
-    while first < total {
-        let n = BATCH.min(total - first);
-        let records = |source| LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source };
-        let batch = unpanicked(|| reader.read_points(n)).map_err(records)?;
-        if (batch.len() as u64) < n {
-            let missing = format!("{} records missing", n - batch.len() as u64);
-            return Err(records(las::Error::Io(std::io::Error::new(std::io::ErrorKind::UnexpectedEof, missing))));
-        }
+    stream_batches(file, bytes, false, |first, batch| {
         xyz.clear();
         for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
             for (field, v) in [("x", x), ("y", y), ("z", z)] {
@@ -172,6 +153,35 @@ pub fn stream_las_xyz<B: AsRef<[u8]> + Send + Sync + 'static>(
             xyz.push([x, y, z]);
         }
         visit(&xyz);
+        Ok(())
+    })
+}
+
+/// The checked reading loop behind the streams: `visit(first record, batch)`.
+fn stream_batches<B: AsRef<[u8]> + Send + Sync + 'static>(
+    file: &str,
+    bytes: B,
+    need_time: bool,
+    mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
+) -> Result<(LasHeader, u64), LasError> {
+    let header = check_extents(file, bytes.as_ref())?;
+    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
+        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
+    let format = *reader.header().point_format();
+    if need_time && !format.has_gps_time {
+        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
+    }
+    let total = reader.header().number_of_points();
+    let mut first = 0u64;
+    while first < total {
+        let n = BATCH.min(total - first);
+        let records = |source| LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source };
+        let batch = unpanicked(|| reader.read_points(n)).map_err(records)?;
+        if (batch.len() as u64) < n {
+            let missing = format!("{} records missing", n - batch.len() as u64);
+            return Err(records(las::Error::Io(std::io::Error::new(std::io::ErrorKind::UnexpectedEof, missing))));
+        }
+        visit(first, &batch)?;
         first += n;
     }
     Ok((header, total))
@@ -324,4 +334,49 @@ pub fn cloud_frames(
         out.push((t, frame));
     }
     out
+}
+
+/// How [`encode_las`] writes a cloud.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LasEncoding {
+    /// LAZ-compressed.
+    pub compressed: bool,
+    /// OGC WKT of the CRS, written as a `LASF_Projection` record 2112 VLR (global-encoding WKT bit set).
+    pub wkt: Option<String>,
+    /// GPS times as adjusted standard GPS time (GPS seconds since 1980-01-06 minus 10⁹, global-encoding bit
+    /// 0 set) instead of GPS week seconds; `gps_week` is the week of the points' week seconds.
+    pub adjusted_standard_week: Option<u32>,
+}
+
+/// A cloud as LAS 1.4 point format 6 (coordinates at millimetre resolution, GPS time), e.g. a simulated
+/// scanner strip. Fails when a coordinate does not fit the millimetre grid around the cloud's first point.
+pub fn encode_las(points: &[LasPoint], encoding: &LasEncoding) -> Result<Vec<u8>, las::Error> {
+    let mut builder = las::Builder::from((1, 4));
+    builder.point_format = las::point::Format::new(6)?;
+    builder.point_format.is_compressed = encoding.compressed;
+    let origin = points.first().map_or([0.0; 3], |p| p.position.map(|v| (v / 1000.0).round() * 1000.0));
+    let t = |offset| las::Transform { scale: 0.001, offset };
+    builder.transforms = las::Vector { x: t(origin[0]), y: t(origin[1]), z: t(origin[2]) };
+    if let Some(wkt) = &encoding.wkt {
+        builder.vlrs.push(las::Vlr {
+            user_id: "LASF_Projection".into(),
+            record_id: 2112,
+            description: "OGC WKT".into(),
+            data: [wkt.as_bytes(), &[0]].concat(),
+        });
+        builder.has_wkt_crs = true;
+    }
+    let time = |t: f64| match encoding.adjusted_standard_week {
+        Some(week) => f64::from(week) * crate::las_header::GPS_WEEK_S + t - 1e9,
+        None => t,
+    };
+    if encoding.adjusted_standard_week.is_some() {
+        builder.gps_time_type = las::GpsTimeType::Standard;
+    }
+    let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header()?)?;
+    for p in points {
+        let [x, y, z] = p.position;
+        writer.write_point(las::Point { x, y, z, gps_time: Some(time(p.gps_time)), ..Default::default() })?;
+    }
+    Ok(writer.into_inner()?.into_inner())
 }

@@ -25,6 +25,8 @@ const PROJECTED_CS_KEY: u16 = 3072;
 const GEOGRAPHIC_CS_KEY: u16 = 2048;
 /// A GeoKey value meaning "user-defined" (no EPSG code).
 const USER_DEFINED: u16 = 32767;
+/// Seconds in a GPS week.
+pub const GPS_WEEK_S: f64 = 604_800.0;
 /// Global encoding bit 0: GPS time is adjusted standard GPS time (standard GPS time − 10⁹ s), not GPS week time.
 const ADJUSTED_GPS_TIME_BIT: u16 = 1;
 /// Global encoding bit 4 (LAS 1.4): the coordinate system is WKT, not GeoTIFF GeoKeys.

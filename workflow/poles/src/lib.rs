@@ -17,6 +17,7 @@
 //! [`stems::StemDetector`] finds poles and trunks in a static cloud (no trajectory, time or scanner needed),
 //! fed by [`las::stream_las_xyz`]: `plumbline poles detect`.
 
+pub mod cloud;
 pub mod cupt;
 pub mod depth;
 pub mod detect;
@@ -28,17 +29,22 @@ pub mod points;
 pub mod report;
 pub mod stems;
 
+pub use cloud::{CloudConfig, CloudCounts, CloudSlicer, ScannerTrack};
 pub use cupt::{CuptConfig, coordinate_updates};
 pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
 pub use detect::{
     DetectConfig, DetectError, Detection, FrameDetections, GROUND_WINDOW, ViewSector, detect, detect_on_ground,
     estimate_ground, ground_among_neighbours, ground_from_neighbours,
 };
-pub use las::{CloudSlicing, LasError, LasPoint, LasPoints, cloud_frames, read_las, stream_las_xyz};
+pub use las::{
+    CloudSlicing, LasEncoding, LasError, LasPoint, LasPoints, cloud_frames, encode_las, read_las, stream_las_points,
+    stream_las_xyz,
+};
 pub use las_header::{LAS_PREFIX_BYTES, LasCrs, LasHeader, LasHeaderError, parse_las_header};
 pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};
 pub use pipeline::{
-    DepthFrame, PointFrame, PoleConfig, PoleOutput, PoleStream, process_depth_frames, process_point_frames,
+    DepthFrame, PointFrame, PoleConfig, PoleOutput, PoleStream, match_inputs, process_depth_frames,
+    process_point_frames,
 };
 pub use points::{FramePoint, FramePoints};
 pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};

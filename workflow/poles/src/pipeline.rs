@@ -13,6 +13,7 @@ use rayon::prelude::*;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
+use crate::cloud::CloudConfig;
 use crate::cupt::{CuptConfig, coordinate_updates};
 use crate::depth::{decode_depth_png, depth_points};
 use crate::detect::{
@@ -35,6 +36,9 @@ pub struct PoleConfig {
     /// Updates.
     #[serde(default)]
     pub cupt: CuptConfig,
+    /// Point clouds: slicing and the stem detector.
+    #[serde(default)]
+    pub clouds: CloudConfig,
 }
 
 /// DG horizontal σ used when a trajectory record carries none, metres.
@@ -242,13 +246,20 @@ impl PoleStream {
     /// report per frame.
     pub fn finish(mut self, cadastre: &[CadastreFeature]) -> PoleOutput {
         self.settle_up_to(self.own.len());
-        let matched = match_frames(&self.inputs, cadastre, &self.config.matching);
-        let updates = coordinate_updates(&self.inputs, &matched, cadastre, &self.config.cupt);
-        let mut reports = frame_reports(&self.inputs, &matched, cadastre, &self.config.cupt);
-        reports.extend(self.failed);
-        reports.sort_by(|a, b| time(a).total_cmp(&time(b)));
-        PoleOutput { updates, reports }
+        let mut output = match_inputs(&self.inputs, cadastre, &self.config);
+        output.reports.extend(self.failed);
+        output.reports.sort_by(|a, b| time(a).total_cmp(&time(b)));
+        output
     }
+}
+
+/// Match frames' detections (in time order) against `cadastre`, compute the updates and report per frame: the
+/// common end of the depth and point-cloud paths.
+pub fn match_inputs(inputs: &[MatchInput], cadastre: &[CadastreFeature], config: &PoleConfig) -> PoleOutput {
+    let matched = match_frames(inputs, cadastre, &config.matching);
+    let updates = coordinate_updates(inputs, &matched, cadastre, &config.cupt);
+    let reports = frame_reports(inputs, &matched, cadastre, &config.cupt);
+    PoleOutput { updates, reports }
 }
 
 /// A depth image's points in the mapping frame, or why there are none.

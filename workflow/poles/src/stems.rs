@@ -5,7 +5,7 @@
 //!
 //! Three passes over the points, each fed in batches so that a file is streamed, never held:
 //! 1. [`StemDetector::ground`]: the ground as the third-lowest height of every 1 m cell (a few stray low
-//!    points do not pull it down);
+//!    points do not pull it down), or a lower cell's within 3 m where the cell saw none (a parked car hid it);
 //! 2. [`StemDetector::collect`]: the points of the breast-height band (1.2–1.4 m above that ground, the
 //!    forester's 1.3 m) are kept; at the pass's end they are linked into clusters (points within `link_m`
 //!    of each other) and a circle is fitted to each (algebraic fit, then Gauss–Newton on the geometric
@@ -31,6 +31,13 @@ use std::collections::HashMap;
 
 use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
+
+/// Cells around a ground cell searched for a lower level, each way (3 m with 1 m cells: the ground a
+/// parked car hides from a roof scanner reaches a few metres behind it).
+const GROUND_REACH_CELLS: i64 = 3;
+/// A cell more than this above the lowest cell within reach saw no ground, m (kerbs are 0.15 m, an 8 %
+/// slope rises 0.24 m over 3 m).
+const GROUND_STEP_M: f64 = 0.5;
 
 /// Parameters of the stem detector.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -179,6 +186,8 @@ pub struct StemDetector {
     config: StemConfig,
     /// The three lowest heights per ground cell.
     cells: HashMap<(i64, i64), [f64; 3]>,
+    /// The ground per cell once the first pass is over (see [`StemDetector::settle_ground`]).
+    levels: Option<HashMap<(i64, i64), f64>>,
     /// The band's points (second pass).
     band: Vec<[f64; 2]>,
     /// The circles fitted in the band (after the second pass).
@@ -195,6 +204,7 @@ impl StemDetector {
         Self {
             config,
             cells: HashMap::new(),
+            levels: None,
             band: Vec::new(),
             candidates: None,
             near: std::collections::HashSet::new(),
@@ -219,16 +229,41 @@ impl StemDetector {
         }
     }
 
+    /// The ground per cell from the first pass: a cell's own level (its third-lowest height), unless a cell
+    /// within [`GROUND_REACH_CELLS`] lies more than [`GROUND_STEP_M`] lower — then the cell saw no ground
+    /// (a parked car, a wall or a stem's foot hid it from the scanner, so its lowest points are on the
+    /// object) and takes that lowest neighbour's level. A terrain step higher than that within the reach (a
+    /// retaining wall) would be taken for such a cell too.
+    fn settle_ground(&mut self) {
+        if self.levels.is_some() {
+            return;
+        }
+        let level = |low: &[f64; 3]| low.iter().rev().copied().find(|v| v.is_finite());
+        let own: HashMap<(i64, i64), f64> = self.cells.iter().filter_map(|(k, low)| Some((*k, level(low)?))).collect();
+        let r = GROUND_REACH_CELLS;
+        let levels = own
+            .iter()
+            .map(|(&(i, j), &g)| {
+                let lowest = (-r..=r)
+                    .flat_map(|di| (-r..=r).map(move |dj| (i + di, j + dj)))
+                    .filter_map(|k| own.get(&k).copied())
+                    .fold(g, f64::min);
+                ((i, j), if g - lowest > GROUND_STEP_M { lowest } else { g })
+            })
+            .collect();
+        self.levels = Some(levels);
+    }
+
     /// The ground height at (x, y): its cell's, or the lowest of its neighbours' when it has none.
     fn ground_at(&self, x: f64, y: f64) -> Option<f64> {
         let (i, j) = self.cell(x, y);
-        let level = |low: &[f64; 3]| low.iter().rev().copied().find(|v| v.is_finite());
-        if let Some(g) = self.cells.get(&(i, j)).and_then(level) {
+        let levels = self.levels.as_ref()?;
+        if let Some(&g) = levels.get(&(i, j)) {
             return Some(g);
         }
         (-1..=1)
             .flat_map(|di| (-1..=1).map(move |dj| (i + di, j + dj)))
-            .filter_map(|k| self.cells.get(&k).and_then(level))
+            .filter_map(|k| levels.get(&k).copied())
             .min_by(f64::total_cmp)
     }
 
@@ -239,6 +274,7 @@ impl StemDetector {
 
     /// Second pass: the same points again; those of the breast-height band are kept.
     pub fn collect(&mut self, batch: &[[f64; 3]]) {
+        self.settle_ground();
         let (centre, half) = (self.config.breast_height_m, self.config.band_half_m);
         for p in batch {
             if self.height(p).is_some_and(|h| (h - centre).abs() <= half) {

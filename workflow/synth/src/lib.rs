@@ -6,6 +6,7 @@ pub mod aerial;
 pub mod cadastre;
 pub mod city_aerial;
 pub mod map;
+pub mod mls;
 pub mod motion;
 pub mod observations;
 pub mod ortho;

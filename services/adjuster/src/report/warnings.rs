@@ -13,7 +13,7 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
     let mut out = Vec::new();
     let updates_of_layer =
         |layer: u32| merged.observations.poles.iter().filter(|p| layer_of(&p.cadastre_id) == Some(layer)).count();
-    let observes_poles = !manifest.depth.is_empty();
+    let observes_poles = !manifest.depth.is_empty() || !manifest.point_clouds.is_empty();
     let mut first_layer = 0u32;
     for (i, cadastre) in manifest.cadastres.iter().enumerate() {
         let layers = u32::try_from(cadastre.layers.len()).unwrap_or(u32::MAX);
@@ -26,7 +26,7 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
         let file = location.rsplit('/').next().unwrap_or(location);
         let skipped = merged.skipped.iter().filter(|s| s.stage == "cadastre" && s.item.contains(file)).count();
         let why = if !observes_poles {
-            "no depth camera in the manifest observes poles".to_owned()
+            "no depth camera or point cloud in the manifest observes poles".to_owned()
         } else if skipped > 0 {
             format!("{skipped} of its items were skipped (listed under skipped items: layers, features or the file)")
         } else {
@@ -68,12 +68,30 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
         }
     }
     for (i, cloud) in manifest.point_clouds.iter().enumerate() {
+        let prefix = plumbline_poles::cloud::frame_prefix(i);
+        let frames: Vec<_> = merged.pole_frames.iter().filter(|f| f.frame.starts_with(&prefix)).collect();
+        let updates = frames.iter().flat_map(|f| &f.matches).filter(|m| m.no_update.is_none()).count();
+        if updates > 0 {
+            continue;
+        }
+        let stems: usize = frames.iter().map(|f| f.detections.len()).sum();
+        let skipped =
+            merged.skipped.iter().filter(|s| s.stage == "poles" && s.item.contains(cloud.url.as_str())).count();
+        let why = if manifest.cadastres.is_empty() {
+            "no cadastre to match its stems against".to_owned()
+        } else if frames.is_empty() && skipped > 0 {
+            format!("{skipped} of its items were skipped (listed under skipped items)")
+        } else if frames.is_empty() {
+            "no time slice of it was searched (do its GPS times match the trajectory's? is it a cloud of this \
+             drive?)"
+                .to_owned()
+        } else {
+            format!("{stems} stems found in {} time slices, none matched to the cadastre", frames.len())
+        };
         out.push(InputWarning {
             input: format!("point_clouds[{i}]"),
-            location: cloud.as_str().to_owned(),
-            message: "point clouds are not read as control by this version: the run used none of its points \
-                      (`plumbline poles detect` makes a pole and tree inventory of it)"
-                .to_owned(),
+            location: cloud.url.as_str().to_owned(),
+            message: format!("0 pole updates from the point cloud: {why}"),
         });
     }
     out
@@ -169,7 +187,7 @@ class = "tree"
         merged.images.push(image(true));
         let left = input_warnings(&manifest, &merged);
         assert_eq!(left.len(), 1);
-        assert!(left[0].message.contains("not read as control"), "{left:?}");
+        assert!(left[0].message.contains("no time slice"), "{left:?}");
         // No pole update at all: every cadastre and the depth camera.
         merged.observations.poles.clear();
         let inputs: Vec<String> = input_warnings(&manifest, &merged).into_iter().map(|w| w.input).collect();

@@ -15,6 +15,8 @@ pub(crate) struct Sections {
     pub panoramas: Option<String>,
     /// `[[depth]]`.
     pub depth: Option<String>,
+    /// `[[point_clouds]]`.
+    pub point_clouds: Option<String>,
     /// `[[cadastres]]`.
     pub cadastre: Option<String>,
     /// `[aerial]`.
@@ -54,7 +56,10 @@ fn header(id: &str, crs: u32, raw: &str) -> String {
 
 /// The header followed by the sections, parsed and validated.
 fn finish(mut text: String, sections: &Sections) -> anyhow::Result<String> {
-    for section in [&sections.panoramas, &sections.depth, &sections.aerial, &sections.cadastre].into_iter().flatten() {
+    for section in [&sections.panoramas, &sections.depth, &sections.point_clouds, &sections.aerial, &sections.cadastre]
+        .into_iter()
+        .flatten()
+    {
         let _ = write!(text, "\n{section}");
     }
     let parsed = Manifest::from_toml_str(&text).map_err(|e| invalid(format!("generated manifest: {e}")))?;

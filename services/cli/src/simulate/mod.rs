@@ -19,6 +19,9 @@
 //!   (`plumbline_synth::render::surface_point`); a correspondence is scored against the point of its pixel;
 //! - `depth/right/`: 16-bit PNG depth images (millimetres) of the side-looking camera, `index.csv`;
 //!   `truth/depth_images.csv`;
+//! - `lidar/strip_NNN.laz` with `--point-cloud laz`: a roof profile scanner's points (LAS 1.4 format 6, GPS
+//!   week seconds, CRS as WKT), traced from the TRUE pose and georeferenced with the DG pose, in strips of at
+//!   most 30 s of scanning (module `lidar`);
 //! - `cadastre/poles.gpkg` (layers `poles`, `trees`, EPSG 4258) and `truth/poles.csv` (module `cadastre`);
 //! - `aerial/`: frames, `exterior_orientation.csv`, orthophoto and terrain GeoTIFFs (module `aerial`);
 //! - `map.png`: the world's buildings, streets, poles, aerial footprints and the drive coloured by DG error;
@@ -36,6 +39,7 @@ mod cadastre;
 mod city;
 mod city_aerial;
 mod imagery;
+mod lidar;
 mod manifest;
 mod writer;
 
@@ -112,6 +116,22 @@ pub struct Args {
     /// File format of the aerial frames (`tiny` and `district`).
     #[arg(long, value_enum, default_value_t = FrameFormat::Jpeg)]
     pub aerial_format: FrameFormat,
+    /// Mobile laser scanning along the drive (`tiny` and `district`): `laz` writes a roof profile scanner's
+    /// strips under `lidar/` and names them in the manifest.
+    #[arg(long, value_enum, default_value_t = PointCloudOutput::None)]
+    pub point_cloud: PointCloudOutput,
+    /// Write no depth images (e.g. to run pole control from the point cloud alone).
+    #[arg(long)]
+    pub no_depth: bool,
+}
+
+/// Point clouds `simulate` can write.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum PointCloudOutput {
+    /// None.
+    None,
+    /// LAZ strips of a roof profile scanner.
+    Laz,
 }
 
 /// A frame size `WIDTHxHEIGHT`, each 100–40000 pixels.
@@ -225,8 +245,14 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         return Err(invalid(format!("--length {length}: expected 50–100000 m")));
     }
     if preset == Preset::City {
-        if args.aerial_frame_px.is_some() || args.aerial_format != FrameFormat::Jpeg {
-            return Err(invalid("--aerial-frame-px and --aerial-format apply to the tiny and district presets"));
+        if args.aerial_frame_px.is_some()
+            || args.aerial_format != FrameFormat::Jpeg
+            || args.point_cloud != PointCloudOutput::None
+            || args.no_depth
+        {
+            return Err(invalid(
+                "--aerial-frame-px, --aerial-format, --point-cloud and --no-depth apply to the tiny and district presets",
+            ));
         }
         return city::generate(args, length, sink);
     }
@@ -257,7 +283,12 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     if !args.navigation_only {
         let sizes = imagery::Sizes::of(args)?;
         sections.panoramas = Some(imagery::panoramas(&world, &drive, &drive_config, &dg, &sizes, sink)?);
-        sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
+        if !args.no_depth {
+            sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
+        }
+        if args.point_cloud == PointCloudOutput::Laz {
+            sections.point_clouds = Some(lidar::write(&world, &drive, &dg, crs, seed, sink)?);
+        }
         sections.cadastre = Some(cadastre::write(&world, crs, seed, sink)?);
         let frames = aerial::FrameOptions::of(args);
         let (section, footprints) = aerial::write(&world, &frames, seed, sink)?;

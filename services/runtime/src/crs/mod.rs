@@ -119,6 +119,12 @@ pub fn crs_name(epsg: u32) -> Result<String, CrsError> {
     Ok(spatial_ref(epsg)?.name().unwrap_or_else(|| format!("EPSG:{epsg}")))
 }
 
+/// The OGC WKT of `epsg` (as a LAS file's `LASF_Projection` record carries it).
+pub fn wkt_of_epsg(epsg: u32) -> Result<String, CrsError> {
+    let srs = spatial_ref(epsg)?;
+    srs.to_wkt().map_err(|source| CrsError::UnknownEpsg { code: epsg, source })
+}
+
 /// The EPSG code of a CRS given as WKT (e.g. a LAS file's `LASF_Projection` record), when GDAL/PROJ can
 /// identify one; `None` for a WKT it cannot parse or a CRS without a code.
 pub fn epsg_of_wkt(wkt: &str) -> Option<u32> {

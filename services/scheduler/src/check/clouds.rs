@@ -1,14 +1,14 @@
 //! Point clouds: the LAS/LAZ header read from the file's first bytes (one range read) — version, point format,
-//! count, bounds over the drive, CRS, GPS time — and a warning that the run does not use them as control.
+//! count, bounds over the drive, CRS (the header's or the manifest's `epsg`), GPS time (or `time = "none"`).
 
-use plumbline_campaign::Location;
+use plumbline_campaign::manifest::{CloudTime, PointCloud};
 use plumbline_poles::las_header::{LAS_PREFIX_BYTES, LasCrs, parse_las_header};
 
 use super::{Checker, RASTER_REACH_M};
 
 /// Check one point cloud's header.
-pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, location: &Location) {
-    let Some(url) = c.url(field, location) else { return };
+pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, cloud: &PointCloud) {
+    let Some(url) = c.url(field, &cloud.url) else { return };
     let (prefix, len) = match c.files.read_prefix(&url, LAS_PREFIX_BYTES as u64).await {
         Ok(read) => read,
         Err(e) => return c.problem(field, format!("`{url}`: {e:#}")),
@@ -34,23 +34,50 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, location: &Loc
             ),
         );
     }
-    match &header.crs {
-        LasCrs::GeoKeys { epsg: Some(epsg) } if *epsg != c.epsg => {
-            let campaign = c.epsg;
-            c.problem(field, format!("`{url}` is in EPSG:{epsg}, the campaign in EPSG:{campaign}"));
-        }
-        LasCrs::Missing => c.warning(field, format!("`{url}` names no CRS; it is taken to be the campaign's")),
-        _ => {}
-    }
-    if !header.has_gps_time() {
-        c.warning(field, format!("`{url}`: point format {} has no GPS time", header.point_format));
-    }
-    c.warning(
-        field,
-        format!(
-            "`{url}` (LAS {}.{}, format {}, {} points) is not read as control by this version: the run uses depth \
-             images for poles (`plumbline poles detect` makes a pole and tree inventory of the cloud)",
-            header.version.0, header.version.1, header.point_format, header.point_count
+    let campaign = c.epsg;
+    let header_epsg = match &header.crs {
+        LasCrs::GeoKeys { epsg } => *epsg,
+        LasCrs::Wkt(wkt) => plumbline_runtime::crs::epsg_of_wkt(wkt),
+        _ => None,
+    };
+    match (cloud.epsg.map(|e| e.0), header_epsg) {
+        (Some(given), _) if given != campaign => c.problem(
+            field,
+            format!("`{url}`: `epsg = {given}` differs from the campaign's EPSG:{campaign}; reproject the cloud first"),
         ),
-    );
+        (Some(_), _) => {}
+        (None, Some(epsg)) if epsg != campaign => c.problem(
+            field,
+            format!(
+                "`{url}` is in EPSG:{epsg}, the campaign in EPSG:{campaign}: reproject the cloud, or set `epsg` \
+                 if its CRS record is wrong"
+            ),
+        ),
+        (None, Some(_)) => {}
+        (None, None) if matches!(header.crs, LasCrs::Missing) => {
+            c.warning(field, format!("`{url}` names no CRS; it is taken to be the campaign's (set `epsg` to say so)"))
+        }
+        (None, None) => c.warning(
+            field,
+            format!("`{url}`: its CRS record names no EPSG code; it is taken to be the campaign's (set `epsg`)"),
+        ),
+    }
+    if cloud.time == CloudTime::None {
+        c.warning(
+            field,
+            format!(
+                "`{url}` is declared without GPS time: it gives no pole control (`plumbline poles detect` makes a \
+                 pole and tree inventory of it)"
+            ),
+        );
+    } else if !header.has_gps_time() {
+        c.warning(
+            field,
+            format!(
+                "`{url}`: point format {} has no GPS time, so the cloud gives no pole control (declare \
+                 `time = \"none\"` to say so; `plumbline poles detect` makes a pole and tree inventory of it)",
+                header.point_format
+            ),
+        );
+    }
 }

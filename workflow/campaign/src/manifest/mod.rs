@@ -3,6 +3,7 @@
 
 mod aerial;
 mod cadastre;
+mod clouds;
 mod imagery;
 mod parameters;
 mod trajectory;
@@ -12,6 +13,7 @@ use serde::{Deserialize, Serialize};
 
 pub use aerial::{Aerial, DEFAULT_AERIAL_GSD_M, FrameBlock, InteriorOrientation, Orthophoto};
 pub use cadastre::{Cadastre, ClassAccuracy, PoleClass};
+pub use clouds::{CloudTime, PointCloud};
 pub use imagery::{CameraMount, DepthCamera, DepthIntrinsics, Panoramas};
 pub use parameters::{Adjustment, Parameters, PoleParameters, Registration, RobustLoss};
 pub use trajectory::{AttitudeConvention, CsvTrajectory, SbetTrajectory, TrajectorySource};
@@ -58,9 +60,10 @@ pub struct ManifestV1 {
     /// Depth cameras, for pole detection.
     #[serde(default)]
     pub depth: Vec<DepthCamera>,
-    /// LAS/LAZ point clouds of the drives, for pole detection.
+    /// LAS/LAZ point clouds of the drives, for pole detection: each a location, or a table with `url`, `epsg`,
+    /// `time` and `mount`.
     #[serde(default)]
-    pub point_clouds: Vec<Location>,
+    pub point_clouds: Vec<PointCloud>,
     /// Aerial images of the area: frames with orientations and/or an orthophoto.
     pub aerial: Option<Aerial>,
     /// Cadastres of pole-like objects used as 2D control.

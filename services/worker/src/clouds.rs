@@ -1,0 +1,218 @@
+//! The point-cloud side of a tile's poles: each manifest cloud whose header bounds reach the tile is streamed
+//! through a `plumbline_poles::CloudSlicer`, which keeps the slices whose middle time falls in the tile's
+//! share of the drive (`CampaignPlan::time_spans_of`), so every slice is searched by exactly one tile. Its
+//! frames then go through the depth path's matching and updates.
+//!
+//! A cloud that cannot be used is a skipped item naming the file and why (unreadable, not LAS, another CRS,
+//! no GPS time); one corrupt record ends that cloud's reading, keeping the slices already searched.
+
+use std::sync::Arc;
+use std::time::Instant;
+
+use nalgebra::Vector3;
+use plumbline_campaign::CadastreFeature;
+use plumbline_campaign::manifest::{CloudTime, PointCloud};
+use plumbline_geo::TrajectoryRecord;
+use plumbline_geo::dg::{Boresight, CameraMount};
+use plumbline_geo::tiling::{BBox, TileId};
+use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
+use plumbline_poles::cloud::frame_prefix;
+use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasCrs, LasHeader, parse_las_header};
+use plumbline_poles::{CloudCounts, CloudSlicer, LasPoint, MatchInput, PoleConfig, match_inputs, stream_las_points};
+use plumbline_runtime::Files;
+use plumbline_scheduler::{Campaign, SkippedInput};
+
+use crate::fetch::{SkipReason, blocking, skipped};
+use crate::panoramas::position_sigma;
+use crate::poles::PoleResults;
+
+/// A cloud is read by a tile when its header bounds come this close to the tile's fetch box, metres.
+const REACH_M: f64 = 30.0;
+
+/// Search the tile's slices of every point cloud, match them against `features` and add the updates,
+/// frame reports and skipped items to `out`.
+pub(crate) async fn process(
+    files: &Files,
+    campaign: &Campaign,
+    tile: &TileId,
+    fetch: &BBox,
+    config: &PoleConfig,
+    features: &Arc<Vec<CadastreFeature>>,
+    out: &mut PoleResults,
+) -> anyhow::Result<()> {
+    let spans = campaign.plan.time_spans_of(tile);
+    if spans.is_empty() {
+        return Ok(());
+    }
+    let mut inputs: Vec<MatchInput> = Vec::new();
+    let mut trajectory: Option<Arc<Trajectory>> = None;
+    for (i, cloud) in campaign.manifest.point_clouds.iter().enumerate() {
+        if cloud.time == CloudTime::None {
+            continue;
+        }
+        let t0 = Instant::now();
+        let url = match campaign.url(&cloud.url) {
+            Ok(url) => url,
+            Err(e) => {
+                out.skipped.push(skipped("poles", cloud.url.as_str(), SkipReason::Url, format!("{e:#}")));
+                continue;
+            }
+        };
+        let header = match read_header(files, &url).await {
+            Ok(h) => h,
+            Err(s) => {
+                out.skipped.push(s);
+                continue;
+            }
+        };
+        if !reaches(&header, fetch) {
+            continue;
+        }
+        if let Err(detail) = check_header(&header, cloud, campaign.manifest.crs.0, &url) {
+            out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+            continue;
+        }
+        let bytes = match files.read(&url).await {
+            Ok(b) => b,
+            Err(e) => {
+                let reason = SkipReason::of_store(&e);
+                out.skipped.push(skipped("poles", &url, reason, format!("{url}: cannot be read: {e:#}")));
+                continue;
+            }
+        };
+        out.read_s += t0.elapsed().as_secs_f64();
+        let t1 = Instant::now();
+        let trajectory = Arc::clone(trajectory.get_or_insert_with(|| Arc::new(campaign.trajectory.trajectory.clone())));
+        let adjusted = match cloud.time {
+            CloudTime::AdjustedStandard => true,
+            CloudTime::WeekSeconds => false,
+            CloudTime::Header | CloudTime::None => header.adjusted_standard_gps_time,
+        };
+        let mount = scanner_mount(cloud);
+        let (cloud_config, spans, name) = (config.clouds, spans.clone(), url.clone());
+        let (read, found, counts) = blocking(move || {
+            let track = move |t: f64| {
+                let record = trajectory.interpolate(t, PositionInterpolation::Linear).ok()?;
+                Some((origin(&mount, &record), position_sigma(&record)))
+            };
+            let mut slicer = CloudSlicer::new(cloud_config, &frame_prefix(i), track, spans);
+            let mut converted: Vec<LasPoint> = Vec::new();
+            let read = stream_las_points(&name, bytes, |batch| {
+                converted.clear();
+                converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
+                slicer.push(&converted);
+            });
+            let (found, counts) = slicer.finish();
+            (read.map(|_| ()), found, counts)
+        })
+        .await?;
+        out.process_s += t1.elapsed().as_secs_f64();
+        if let Err(e) = read {
+            out.skipped.push(skipped(
+                "poles",
+                &url,
+                SkipReason::Decode,
+                format!("{e} (the slices before it are used)"),
+            ));
+        }
+        report_counts(&url, &counts, out);
+        tracing::debug!(cloud = %url, ?counts, frames = found.len(), "point cloud searched");
+        inputs.extend(found);
+    }
+    if inputs.is_empty() {
+        return Ok(());
+    }
+    inputs.sort_by(|a, b| a.time.total_cmp(&b.time));
+    let t2 = Instant::now();
+    let (features, config) = (Arc::clone(features), *config);
+    let output = blocking(move || match_inputs(&inputs, &features, &config)).await?;
+    out.process_s += t2.elapsed().as_secs_f64();
+    out.updates.extend(output.updates);
+    out.reports.extend(output.reports);
+    Ok(())
+}
+
+/// The header from the file's first bytes (one range read).
+async fn read_header(files: &Files, url: &str) -> Result<LasHeader, SkippedInput> {
+    let (prefix, len) = files
+        .read_prefix(url, LAS_PREFIX_BYTES as u64)
+        .await
+        .map_err(|e| skipped("poles", url, SkipReason::of_store(&e), format!("{url}: cannot be read: {e:#}")))?;
+    parse_las_header(url, &prefix, Some(len)).map_err(|e| skipped("poles", url, SkipReason::Decode, e.to_string()))
+}
+
+/// Whether the cloud's bounds come within [`REACH_M`] of the fetch box.
+fn reaches(h: &LasHeader, fetch: &BBox) -> bool {
+    h.point_count > 0
+        && h.min[0] <= fetch.max_east + REACH_M
+        && h.max[0] >= fetch.min_east - REACH_M
+        && h.min[1] <= fetch.max_north + REACH_M
+        && h.max[1] >= fetch.min_north - REACH_M
+}
+
+/// Why a cloud cannot give control in a campaign of `campaign_epsg`, if it cannot.
+fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<(), String> {
+    if !h.has_gps_time() {
+        return Err(format!("{url}: point format {} has no GPS time: no pole control from it", h.point_format));
+    }
+    let header_epsg = match &h.crs {
+        LasCrs::GeoKeys { epsg } => *epsg,
+        LasCrs::Wkt(wkt) => plumbline_runtime::crs::epsg_of_wkt(wkt),
+        _ => None,
+    };
+    match (cloud.epsg.map(|e| e.0), header_epsg) {
+        (Some(given), _) if given != campaign_epsg => {
+            Err(format!("{url}: `epsg = {given}` is not the campaign's EPSG:{campaign_epsg}; reproject the cloud"))
+        }
+        (None, Some(epsg)) if epsg != campaign_epsg => {
+            Err(format!("{url} is in EPSG:{epsg}, the campaign in EPSG:{campaign_epsg}; reproject the cloud"))
+        }
+        _ => Ok(()),
+    }
+}
+
+/// A point time in GPS seconds of the week: adjusted standard GPS time is GPS seconds since 1980-01-06 minus
+/// 10⁹, so adding 10⁹ back and taking the remainder of a week gives the week seconds (the trajectory's scale).
+fn week_seconds(t: f64, adjusted: bool) -> f64 {
+    if adjusted { (t + 1e9).rem_euclid(GPS_WEEK_S) } else { t }
+}
+
+/// The scanner's mount (the navigation reference point when the manifest gives none).
+fn scanner_mount(cloud: &PointCloud) -> CameraMount {
+    let (lever, [r, p, y]) = cloud.mount.map_or(([0.0; 3], [0.0; 3]), |m| (m.lever_arm_m, m.boresight_deg));
+    CameraMount::new(lever, &Boresight::from_degrees(r, p, y))
+}
+
+/// The scanner centre at a DG record.
+fn origin(mount: &CameraMount, record: &TrajectoryRecord) -> Vector3<f64> {
+    mount.camera_pose(&record.pose()).translation.p
+}
+
+/// Points that could not be used are counted as a skipped item (never silently dropped).
+fn report_counts(url: &str, c: &CloudCounts, out: &mut PoleResults) {
+    if c.late > 0 {
+        let detail = format!(
+            "{url}: {} of {} points came after their time slice was searched (the cloud is not in GPS-time order) \
+             and were not used",
+            c.late, c.points
+        );
+        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+    }
+    if c.off_trajectory > 0 {
+        let detail = format!("{url}: {} time slices lie outside the DG trajectory and were not used", c.off_trajectory);
+        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn adjusted_standard_gps_time_becomes_week_seconds() {
+        // GPS week 2000 starts 2000 · 604 800 s after the GPS epoch; 345 600 s into it is Thursday 0 h.
+        let standard = 2000.0 * GPS_WEEK_S + 345_600.25;
+        assert!((week_seconds(standard - 1e9, true) - 345_600.25).abs() < 1e-6);
+        assert_eq!(week_seconds(345_600.25, false), 345_600.25);
+    }
+}

@@ -1,0 +1,349 @@
+//! A mobile-laser-scanning cloud as pole control: the cloud is georeferenced with the DG trajectory, so the
+//! stems it shows carry the DG error of the time they were scanned. Points are streamed in GPS-time order and
+//! cut into time slices; each slice's stems are found by [`StemDetector`] in a window reaching `margin_s`
+//! beyond the slice (a stem scanned across a slice border is whole in both windows, and belongs to the slice
+//! its band points' mean time falls in). A slice with its stems becomes one [`MatchInput`] at the mean time
+//! of its stems, seen from the scanner position then: the same input the depth path makes per image, so
+//! matching and coordinate updates are the depth path's.
+//!
+//! Memory holds the points of one window (slice plus two margins), whatever the cloud's size. Points that
+//! arrive after their window was processed (a cloud not in time order, e.g. a tiled product) are counted,
+//! not used.
+
+use std::ops::Range;
+
+use nalgebra::Vector3;
+use serde::{Deserialize, Serialize};
+
+use crate::detect::{Detection, FrameDetections, ViewSector};
+use crate::las::LasPoint;
+use crate::matching::MatchInput;
+use crate::stems::{Stem, StemConfig, StemDetector};
+
+/// How a cloud is cut and searched.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct CloudConfig {
+    /// Length of a slice (one matching frame), seconds of GPS time.
+    pub slice_s: f64,
+    /// Points this long before and after a slice join its search window, seconds: long enough for the
+    /// scanner to sweep a stem whole (a profile scanner across the drive sweeps a stem in a few hundredths of
+    /// a second; one tilted forward sees it over longer).
+    pub margin_s: f64,
+    /// Stems farther from the scanner than this give no coordinate update, metres (detection only).
+    pub reliable_range_m: f64,
+    /// The stem detector. Its defaults here differ from an inventory's ([`StemConfig::default`]) where a
+    /// moving scanner sees less than a static survey: a band of 1.05–1.55 m (a stem 10 m away is crossed by
+    /// few profiles, each measuring it every 7 cm of height at 0.4°), a base hidden up to 1.2 m (a parked
+    /// car between the scanner and the stem), a top from 1.7 m (a crown hanging low). Control needs the
+    /// stem's centre, not its full height.
+    pub stems: StemConfig,
+}
+
+impl Default for CloudConfig {
+    fn default() -> Self {
+        let stems = StemConfig { band_half_m: 0.25, max_base_m: 1.2, min_top_m: 1.7, ..StemConfig::default() };
+        Self { slice_s: 1.0, margin_s: 0.5, reliable_range_m: 25.0, stems }
+    }
+}
+
+impl CloudConfig {
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), String> {
+        for (field, value) in
+            [("slice_s", self.slice_s), ("margin_s", self.margin_s), ("reliable_range_m", self.reliable_range_m)]
+        {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(format!("clouds.{field} = {value}: expected a finite number > 0"));
+            }
+        }
+        self.stems.check()
+    }
+}
+
+/// Where the scanner was and how uncertain the DG position is at a time: `None` where the trajectory does not
+/// reach (the slice is skipped and counted).
+pub trait ScannerTrack {
+    /// Scanner centre through the DG pose (mapping frame) and the DG horizontal σ per axis at `time`.
+    fn at(&self, time: f64) -> Option<(Vector3<f64>, f64)>;
+}
+
+impl<F: Fn(f64) -> Option<(Vector3<f64>, f64)>> ScannerTrack for F {
+    fn at(&self, time: f64) -> Option<(Vector3<f64>, f64)> {
+        self(time)
+    }
+}
+
+/// How the frames (time slices) of the manifest's point cloud `i` are named: this prefix and the slice's
+/// middle time.
+pub fn frame_prefix(i: usize) -> String {
+    format!("point_clouds[{i}]@")
+}
+
+/// What a [`CloudSlicer`] saw.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+pub struct CloudCounts {
+    /// Points received.
+    pub points: u64,
+    /// Points in a wanted time span's windows (the others were passed over).
+    pub used: u64,
+    /// Points that arrived after their window was processed (not in time order).
+    pub late: u64,
+    /// Slices searched.
+    pub slices: u64,
+    /// Slices off the trajectory.
+    pub off_trajectory: u64,
+    /// Stems found (each once, in the slice of its scan time).
+    pub stems: u64,
+}
+
+/// Cuts a stream of points into slices and finds each slice's stems (see the module).
+#[derive(Debug)]
+pub struct CloudSlicer<T> {
+    config: CloudConfig,
+    prefix: String,
+    track: T,
+    /// Time spans whose slices are searched (sorted, trajectory time scale).
+    wanted: Vec<Range<f64>>,
+    /// Points of the windows not yet processed.
+    window: Vec<LasPoint>,
+    /// The next slice to process.
+    next: Option<i64>,
+    inputs: Vec<MatchInput>,
+    counts: CloudCounts,
+}
+
+impl<T: ScannerTrack> CloudSlicer<T> {
+    /// A slicer searching the slices whose middle lies in one of `wanted` (e.g. a tile's share of the
+    /// drive); frames are named `{prefix}{slice middle time}`.
+    pub fn new(config: CloudConfig, prefix: &str, track: T, mut wanted: Vec<Range<f64>>) -> Self {
+        wanted.sort_by(|a, b| a.start.total_cmp(&b.start));
+        Self {
+            config,
+            prefix: prefix.to_owned(),
+            track,
+            wanted,
+            window: Vec::new(),
+            next: None,
+            inputs: Vec::new(),
+            counts: CloudCounts::default(),
+        }
+    }
+
+    fn slice_of(&self, t: f64) -> i64 {
+        (t / self.config.slice_s).floor() as i64
+    }
+
+    fn slice_span(&self, k: i64) -> Range<f64> {
+        let s = self.config.slice_s;
+        k as f64 * s..(k + 1) as f64 * s
+    }
+
+    fn is_wanted(&self, k: i64) -> bool {
+        let mid = (k as f64 + 0.5) * self.config.slice_s;
+        self.wanted.iter().any(|w| w.contains(&mid))
+    }
+
+    /// Whether a point's time is inside the window of a wanted slice.
+    fn needed(&self, t: f64) -> bool {
+        let m = self.config.margin_s + self.config.slice_s;
+        self.wanted.iter().any(|w| t >= w.start - m && t < w.end + m)
+    }
+
+    /// A batch of points, in time order (within a margin).
+    pub fn push(&mut self, batch: &[LasPoint]) {
+        for p in batch {
+            self.counts.points += 1;
+            if !self.needed(p.gps_time) {
+                continue;
+            }
+            let k = self.slice_of(p.gps_time);
+            if let Some(next) = self.next
+                && self.slice_span(next).start - self.config.margin_s > p.gps_time
+            {
+                self.counts.late += 1;
+                continue;
+            }
+            self.counts.used += 1;
+            let next = *self.next.get_or_insert(k);
+            // Every slice whose window ends before this point is complete.
+            let mut pending = next;
+            while self.slice_span(pending).end + self.config.margin_s <= p.gps_time {
+                pending += 1;
+            }
+            if pending > next {
+                self.process_until(pending);
+            }
+            self.window.push(*p);
+        }
+    }
+
+    /// Process the slices before `end` that hold points, and drop the points no later window needs.
+    fn process_until(&mut self, end: i64) {
+        let Some(mut k) = self.next else { return };
+        while k < end {
+            // Skip over slices without points.
+            let first = self.window.iter().map(|p| p.gps_time).fold(f64::INFINITY, f64::min);
+            if first.is_finite() {
+                k = k.max(self.slice_of(first - self.config.margin_s));
+            } else {
+                k = end;
+                break;
+            }
+            if k >= end {
+                break;
+            }
+            if self.is_wanted(k) {
+                self.process(k);
+            }
+            k += 1;
+            let keep_from = self.slice_span(k).start - self.config.margin_s;
+            self.window.retain(|p| p.gps_time >= keep_from);
+        }
+        self.next = Some(end.max(k));
+    }
+
+    /// Find the stems of slice `k` in its window.
+    fn process(&mut self, k: i64) {
+        let span = self.slice_span(k);
+        let m = self.config.margin_s;
+        let points: Vec<&LasPoint> =
+            self.window.iter().filter(|p| p.gps_time >= span.start - m && p.gps_time < span.end + m).collect();
+        if points.is_empty() {
+            return;
+        }
+        self.counts.slices += 1;
+        let xyz: Vec<[f64; 3]> = points.iter().map(|p| p.position).collect();
+        let mut detector = StemDetector::new(self.config.stems);
+        detector.ground(&xyz);
+        detector.collect(&xyz);
+        detector.surroundings(&xyz);
+        let stems: Vec<(Stem, f64)> = detector
+            .finish()
+            .into_iter()
+            .filter_map(|s| scan_time(&s, &points, &self.config.stems).map(|t| (s, t)))
+            .filter(|(_, t)| span.contains(t))
+            .collect();
+        let time = if stems.is_empty() {
+            0.5 * (span.start + span.end)
+        } else {
+            stems.iter().map(|(_, t)| t).sum::<f64>() / stems.len() as f64
+        };
+        let Some((origin, dg_sigma_m)) = self.track.at(time) else {
+            self.counts.off_trajectory += 1;
+            return;
+        };
+        self.counts.stems += stems.len() as u64;
+        let ground = median(stems.iter().map(|(s, _)| s.ground_m).collect()).unwrap_or(origin.z);
+        let detections = stems.iter().map(|(s, _)| detection(s, &origin, self.config.reliable_range_m)).collect();
+        let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
+        self.inputs.push(MatchInput {
+            frame: format!("{}{:.1}", self.prefix, 0.5 * (span.start + span.end)),
+            time,
+            dg_sigma_m,
+            detections: FrameDetections { ground_height_m: ground, view, detections },
+        });
+    }
+
+    /// Process what is left; the frames (in time order) and the counts.
+    pub fn finish(mut self) -> (Vec<MatchInput>, CloudCounts) {
+        self.process_until(i64::MAX);
+        (self.inputs, self.counts)
+    }
+}
+
+/// The mean GPS time of a stem's band points (within 5 cm of its circle): when it was scanned.
+fn scan_time(stem: &Stem, points: &[&LasPoint], c: &StemConfig) -> Option<f64> {
+    let r = 0.5 * stem.diameter_m + 0.05;
+    let band = stem.ground_m + c.breast_height_m - c.band_half_m..stem.ground_m + c.breast_height_m + c.band_half_m;
+    let (mut sum, mut n) = (0.0, 0usize);
+    for p in points {
+        let [x, y, z] = p.position;
+        if band.contains(&z) && (x - stem.centre[0]).hypot(y - stem.centre[1]) <= r {
+            sum += p.gps_time;
+            n += 1;
+        }
+    }
+    (n > 0).then(|| sum / n as f64)
+}
+
+/// A stem as the matcher's detection, its range from the scanner at the slice's time.
+fn detection(s: &Stem, origin: &Vector3<f64>, reliable_range_m: f64) -> Detection {
+    let range_m = (s.centre[0] - origin.x).hypot(s.centre[1] - origin.y);
+    Detection {
+        centre: s.centre,
+        covariance: s.covariance,
+        diameter_m: s.diameter_m,
+        diameter_sigma_m: s.diameter_sigma_m,
+        height_extent_m: s.extent_m,
+        ground_height_m: s.ground_m,
+        points: s.points,
+        range_m,
+        lean: s.lean,
+        slices: ((s.extent_m[1] - s.extent_m[0]) / 0.2).round() as usize,
+        reliable: range_m <= reliable_range_m,
+    }
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    v.sort_by(f64::total_cmp);
+    v.get(v.len() / 2).copied()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A pole of 0.3 m at (5, 20) swept by 200 profiles/s across a drive along north at 10 m/s from t = 100 s.
+    fn swept_pole() -> Vec<LasPoint> {
+        let mut out = Vec::new();
+        for i in 0..800 {
+            let t = 100.0 + f64::from(i) * 0.005;
+            let y = 10.0 * (t - 100.0);
+            // Ground points across the street.
+            for k in 0..60 {
+                out.push(LasPoint { position: [-6.0 + 0.2 * f64::from(k), y, 0.0], gps_time: t });
+            }
+            // The pole's face toward the drive line (radius 0.15 m) where the profile crosses it.
+            let dy = y - 20.0;
+            if dy.abs() < 0.15 {
+                let x = 5.0 - (0.0225 - dy * dy).sqrt();
+                for h in 0..100 {
+                    out.push(LasPoint { position: [x, y, 0.05 * f64::from(h)], gps_time: t });
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_swept_pole_is_one_detection_in_the_slice_of_its_scan_time() {
+        let points = swept_pole();
+        let track = |t: f64| Some((Vector3::new(0.0, 10.0 * (t - 100.0), 2.5), 0.3));
+        let mut slicer = CloudSlicer::new(CloudConfig::default(), "c:", track, vec![0.0..1e9]);
+        for batch in points.chunks(1000) {
+            slicer.push(batch);
+        }
+        let (inputs, counts) = slicer.finish();
+        assert_eq!(counts.late, 0);
+        let found: Vec<(&MatchInput, &Detection)> =
+            inputs.iter().flat_map(|i| i.detections.detections.iter().map(move |d| (i, d))).collect();
+        assert_eq!(found.len(), 1, "{counts:?}");
+        let (input, d) = found[0];
+        assert!((input.time - 102.0).abs() < 0.02, "{}", input.time);
+        assert!((d.centre[0] - 5.0).hypot(d.centre[1] - 20.0) < 0.02, "{d:?}");
+        assert!((d.range_m - 5.0).abs() < 0.1, "{d:?}");
+    }
+
+    #[test]
+    fn slices_outside_the_wanted_spans_are_passed_over() {
+        let points = swept_pole();
+        let track = |t: f64| Some((Vector3::new(0.0, 10.0 * (t - 100.0), 2.5), 0.3));
+        let mut slicer = CloudSlicer::new(CloudConfig::default(), "c:", track, vec![104.0..105.0]);
+        slicer.push(&points);
+        let (inputs, counts) = slicer.finish();
+        assert!(inputs.iter().all(|i| i.detections.detections.is_empty()));
+        assert_eq!(counts.stems, 0);
+        assert!(counts.used < counts.points);
+    }
+}
