@@ -1,6 +1,7 @@
 //! Pole benchmark (`cargo bench -p plumbline-poles`): detections per second from depth images (decode +
 //! back-projection + detection, the renderer excluded), points per second reading LAS and LAZ, and the
-//! issue-6 figures (recall, precision, χ²) on a `district` world. Environment: POLE_BENCH_LENGTH (route
+//! issue-6 figures (recall, precision, χ²) on a `district` world, the same for the roof laser scanner's
+//! cloud (`cloud_accuracy`). Environment: POLE_BENCH_LENGTH (route
 //! metres, default 2000), POLE_BENCH_WIDTH (depth image width, default 640; height = width × 9/16),
 //! POLE_BENCH_RATE (Hz, default 1), POLE_BENCH_SEED (default 1).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
@@ -17,9 +18,12 @@ use las::{Builder, Point, Transform, Vector, Writer, point::Format};
 use plumbline_campaign::Location;
 use plumbline_campaign::manifest::{CameraMount as ManifestMount, DepthCamera};
 use plumbline_poles::pipeline::DepthFrame;
+use std::collections::{BTreeMap, HashMap};
+
 use plumbline_poles::{
-    DetectConfig, PoleConfig, StemConfig, StemDetector, decode_depth_png, depth_points, detect, process_depth_frames,
-    read_las, stream_las_xyz,
+    CloudConfig, CloudSlicer, DetectConfig, FrameReport, LasEncoding, LasPoint, PoleConfig, StemConfig, StemDetector,
+    decode_depth_png, depth_points, detect, encode_las, match_inputs, process_depth_frames, read_las,
+    stream_las_points, stream_las_xyz,
 };
 use plumbline_synth::sensors::Mount;
 use plumbline_synth::world::Preset;
@@ -51,6 +55,7 @@ fn main() {
     );
     depth_throughput(&sc, &pngs);
     accuracy(&sc, &pngs);
+    cloud_accuracy(&sc);
     las_throughput();
     stems_throughput();
 }
@@ -194,4 +199,137 @@ impl AsRef<[u8]> for ArcBytes {
     fn as_ref(&self) -> &[u8] {
         self.0.as_slice()
     }
+}
+
+/// Issue-20 figures: the roof laser scanner (`plumbline_synth::mls`) along the whole route, strip by strip
+/// (30 s of scanning each) made, compressed to LAZ, streamed back through a `CloudSlicer` and matched like
+/// depth frames. Recall counts the world's poles within 15 m of the true drive (all of them, and those the
+/// scanner hit at least 10 times 1.0–1.6 m above ground); a detection is of the pole within 0.5 m of its
+/// centre less the DG error at its slice's time.
+fn cloud_accuracy(sc: &Scenario) {
+    use plumbline_geo::PositionInterpolation::Linear;
+    use plumbline_synth::mls::{ProfileScanner, profile_times, scan_profiles};
+    use plumbline_synth::world::Surface;
+    let scanner = ProfileScanner::ROOF;
+    let mount = scanner.camera_mount();
+    let (truth, dg) = (&sc.drive.trajectory, &sc.dg.trajectory);
+    let times = profile_times(&sc.drive, &scanner).unwrap();
+    let track = |t: f64| {
+        let r = dg.interpolate(t, Linear).ok()?;
+        let sigma = r.std.map_or(1.0, |s| s.east.max(s.north));
+        Some((mount.camera_pose(&r.pose()).translation.p, sigma))
+    };
+    let all = vec![f64::NEG_INFINITY..f64::INFINITY];
+    let mut slicer = CloudSlicer::new(CloudConfig::default(), "c@", track, all);
+    let mut band_hits: HashMap<u32, usize> = HashMap::new();
+    let ground = sc.world.config.ground_height;
+    let (mut points, mut bytes, mut scan_s, mut read_s, mut slice_s) = (0usize, 0usize, 0.0, 0.0, 0.0);
+    let encoding = LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None };
+    for strip in times.chunks((30.0 * scanner.profile_rate_hz) as usize) {
+        let t = Instant::now();
+        let scanned = scan_profiles(&sc.world, truth, dg, &scanner, strip, sc.seed).unwrap();
+        for p in &scanned {
+            if let Surface::Pole(id) = p.surface
+                && (1.0..=1.6).contains(&(p.truth[2] - ground))
+            {
+                *band_hits.entry(id).or_default() += 1;
+            }
+        }
+        let las: Vec<LasPoint> =
+            scanned.iter().map(|p| LasPoint { position: p.position, gps_time: p.gps_time }).collect();
+        let laz = std::sync::Arc::new(encode_las(&las, &encoding).unwrap());
+        scan_s += t.elapsed().as_secs_f64();
+        (points, bytes) = (points + las.len(), bytes + laz.len());
+        let t = Instant::now();
+        stream_las_points("strip", ArcBytes(laz.clone()), |_| {}).unwrap();
+        read_s += t.elapsed().as_secs_f64();
+        let t = Instant::now();
+        stream_las_points("strip", ArcBytes(laz), |b| slicer.push(b)).unwrap();
+        slice_s += t.elapsed().as_secs_f64();
+    }
+    let t = Instant::now();
+    let (inputs, counts) = slicer.finish();
+    slice_s += t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let out = match_inputs(&inputs, &sc.features(), &PoleConfig::default());
+    let match_s = t.elapsed().as_secs_f64();
+
+    // DG error (horizontal) at a time, and a detection's pole.
+    let dg_error = |t: f64| {
+        let (d, r) = (dg.interpolate(t, Linear).unwrap(), truth.interpolate(t, Linear).unwrap());
+        [d.position.x() - r.position.x(), d.position.y() - r.position.y()]
+    };
+    let pole_of = |t: f64, c: [f64; 2]| {
+        let e = dg_error(t);
+        sc.world_pole([c[0] - e[0], c[1] - e[1]])
+    };
+    let records: Vec<[f64; 2]> = truth.records().iter().map(|r| [r.position.x(), r.position.y()]).collect();
+    let near = |p: &plumbline_synth::world::Pole| {
+        records.iter().step_by(20).any(|r| (r[0] - p.base[0]).hypot(r[1] - p.base[1]) <= 15.0)
+    };
+    let by_key: HashMap<String, &plumbline_synth::cadastre::CadastreObject> =
+        sc.cadastre.iter().filter_map(|o| o.cadastre_id.map(|id| (format!("0:{id}"), o))).collect();
+    let (mut detected, mut matches, mut wrong) = (std::collections::BTreeSet::new(), 0usize, 0usize);
+    let mut false_detections = 0usize;
+    for report in &out.reports {
+        let FrameReport::V1(r) = report;
+        let truth_of: Vec<Option<u32>> = r.detections.iter().map(|d| pole_of(r.time, d.centre)).collect();
+        false_detections += truth_of.iter().filter(|t| t.is_none()).count();
+        detected.extend(truth_of.iter().flatten().copied());
+        for m in &r.matches {
+            matches += 1;
+            if by_key[&m.cadastre_id].world_id != truth_of[m.detection] {
+                wrong += 1;
+            }
+        }
+    }
+    println!("\n| laser scanner (roof profile scanner, {} profiles/s) | value |\n|---|---|", scanner.profile_rate_hz);
+    println!("| points / LAZ bytes | {:.1} M / {:.0} MB |", points as f64 / 1e6, bytes as f64 / 1e6);
+    println!("| scan + compress (simulation) | {scan_s:.1} s |");
+    println!("| LAZ read | {read_s:.1} s ({:.2} M points/s) |", points as f64 / read_s / 1e6);
+    println!("| LAZ read + slices + stems | {slice_s:.1} s ({:.2} M points/s) |", points as f64 / slice_s / 1e6);
+    println!("| matching | {match_s:.2} s |\n| slices searched | {} |", counts.slices);
+    for (name, trees) in [("poles", false), ("trees", true)] {
+        let class = |p: &&plumbline_synth::world::Pole| (p.class == plumbline_synth::world::PoleClass::Tree) == trees;
+        let near: Vec<u32> = sc.world.poles.iter().filter(class).filter(|p| near(p)).map(|p| p.id).collect();
+        let hit: Vec<u32> = near.iter().copied().filter(|id| band_hits.get(id).is_some_and(|&n| n >= 10)).collect();
+        let found = |ids: &[u32]| ids.iter().filter(|id| detected.contains(id)).count();
+        println!(
+            "| {name} within 15 m: detected / all | {} / {} ({:.1} %) |",
+            found(&near),
+            near.len(),
+            100.0 * found(&near) as f64 / near.len().max(1) as f64
+        );
+        println!(
+            "| {name} hit ≥ 10× at 1.0–1.6 m: detected / all | {} / {} ({:.1} %) |",
+            found(&hit),
+            hit.len(),
+            100.0 * found(&hit) as f64 / hit.len().max(1) as f64
+        );
+    }
+    println!("| detections off any pole (> 0.5 m) | {false_detections} |");
+    println!(
+        "| matches / wrong | {matches} / {wrong} (precision {:.2} %) |",
+        100.0 * (1.0 - wrong as f64 / matches.max(1) as f64)
+    );
+    // χ² of the CUPTs per pole (the cadastre error shared by a pole's updates), as for the depth path.
+    let mut per_pole: BTreeMap<String, Vec<([f64; 2], f64, f64)>> = BTreeMap::new();
+    for u in &out.updates {
+        let e = dg_error(u.time);
+        let r = [u.cadastre[0] - (u.observed[0] - e[0]), u.cadastre[1] - (u.observed[1] - e[1])];
+        per_pole.entry(u.cadastre_id.clone()).or_default().push((r, u.sigma_camera, u.sigma_pole));
+    }
+    let dof = 2 * per_pole.len();
+    let chi2: f64 = per_pole
+        .values()
+        .map(|rs| {
+            let m = rs.len() as f64;
+            let mean = rs.iter().fold([0.0; 2], |a, (r, _, _)| [a[0] + r[0] / m, a[1] + r[1] / m]);
+            let cam = rs.iter().map(|(_, c, _)| c * c).sum::<f64>() / m;
+            (mean[0].powi(2) + mean[1].powi(2)) / (rs[0].2.powi(2) + cam / m)
+        })
+        .sum();
+    let (lo, hi) = chi2_bounds(dof);
+    println!("| CUPTs / poles with CUPTs | {} / {} |", out.updates.len(), per_pole.len());
+    println!("| χ² (dof {dof}) | {chi2:.1} (1 % bounds {lo:.1}–{hi:.1}) |");
 }

@@ -17,7 +17,7 @@ use rayon::prelude::*;
 use crate::motion::Drive;
 use crate::observations::normal;
 use crate::sensors::{self, Mount, SensorError};
-use crate::world::{Epoch, World};
+use crate::world::{Epoch, Surface, World};
 
 /// A profile scanner and how it is mounted.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -60,13 +60,17 @@ impl ProfileScanner {
     }
 }
 
-/// One georeferenced point of the cloud.
+/// One georeferenced point of the cloud, with its truth.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MlsPoint {
     /// Easting, northing, height through the DG pose, metres.
     pub position: [f64; 3],
     /// GPS time (the trajectory's time scale), seconds.
     pub gps_time: f64,
+    /// Where the shot truly hit (no noise), metres.
+    pub truth: [f64; 3],
+    /// What it hit.
+    pub surface: Surface,
 }
 
 /// The profile times of the drive: `profile_rate_hz` while the vehicle moves.
@@ -111,7 +115,8 @@ pub fn scan_profiles(
                 let noise = scanner.range_sigma_m * normal(&mut rng);
                 let Some(hit) = world.trace(&origin, &d, scanner.max_range_m, Epoch::Mobile) else { continue };
                 let p = mount.georeference(&dg_body, &r_c, hit.t + noise).p;
-                out.push(MlsPoint { position: [p.x, p.y, p.z], gps_time: time });
+                let truth = [hit.point.x, hit.point.y, hit.point.z];
+                out.push(MlsPoint { position: [p.x, p.y, p.z], gps_time: time, truth, surface: hit.surface });
             }
             Ok(out)
         })
