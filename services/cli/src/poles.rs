@@ -6,8 +6,8 @@
 //! `plumbline poles compare`: such a layer against a cadastre — matched (with the distance), in the cloud but
 //! not in the cadastre, in the cadastre but not seen (within the covered cells).
 //!
-//! Each cloud is streamed three times from its bytes (ground, breast-height band, the surroundings of the
-//! band's circles), never decoded whole;
+//! Each cloud is streamed three times by range reads of 8 MiB (ground, breast-height band, the surroundings
+//! of the band's circles), never held or decoded whole;
 //! all clouds given are one scene (tiles of a block). The CRS is `--epsg`, else the one the clouds record
 //! (GeoTIFF keys or WKT, all the same), else none — the layer then has no CRS and stderr says so.
 
@@ -17,9 +17,13 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand};
 use plumbline_campaign::manifest::{Cadastre, ClassAccuracy, PoleClass};
 use plumbline_campaign::{CadastreFeature, Epsg, Location};
-use plumbline_poles::{LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz};
+use plumbline_poles::las_header::LAS_PREFIX_BYTES;
+use plumbline_poles::{
+    LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from,
+};
 use plumbline_runtime::cadastre::{CadastreSource, inspect_cadastre, read_cadastre};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer, geopackage_in};
+use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
 
 use crate::exit::invalid;
 use crate::io::{Context, file_name};
@@ -100,8 +104,9 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     // The CRS each cloud records, from its header.
     let mut recorded: Vec<(String, Option<u32>)> = Vec::new();
     for url in &args.clouds {
-        let bytes = ctx.read(url).await?;
-        let header = parse_las_header(file_name(url), &bytes, None).map_err(|e| invalid(format!("point cloud {e}")))?;
+        let (prefix, _) = ctx.files().read_prefix(url, LAS_PREFIX_BYTES as u64).await?;
+        let header =
+            parse_las_header(file_name(url), &prefix, None).map_err(|e| invalid(format!("point cloud {e}")))?;
         let epsg = match &header.crs {
             LasCrs::GeoKeys { epsg } => *epsg,
             LasCrs::Wkt(wkt) => plumbline_runtime::epsg_of_wkt(wkt),
@@ -143,10 +148,11 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     let mut total = 0u64;
     for pass in 0..3 {
         for url in &args.clouds {
-            let bytes = ctx.read(url).await?;
+            let reader = RangeReader::open(ctx.files(), url, DEFAULT_WINDOW).await?;
             let name = file_name(url).to_owned();
             let (returned, read) = tokio::task::spawn_blocking(move || {
-                let read = stream_las_xyz(&name, bytes, |batch| match pass {
+                let len = reader.size();
+                let read = stream_las_xyz_from(&name, reader, len, |batch| match pass {
                     0 => detector.ground(batch),
                     1 => detector.collect(batch),
                     _ => detector.surroundings(batch),

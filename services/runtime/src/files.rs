@@ -7,7 +7,8 @@ use crate::errors::invalid;
 use crate::gdal_read::PixelInput;
 use crate::store::StoreLocation;
 use crate::store::{
-    GdalRemote, S3Options, StoreErrorKind, gdal_remote, head_url, read_url, read_url_prefix, write_url,
+    GdalRemote, S3Options, StoreErrorKind, gdal_remote, head_url, read_url, read_url_prefix, read_url_range,
+    size_of_url, write_url,
 };
 
 /// Reads and writes files by path or URL (`file://`, `s3://`, plain paths).
@@ -38,6 +39,21 @@ impl Files {
     /// missing file is invalid input naming it.
     pub async fn read_prefix(&self, url: &str, max: u64) -> anyhow::Result<(Bytes, u64)> {
         read_url_prefix(url, &self.s3, max).await.map_err(|e| {
+            if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
+        })
+    }
+
+    /// Bytes `range` of a file (one range request; the range must lie within the file). A missing file is
+    /// invalid input naming it.
+    pub async fn read_range(&self, url: &str, range: std::ops::Range<u64>) -> anyhow::Result<Bytes> {
+        read_url_range(url, &self.s3, range).await.map_err(|e| {
+            if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
+        })
+    }
+
+    /// A file's size in bytes. A missing file is invalid input naming it.
+    pub async fn size(&self, url: &str) -> anyhow::Result<u64> {
+        size_of_url(url, &self.s3).await.map_err(|e| {
             if e.kind() == StoreErrorKind::NotFound { invalid(format!("{url}: not found")) } else { e.into() }
         })
     }

@@ -27,6 +27,7 @@ pub mod gdal_read;
 pub mod gdal_write;
 pub mod logging;
 pub mod progress;
+pub mod range_reader;
 pub mod secret;
 pub mod store;
 pub mod telemetry;
@@ -38,6 +39,7 @@ pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, epsg_of_wkt
 pub use errors::{InvalidInput, OrInvalid, invalid, is_invalid};
 pub use files::{Files, file_name};
 pub use logging::{TracingError, TracingGuard, init_tracing};
+pub use range_reader::RangeReader;
 pub use secret::Secret;
 pub use store::{
     GdalRemote, PART_SIZE, S3Options, StoreError, StoreErrorKind, StoreRoot, StreamingUpload, gdal_remote, get_bytes,

@@ -1,11 +1,11 @@
 //! LAS/LAZ point clouds (the usual mobile-laser-scanning product) from bytes: mapping-frame coordinates with
 //! their GPS time. The coordinates are taken to be in the campaign CRS (the services check the file's CRS).
 
-use std::io::Cursor;
+use std::io::{Cursor, Read, Seek, SeekFrom};
 
 use las::Reader;
 
-use crate::las_header::{LasHeader, LasHeaderError, parse_las_header, take};
+use crate::las_header::{LAS_PREFIX_BYTES, LasHeader, LasHeaderError, parse_las_header};
 
 /// Points read per batch; a failing batch names its first record.
 const BATCH: u64 = 65_536;
@@ -107,7 +107,8 @@ pub struct LasPoints {
 /// decoder can panic on corrupt compressed data (laz-rs issue #43: a division by zero, and debug assertions);
 /// such a panic becomes the error of the header or the batch of records being read.
 pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
-    let checked = check_extents(file, &bytes)?;
+    let len = bytes.len() as u64;
+    let checked = check_extents(file, len, |at, n| Ok(slice_at(&bytes, at, n)))?;
     // Never more than the bytes hold uncompressed (LAZ grows the vector as points arrive).
     let capacity = (bytes.len() as u64 / u64::from(checked.point_record_length)).min(checked.point_count);
     let mut points = Vec::with_capacity(usize::try_from(capacity).unwrap_or(0));
@@ -123,8 +124,9 @@ pub fn stream_las_points<B: AsRef<[u8]> + Send + Sync + 'static>(
     bytes: B,
     mut visit: impl FnMut(&[LasPoint]),
 ) -> Result<(LasHeader, u64), LasError> {
+    let len = bytes.as_ref().len() as u64;
     let mut points = Vec::new();
-    stream_batches(file, bytes, true, |first, batch| {
+    stream_batches(file, Cursor::new(bytes), len, true, |first, batch| {
         points.clear();
         append(file, first, batch, &mut points)?;
         visit(&points);
@@ -139,34 +141,55 @@ pub fn stream_las_points<B: AsRef<[u8]> + Send + Sync + 'static>(
 pub fn stream_las_xyz<B: AsRef<[u8]> + Send + Sync + 'static>(
     file: &str,
     bytes: B,
-    mut visit: impl FnMut(&[[f64; 3]]),
+    visit: impl FnMut(&[[f64; 3]]),
 ) -> Result<(LasHeader, u64), LasError> {
-    let mut xyz: Vec<[f64; 3]> = Vec::new();
-    stream_batches(file, bytes, false, |first, batch| {
-        xyz.clear();
-        for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
-            for (field, v) in [("x", x), ("y", y), ("z", z)] {
-                if !v.is_finite() {
-                    return Err(LasError::NotFinite { file: file.to_owned(), record: first + i as u64, field });
-                }
-            }
-            xyz.push([x, y, z]);
-        }
-        visit(&xyz);
+    let len = bytes.as_ref().len() as u64;
+    stream_las_xyz_from(file, Cursor::new(bytes), len, visit)
+}
+
+/// Stream a LAS or LAZ file's points with their GPS times from any seekable source of `len` bytes (a file, or
+/// an object read by range requests), as [`stream_las_points`] does from memory: the header, the first
+/// extended VLR and a LAZ chunk table are checked by reading just those bytes, then the points are decoded
+/// as the source delivers them, so memory holds what the source buffers and one batch.
+pub fn stream_las_points_from<R: Read + Seek + Send + Sync + 'static>(
+    file: &str,
+    source: R,
+    len: u64,
+    mut visit: impl FnMut(&[LasPoint]),
+) -> Result<(LasHeader, u64), LasError> {
+    let mut points = Vec::new();
+    stream_batches(file, source, len, true, |first, batch| {
+        points.clear();
+        append(file, first, batch, &mut points)?;
+        visit(&points);
         Ok(())
     })
 }
 
-/// The checked reading loop behind the streams: `visit(first record, batch)`.
-fn stream_batches<B: AsRef<[u8]> + Send + Sync + 'static>(
+/// [`stream_las_xyz`] from any seekable source of `len` bytes (see [`stream_las_points_from`]).
+pub fn stream_las_xyz_from<R: Read + Seek + Send + Sync + 'static>(
     file: &str,
-    bytes: B,
+    source: R,
+    len: u64,
+    mut visit: impl FnMut(&[[f64; 3]]),
+) -> Result<(LasHeader, u64), LasError> {
+    let mut xyz: Vec<[f64; 3]> = Vec::new();
+    stream_batches(file, source, len, false, |first, batch| xyz_of(file, first, batch, &mut xyz).map(|()| visit(&xyz)))
+}
+
+/// The checked reading loop behind the streams: `visit(first record, batch)`.
+fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
+    file: &str,
+    mut source: R,
+    len: u64,
     need_time: bool,
     mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
 ) -> Result<(LasHeader, u64), LasError> {
-    let header = check_extents(file, bytes.as_ref())?;
-    let mut reader = unpanicked(|| Reader::new(Cursor::new(bytes)))
-        .map_err(|source| LasError::Header { file: file.to_owned(), source })?;
+    let io = |source| LasError::Header { file: file.to_owned(), source: las::Error::Io(source) };
+    let header = check_extents(file, len, |at, n| read_at(&mut source, at, n))?;
+    source.seek(SeekFrom::Start(0)).map_err(io)?;
+    let mut reader =
+        unpanicked(|| Reader::new(source)).map_err(|source| LasError::Header { file: file.to_owned(), source })?;
     let format = *reader.header().point_format();
     if need_time && !format.has_gps_time {
         return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
@@ -199,9 +222,22 @@ fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
 /// The header checked, and what the `las` and `laz` crates would allocate from it bounded by the file:
 /// the end of the point records representable, the first extended VLR inside the file, a LAZ chunk table's
 /// count within what the compressed points can hold. A truncated point section is left to the reader, whose
-/// error names the failing records.
-fn check_extents(file: &str, bytes: &[u8]) -> Result<LasHeader, LasError> {
-    let header = parse_las_header(file, bytes, None).map_err(LasError::HeaderField)?;
+/// error names the failing records. `at(offset, n)` gives up to `n` bytes of the `len`-byte file from
+/// `offset` (fewer at its end).
+fn check_extents(
+    file: &str,
+    len: u64,
+    mut at: impl FnMut(u64, usize) -> std::io::Result<Vec<u8>>,
+) -> Result<LasHeader, LasError> {
+    let io = |source| LasError::Header { file: file.to_owned(), source: las::Error::Io(source) };
+    let prefix_len = usize::try_from(len.min(LAS_PREFIX_BYTES as u64)).unwrap_or(LAS_PREFIX_BYTES);
+    let prefix = at(0, prefix_len).map_err(io)?;
+    let mut take8 = |offset: u64| -> Result<Option<[u8; 8]>, LasError> {
+        let bytes = at(offset, 8).map_err(io)?;
+        Ok(bytes.as_slice().try_into().ok())
+    };
+    // The length is left out: a point section cut short is the reader's error, which names the records.
+    let header = parse_las_header(file, &prefix, None).map_err(LasError::HeaderField)?;
     let invalid =
         |field, problem| LasError::HeaderField(LasHeaderError::Invalid { file: file.to_owned(), field, problem });
     let offset = u64::from(header.offset_to_point_data);
@@ -210,11 +246,13 @@ fn check_extents(file: &str, bytes: &[u8]) -> Result<LasHeader, LasError> {
         let problem = format!("{} records of {record_length} bytes end past any file", header.point_count);
         return Err(invalid("point_count", problem));
     }
-    let len = bytes.len() as u64;
     // The reader reads the first EVLR when both fields are non-zero.
     let evlr = header.start_of_first_evlr;
     if evlr > 0 && header.number_of_evlrs > 0 {
-        let data_len = evlr.checked_add(20).and_then(|at| take::<8>(bytes, at)).map(u64::from_le_bytes);
+        let data_len = match evlr.checked_add(20) {
+            Some(field) => take8(field)?.map(u64::from_le_bytes),
+            None => None,
+        };
         let end = data_len.and_then(|n| evlr.checked_add(EVLR_HEADER_LEN)?.checked_add(n)).filter(|end| *end <= len);
         if end.is_none() {
             let problem = format!("the extended VLR at byte {evlr} does not end within the file ({len} bytes)");
@@ -222,7 +260,7 @@ fn check_extents(file: &str, bytes: &[u8]) -> Result<LasHeader, LasError> {
         }
     }
     if header.compressed {
-        check_chunk_table(file, bytes, offset, header.point_record_length)?;
+        check_chunk_table(file, len, &mut take8, offset, header.point_record_length)?;
     }
     Ok(header)
 }
@@ -230,22 +268,27 @@ fn check_extents(file: &str, bytes: &[u8]) -> Result<LasHeader, LasError> {
 /// The LAZ chunk table's count against the compressed bytes before it. Its offset is the first 8 bytes of
 /// the point data, or the file's last 8 when the writer could not go back (as the `laz` crate finds it); a
 /// table the reader will not find is left to it.
-fn check_chunk_table(file: &str, bytes: &[u8], data_start: u64, record_length: u16) -> Result<(), LasError> {
+fn check_chunk_table(
+    file: &str,
+    len: u64,
+    take8: &mut impl FnMut(u64) -> Result<Option<[u8; 8]>, LasError>,
+    data_start: u64,
+    record_length: u16,
+) -> Result<(), LasError> {
     // A negative offset counts as "not written", like one before the data.
-    let offset_at = |at: u64| take::<8>(bytes, at).map(|b| u64::try_from(i64::from_le_bytes(b)).unwrap_or(0));
-    let Some(mut table) = offset_at(data_start) else { return Ok(()) };
+    let mut offset_at = |at: u64| take8(at).map(|b| b.map(|b| u64::try_from(i64::from_le_bytes(b)).unwrap_or(0)));
+    let Some(mut table) = offset_at(data_start)? else { return Ok(()) };
     if table <= data_start {
-        let last = (bytes.len() as u64).saturating_sub(8);
-        let Some(at_end) = offset_at(last) else { return Ok(()) };
+        let Some(at_end) = offset_at(len.saturating_sub(8))? else { return Ok(()) };
         table = at_end;
     }
     if table <= data_start {
         return Ok(());
     }
-    let Some(chunks) = take::<4>(bytes, table + 4).map(u32::from_le_bytes) else {
+    // The table starts with its version (4 bytes) and its chunk count (4 bytes).
+    let Some(chunks) = take8(table)?.map(|b| u32::from_le_bytes([b[4], b[5], b[6], b[7]])) else {
         let problem = format!(
-            "announces the LAZ chunk table at byte {table}, past the end of the file ({} bytes): the file is truncated",
-            bytes.len()
+            "announces the LAZ chunk table at byte {table}, past the end of the file ({len} bytes): the file is truncated"
         );
         return Err(LasError::HeaderField(LasHeaderError::Invalid {
             file: file.to_owned(),
@@ -258,6 +301,35 @@ fn check_chunk_table(file: &str, bytes: &[u8], data_start: u64, record_length: u
     let max = room / u64::from(record_length) + 1;
     if u64::from(chunks) > max {
         return Err(LasError::ChunkTable { file: file.to_owned(), table, chunks, room, max, record_length });
+    }
+    Ok(())
+}
+
+/// Up to `n` bytes of `bytes` from `at` (fewer at the end, none past it).
+fn slice_at(bytes: &[u8], at: u64, n: usize) -> Vec<u8> {
+    let start = usize::try_from(at).unwrap_or(usize::MAX).min(bytes.len());
+    bytes[start..start.saturating_add(n).min(bytes.len())].to_vec()
+}
+
+/// Up to `n` bytes of a seekable source from `at` (fewer at its end).
+fn read_at<R: Read + Seek>(source: &mut R, at: u64, n: usize) -> std::io::Result<Vec<u8>> {
+    source.seek(SeekFrom::Start(at))?;
+    let mut out = Vec::with_capacity(n.min(LAS_PREFIX_BYTES));
+    source.take(n as u64).read_to_end(&mut out)?;
+    Ok(out)
+}
+
+/// A batch's coordinates into `out` (cleared first); a coordinate that is not finite is an error naming its
+/// record.
+fn xyz_of(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<[f64; 3]>) -> Result<(), LasError> {
+    out.clear();
+    for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
+        for (field, v) in [("x", x), ("y", y), ("z", z)] {
+            if !v.is_finite() {
+                return Err(LasError::NotFinite { file: file.to_owned(), record: first + i as u64, field });
+            }
+        }
+        out.push([x, y, z]);
     }
     Ok(())
 }

@@ -38,7 +38,7 @@ pub use detect::{
 };
 pub use las::{
     CloudSlicing, LasEncoding, LasError, LasPoint, LasPoints, cloud_frames, encode_las, read_las, stream_las_points,
-    stream_las_xyz,
+    stream_las_points_from, stream_las_xyz, stream_las_xyz_from,
 };
 pub use las_header::{LAS_PREFIX_BYTES, LasCrs, LasHeader, LasHeaderError, parse_las_header};
 pub use matching::{Match, MatchConfig, MatchInput, MatchedFrame, Unmatched, UnmatchedReason, match_frames};

@@ -143,6 +143,18 @@ pub async fn read_url_prefix(url: &str, s3: &S3Options, max: u64) -> Result<(Byt
     Ok((bytes, meta.size))
 }
 
+/// Reads bytes `range` of the object an object URL names (one range request; the range must lie within it).
+pub async fn read_url_range(url: &str, s3: &S3Options, range: std::ops::Range<u64>) -> Result<Bytes, StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    store.get_range(&key, range).await.map_err(|e| StoreError::from_store("read range of", url, e))
+}
+
+/// The size of the object an object URL names, in bytes (its metadata only).
+pub async fn size_of_url(url: &str, s3: &S3Options) -> Result<u64, StoreError> {
+    let (store, key) = open_object(url, s3)?;
+    Ok(store.head(&key).await.map_err(|e| StoreError::from_store("head", url, e))?.size)
+}
+
 /// How GDAL reads an object in place with its own range requests: a GDAL path and the GDAL options (set per
 /// thread while the file is open) that carry the store's endpoint and credentials.
 #[derive(Clone, Debug, PartialEq)]
