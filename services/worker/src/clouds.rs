@@ -3,11 +3,15 @@
 //! share of the drive (`CampaignPlan::time_spans_of`), so every slice is searched by exactly one tile. Its
 //! frames then go through the depth path's matching and updates.
 //!
+//! A cloud without GPS time (declared `time = "none"`, or a point format without it: merged or tiled
+//! products) gives weaker control: its stems near the tile are found in three streamed passes and each takes
+//! the time the drive passed nearest to it (`plumbline_poles::untimed_inputs`).
 //! A cloud is read by range requests (`RangeReader`, 8 MiB at a time, from disk or S3) and decoded as it
 //! arrives: a tile holds one window of the file and one time window of points, whatever the file's size.
 //! A cloud that cannot be used is a skipped item naming the file and why (unreadable, not LAS, another CRS,
 //! no GPS time); one corrupt record ends that cloud's reading, keeping the slices already searched.
 
+use std::ops::Range;
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -21,7 +25,8 @@ use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
 use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasCrs, LasHeader, parse_las_header};
 use plumbline_poles::{
-    CloudCounts, CloudSlicer, LasPoint, MatchInput, PoleConfig, match_inputs, stream_las_points_from,
+    CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemDetector,
+    match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
 };
 use plumbline_runtime::Files;
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
@@ -52,9 +57,6 @@ pub(crate) async fn process(
     let mut inputs: Vec<MatchInput> = Vec::new();
     let mut trajectory: Option<Arc<Trajectory>> = None;
     for (i, cloud) in campaign.manifest.point_clouds.iter().enumerate() {
-        if cloud.time == CloudTime::None {
-            continue;
-        }
         let t0 = Instant::now();
         let url = match campaign.url(&cloud.url) {
             Ok(url) => url,
@@ -88,38 +90,23 @@ pub(crate) async fn process(
         out.read_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let trajectory = Arc::clone(trajectory.get_or_insert_with(|| Arc::new(campaign.trajectory.trajectory.clone())));
-        let adjusted = match cloud.time {
-            CloudTime::AdjustedStandard => true,
-            CloudTime::WeekSeconds => false,
-            CloudTime::Header | CloudTime::None => header.adjusted_standard_gps_time,
-        };
-        let mount = scanner_mount(cloud);
-        let (cloud_config, spans, name) = (config.clouds, spans.clone(), url.clone());
-        let (read, found, counts) = blocking(move || {
-            let track = move |t: f64| {
-                let record = trajectory.interpolate(t, PositionInterpolation::Linear).ok()?;
-                Some((origin(&mount, &record), position_sigma(&record)))
+        let timed = cloud.time != CloudTime::None && header.has_gps_time();
+        let (read, found, counts) = if timed {
+            let adjusted = match cloud.time {
+                CloudTime::AdjustedStandard => true,
+                CloudTime::WeekSeconds => false,
+                CloudTime::Header | CloudTime::None => header.adjusted_standard_gps_time,
             };
-            let mut slicer = CloudSlicer::new(cloud_config, &frame_prefix(i), track, spans);
-            let mut converted: Vec<LasPoint> = Vec::new();
-            let len = reader.size();
-            let read = stream_las_points_from(&name, reader, len, |batch| {
-                converted.clear();
-                converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
-                slicer.push(&converted);
-            });
-            let (found, counts) = slicer.finish();
-            (read.map(|_| ()), found, counts)
-        })
-        .await?;
+            let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
+            blocking(move || timed_stream(spec, trajectory, reader, adjusted)).await?
+        } else {
+            let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
+            untimed_stream(files, &url, spec, trajectory, *fetch).await?
+        };
         out.process_s += t1.elapsed().as_secs_f64();
         if let Err(e) = read {
-            out.skipped.push(skipped(
-                "poles",
-                &url,
-                SkipReason::Decode,
-                format!("{e} (the slices before it are used)"),
-            ));
+            let detail = format!("{e} (the slices before it are used)");
+            out.skipped.push(skipped("poles", &url, SkipReason::Decode, detail));
         }
         report_counts(&url, &counts, out);
         tracing::debug!(cloud = %url, ?counts, frames = found.len(), "point cloud searched");
@@ -136,6 +123,98 @@ pub(crate) async fn process(
     out.updates.extend(output.updates);
     out.reports.extend(output.reports);
     Ok(())
+}
+
+/// How one cloud is searched.
+struct Stream {
+    /// Its index in the manifest (names its frames).
+    index: usize,
+    mount: CameraMount,
+    config: CloudConfig,
+    /// The tile's share of the drive.
+    spans: Vec<Range<f64>>,
+}
+
+type Searched = (Result<(), LasError>, Vec<MatchInput>, CloudCounts);
+
+/// The scanner's DG position and σ at a time.
+fn track(trajectory: Arc<Trajectory>, mount: CameraMount) -> impl Fn(f64) -> Option<(Vector3<f64>, f64)> {
+    move |t: f64| {
+        let record = trajectory.interpolate(t, PositionInterpolation::Linear).ok()?;
+        Some((origin(&mount, &record), position_sigma(&record)))
+    }
+}
+
+/// A cloud with GPS time, streamed once through a [`CloudSlicer`] (on a blocking thread).
+fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, adjusted: bool) -> Searched {
+    let track = track(trajectory, spec.mount);
+    let mut slicer = CloudSlicer::new(spec.config, &frame_prefix(spec.index), track, spec.spans);
+    let mut converted: Vec<LasPoint> = Vec::new();
+    let (name, len) = (format!("point_clouds[{}]", spec.index), reader.size());
+    let read = stream_las_points_from(&name, reader, len, |batch| {
+        converted.clear();
+        converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
+        slicer.push(&converted);
+    });
+    let (found, counts) = slicer.finish();
+    (read.map(|_| ()), found, counts)
+}
+
+/// A cloud without GPS time: its stems near the tile (three streamed passes by range reads, points beyond
+/// [`REACH_M`] of the fetch box passed over), each timed by the drive's nearest pass (`untimed_inputs`).
+async fn untimed_stream(
+    files: &Files,
+    url: &str,
+    spec: Stream,
+    trajectory: Arc<Trajectory>,
+    fetch: BBox,
+) -> anyhow::Result<Searched> {
+    let mut detector = StemDetector::new(spec.config.stems);
+    let b = fetch;
+    let inside = move |p: &[f64; 3]| {
+        p[0] >= b.min_east - REACH_M
+            && p[0] <= b.max_east + REACH_M
+            && p[1] >= b.min_north - REACH_M
+            && p[1] <= b.max_north + REACH_M
+    };
+    let mut points = 0u64;
+    for pass in 0..3 {
+        let reader = RangeReader::open(files, url, DEFAULT_WINDOW).await?;
+        let name = url.to_owned();
+        let (returned, read) = blocking(move || {
+            let mut near: Vec<[f64; 3]> = Vec::new();
+            let len = reader.size();
+            let read = stream_las_xyz_from(&name, reader, len, |batch| {
+                near.clear();
+                near.extend(batch.iter().filter(|p| inside(p)));
+                match pass {
+                    0 => detector.ground(&near),
+                    1 => detector.collect(&near),
+                    _ => detector.surroundings(&near),
+                }
+            });
+            (detector, read)
+        })
+        .await?;
+        detector = returned;
+        match read {
+            Ok((_, n)) if pass == 0 => points = n,
+            Ok(_) => {}
+            Err(e) => return Ok((Err(e), Vec::new(), CloudCounts::default())),
+        }
+    }
+    let found = blocking(move || {
+        let stems = detector.finish();
+        let positions = trajectory.records().iter().map(|r| (r.time, [r.position.x(), r.position.y()]));
+        let passes = PassIndex::new(positions, 0.5);
+        let track = track(trajectory, spec.mount);
+        let prefix = frame_prefix(spec.index);
+        untimed_inputs(&stems, &passes, spec.config.reliable_range_m, &spec.spans, &prefix, &track, &spec.config)
+    })
+    .await?;
+    let (inputs, mut counts) = found;
+    counts.points = points;
+    Ok((Ok(()), inputs, counts))
 }
 
 /// The header from the file's first bytes (one range read).
@@ -158,9 +237,6 @@ fn reaches(h: &LasHeader, fetch: &BBox) -> bool {
 
 /// Why a cloud cannot give control in a campaign of `campaign_epsg`, if it cannot.
 fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<(), String> {
-    if !h.has_gps_time() {
-        return Err(format!("{url}: point format {} has no GPS time: no pole control from it", h.point_format));
-    }
     let header_epsg = match &h.crs {
         LasCrs::GeoKeys { epsg } => *epsg,
         LasCrs::Wkt(wkt) => plumbline_runtime::crs::epsg_of_wkt(wkt),
@@ -201,6 +277,14 @@ fn report_counts(url: &str, c: &CloudCounts, out: &mut PoleResults) {
             "{url}: {} of {} points came after their time slice was searched (the cloud is not in GPS-time order) \
              and were not used",
             c.late, c.points
+        );
+        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+    }
+    if c.ambiguous > 0 {
+        let detail = format!(
+            "{url}: {} stems lie near two passes of the drive and were not used (the cloud has no GPS time to say \
+             which pass scanned them)",
+            c.ambiguous
         );
         out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
     }

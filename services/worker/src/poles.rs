@@ -8,7 +8,7 @@ use std::time::Instant;
 
 use bytes::Bytes;
 use plumbline_adjustment::PoleUpdate;
-use plumbline_campaign::manifest::{Cadastre, CloudTime, DepthCamera};
+use plumbline_campaign::manifest::{Cadastre, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
 use plumbline_geo::TrajectoryRecord;
@@ -71,7 +71,7 @@ pub(crate) async fn process(
 ) -> anyhow::Result<PoleResults> {
     let mut out = PoleResults::default();
     let depth = campaign.plan.depth_of(tile);
-    let clouds = campaign.manifest.point_clouds.iter().any(|c| c.time != CloudTime::None);
+    let clouds = !campaign.manifest.point_clouds.is_empty();
     let depth_here = !depth.is_empty() && !campaign.manifest.depth.is_empty();
     if !depth_here {
         progress.skip(POLES, depth.len() as u64);

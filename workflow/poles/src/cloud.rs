@@ -95,6 +95,9 @@ pub struct CloudCounts {
     pub off_trajectory: u64,
     /// Stems found (each once, in the slice of its scan time).
     pub stems: u64,
+    /// Stems of a cloud without GPS time that two passes of the drive came near: not used (their scan time,
+    /// so their DG error, is unknown). Counted by every tile that finds them.
+    pub ambiguous: u64,
 }
 
 /// Cuts a stream of points into slices and finds each slice's stems (see the module).
@@ -252,6 +255,122 @@ impl<T: ScannerTrack> CloudSlicer<T> {
     }
 }
 
+/// Epochs of a drive by position: the time the DG trajectory passed nearest to a point, for clouds without
+/// GPS time. Positions are kept every `spacing_m` of driving, in a grid of 10 m cells.
+#[derive(Debug)]
+pub struct PassIndex {
+    cells: std::collections::HashMap<(i64, i64), Vec<Position>>,
+}
+
+/// A kept drive position: time, (east, north).
+type Position = (f64, [f64; 2]);
+
+/// Cell of a [`PassIndex`], metres.
+const PASS_CELL_M: f64 = 10.0;
+/// Positions this far apart in time belong to different passes, seconds.
+pub const PASS_GAP_S: f64 = 5.0;
+/// Another pass this much farther than the nearest still makes the nearest ambiguous, metres.
+pub const PASS_MARGIN_M: f64 = 5.0;
+
+/// When the drive passed a point.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Pass {
+    /// Never within reach.
+    None,
+    /// Nearest at this time, no other pass nearly as close.
+    At(f64),
+    /// Two passes nearly as close: the time is unknown.
+    Ambiguous,
+}
+
+impl PassIndex {
+    /// The positions `(time, [east, north])` (in time order), one kept every `spacing_m`.
+    pub fn new(positions: impl IntoIterator<Item = (f64, [f64; 2])>, spacing_m: f64) -> Self {
+        let mut cells: std::collections::HashMap<(i64, i64), Vec<Position>> = Default::default();
+        let mut last: Option<[f64; 2]> = None;
+        for (t, p) in positions {
+            if last.is_some_and(|l| (l[0] - p[0]).hypot(l[1] - p[1]) < spacing_m) {
+                continue;
+            }
+            last = Some(p);
+            cells.entry(Self::cell(p)).or_default().push((t, p));
+        }
+        Self { cells }
+    }
+
+    fn cell(p: [f64; 2]) -> (i64, i64) {
+        ((p[0] / PASS_CELL_M).floor() as i64, (p[1] / PASS_CELL_M).floor() as i64)
+    }
+
+    /// The time the drive passed nearest to `p` within `reach_m`: `Pass::None` when it never came that close,
+    /// `Pass::Ambiguous` when another pass (more than [`PASS_GAP_S`] apart) came within [`PASS_MARGIN_M`] of
+    /// that distance too — the point may have been scanned from either, with either pass's DG error.
+    pub fn nearest(&self, p: [f64; 2], reach_m: f64) -> Pass {
+        let (ci, cj) = Self::cell(p);
+        let r = ((reach_m + PASS_MARGIN_M) / PASS_CELL_M).ceil() as i64;
+        let near: Vec<(f64, f64)> = (-r..=r)
+            .flat_map(|di| (-r..=r).map(move |dj| (ci + di, cj + dj)))
+            .filter_map(|k| self.cells.get(&k))
+            .flatten()
+            .map(|(t, q)| ((q[0] - p[0]).hypot(q[1] - p[1]), *t))
+            .collect();
+        let Some(&(d, t)) = near.iter().filter(|(d, _)| *d <= reach_m).min_by(|a, b| a.0.total_cmp(&b.0)) else {
+            return Pass::None;
+        };
+        if near.iter().any(|&(e, u)| e <= d + PASS_MARGIN_M && (u - t).abs() > PASS_GAP_S) {
+            Pass::Ambiguous
+        } else {
+            Pass::At(t)
+        }
+    }
+}
+
+/// Stems of a cloud without GPS time (a merged or tiled product) as matching frames: each stem takes the time
+/// the drive passed nearest to it (within `reach_m`), and is kept when that time lies in one of `wanted` and
+/// no other pass came nearly as close ([`PassIndex::nearest`]) — weaker than GPS time all the same: a stem
+/// scanned from farther away on another pass carries that pass's DG error. Stems are then grouped into slices of `config.slice_s` like timed ones.
+pub fn untimed_inputs(
+    stems: &[Stem],
+    passes: &PassIndex,
+    reach_m: f64,
+    wanted: &[Range<f64>],
+    prefix: &str,
+    track: &impl ScannerTrack,
+    config: &CloudConfig,
+) -> (Vec<MatchInput>, CloudCounts) {
+    let mut counts = CloudCounts::default();
+    let mut timed: Vec<(f64, &Stem)> = Vec::new();
+    for s in stems {
+        match passes.nearest(s.centre, reach_m) {
+            Pass::At(t) if wanted.iter().any(|w| w.contains(&t)) => timed.push((t, s)),
+            Pass::Ambiguous => counts.ambiguous += 1,
+            _ => {}
+        }
+    }
+    timed.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut inputs = Vec::new();
+    for group in timed.chunk_by(|a, b| (a.0 / config.slice_s).floor() == (b.0 / config.slice_s).floor()) {
+        counts.slices += 1;
+        let time = group.iter().map(|(t, _)| t).sum::<f64>() / group.len() as f64;
+        let Some((origin, dg_sigma_m)) = track.at(time) else {
+            counts.off_trajectory += 1;
+            continue;
+        };
+        counts.stems += group.len() as u64;
+        let slice = (time / config.slice_s).floor();
+        let ground = median(group.iter().map(|(_, s)| s.ground_m).collect()).unwrap_or(origin.z);
+        let detections = group.iter().map(|(_, s)| detection(s, &origin, config.reliable_range_m)).collect();
+        let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
+        inputs.push(MatchInput {
+            frame: format!("{prefix}{:.1}", (slice + 0.5) * config.slice_s),
+            time,
+            dg_sigma_m,
+            detections: FrameDetections { ground_height_m: ground, view, detections },
+        });
+    }
+    (inputs, counts)
+}
+
 /// The mean GPS time of a stem's band points (within 5 cm of its circle): when it was scanned.
 fn scan_time(stem: &Stem, points: &[&LasPoint], c: &StemConfig) -> Option<f64> {
     let r = 0.5 * stem.diameter_m + 0.05;
@@ -333,6 +452,32 @@ mod tests {
         assert!((input.time - 102.0).abs() < 0.02, "{}", input.time);
         assert!((d.centre[0] - 5.0).hypot(d.centre[1] - 20.0) < 0.02, "{d:?}");
         assert!((d.range_m - 5.0).abs() < 0.1, "{d:?}");
+    }
+
+    #[test]
+    fn untimed_stems_take_the_time_the_drive_passed_nearest() {
+        // The drive along north at 10 m/s from t = 100 s; the pole at (5, 20) is passed at t = 102 s.
+        let passes = PassIndex::new((0..400).map(|i| (100.0 + f64::from(i) * 0.01, [0.0, 0.1 * f64::from(i)])), 0.5);
+        assert_eq!(passes.nearest([5.0, 20.0], 15.0), Pass::At(102.0));
+        assert_eq!(passes.nearest([50.0, 20.0], 15.0), Pass::None);
+        // The drive back along x = 8 twenty seconds later: the pole between the two passes is ambiguous.
+        let back = (0..400).map(|i| (120.0 + f64::from(i) * 0.01, [8.0, 40.0 - 0.1 * f64::from(i)]));
+        let both =
+            PassIndex::new((0..400).map(|i| (100.0 + f64::from(i) * 0.01, [0.0, 0.1 * f64::from(i)])).chain(back), 0.5);
+        assert_eq!(both.nearest([5.0, 20.0], 15.0), Pass::Ambiguous);
+        assert_eq!(both.nearest([-3.0, 20.0], 15.0), Pass::At(102.0));
+        let mut detector = StemDetector::new(CloudConfig::default().stems);
+        let xyz: Vec<[f64; 3]> = swept_pole().iter().map(|p| p.position).collect();
+        detector.ground(&xyz);
+        detector.collect(&xyz);
+        detector.surroundings(&xyz);
+        let stems = detector.finish();
+        let track = |t: f64| Some((Vector3::new(0.0, 10.0 * (t - 100.0), 2.5), 0.3));
+        let (inputs, counts) =
+            untimed_inputs(&stems, &passes, 15.0, &[0.0..1e9], "c:", &track, &CloudConfig::default());
+        assert_eq!((inputs.len(), counts.stems), (1, 1));
+        assert_eq!(inputs[0].time, 102.0);
+        assert!((inputs[0].detections.detections[0].range_m - 5.0).abs() < 0.1);
     }
 
     #[test]

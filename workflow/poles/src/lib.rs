@@ -29,7 +29,7 @@ pub mod points;
 pub mod report;
 pub mod stems;
 
-pub use cloud::{CloudConfig, CloudCounts, CloudSlicer, ScannerTrack};
+pub use cloud::{CloudConfig, CloudCounts, CloudSlicer, Pass, PassIndex, ScannerTrack, untimed_inputs};
 pub use cupt::{CuptConfig, coordinate_updates};
 pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
 pub use detect::{

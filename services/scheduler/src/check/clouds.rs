@@ -1,5 +1,6 @@
 //! Point clouds: the LAS/LAZ header read from the file's first bytes (one range read) — version, point format,
-//! count, bounds over the drive, CRS (the header's or the manifest's `epsg`), GPS time (or `time = "none"`).
+//! count, bounds over the drive, CRS (the header's or the manifest's `epsg`), GPS time (without it, or with
+//! `time = "none"`, the run times stems by the drive's nearest pass: a warning).
 
 use plumbline_campaign::manifest::{CloudTime, PointCloud};
 use plumbline_poles::las_header::{LAS_PREFIX_BYTES, LasCrs, parse_las_header};
@@ -62,21 +63,17 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, cloud: &PointC
             format!("`{url}`: its CRS record names no EPSG code; it is taken to be the campaign's (set `epsg`)"),
         ),
     }
-    if cloud.time == CloudTime::None {
+    if cloud.time == CloudTime::None || !header.has_gps_time() {
+        let why = if cloud.time == CloudTime::None {
+            "is declared without GPS time".to_owned()
+        } else {
+            format!("has no GPS time (point format {})", header.point_format)
+        };
         c.warning(
             field,
             format!(
-                "`{url}` is declared without GPS time: it gives no pole control (`plumbline poles detect` makes a \
-                 pole and tree inventory of it)"
-            ),
-        );
-    } else if !header.has_gps_time() {
-        c.warning(
-            field,
-            format!(
-                "`{url}`: point format {} has no GPS time, so the cloud gives no pole control (declare \
-                 `time = \"none\"` to say so; `plumbline poles detect` makes a pole and tree inventory of it)",
-                header.point_format
+                "`{url}` {why}: each stem takes the time the drive passed nearest to it, weaker control than GPS \
+                 time gives (a stem scanned from another pass carries that pass's DG error)"
             ),
         );
     }

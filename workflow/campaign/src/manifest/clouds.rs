@@ -42,7 +42,8 @@ pub enum CloudTime {
     WeekSeconds,
     /// Adjusted standard GPS time (GPS seconds since 1980-01-06 minus 10⁹), whatever the header says.
     AdjustedStandard,
-    /// The points carry no usable time: the cloud gives no control (`plumbline poles detect` still reads it).
+    /// The points carry no usable time: each stem takes the time the drive passed nearest to it (weaker: a
+    /// stem scanned from another pass carries that pass's DG error).
     None,
 }
 
