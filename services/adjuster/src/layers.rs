@@ -1,5 +1,6 @@
 //! The point layers of `observations.gpkg`, in the campaign CRS: tie points, pole detections and matches,
-//! coordinate updates, rejected observations, flagged epochs and panoramas. Points only (what
+//! coordinate updates, rejected observations, flagged epochs, panoramas, and from the point clouds the
+//! detected poles and the cadastre changes. Points only (what
 //! `plumbline_runtime::gdal_write` writes); a feature without finite coordinates is left out.
 
 use std::collections::{HashMap, HashSet};
@@ -19,7 +20,7 @@ use crate::solve::Solved;
 use FieldType::{Integer as I, Real as R, Text as T};
 
 /// Names of the layers, in the order they are written.
-pub const LAYERS: [&str; 7] = [
+pub const LAYERS: [&str; 9] = [
     "tie_points",
     "pole_detections",
     "pole_matches",
@@ -27,6 +28,8 @@ pub const LAYERS: [&str; 7] = [
     "rejected_observations",
     "flagged_epochs",
     "panoramas",
+    "detected_poles",
+    "cadastre_changes",
 ];
 
 struct Layer(PointLayer);
@@ -81,7 +84,60 @@ pub fn observation_layers(campaign: &Campaign, merged: &Merged, solved: &Solved)
         rejected_observations(merged, rejected, dg),
         flagged_epochs(solved, dg),
         panoramas(campaign, merged),
+        detected_poles(merged, dg, &solved.corrected),
+        cadastre_changes(merged, dg, &solved.corrected),
     ]
+}
+
+/// The correction (corrected − DG, east and north) at `t`.
+fn correction_at(dg: &Trajectory, corrected: &Trajectory, t: f64) -> [f64; 2] {
+    let (a, b) = (dg_at(dg, t), dg_at(corrected, t));
+    [b[0] - a[0], b[1] - a[1]]
+}
+
+/// The stems the point clouds showed (frames `point_clouds[i]@…`), each once, at its centre moved by the
+/// trajectory's correction at its time: the pole and tree inventory of the drive, with the cadastre object
+/// it matched. A cloud's stem is in the DG frame of its scan time; the correction takes it to the adjusted
+/// one.
+fn detected_poles(merged: &Merged, dg: &Trajectory, corrected: &Trajectory) -> PointLayer {
+    let fields = [("frame", T), ("time", R), ("diameter_m", R), ("sigma_m", R), ("lowest_m", R), ("highest_m", R)];
+    let more = [("lean", R), ("range_m", R), ("observed_e", R), ("observed_n", R), ("cadastre_id", T)];
+    let mut layer = Layer::new(LAYERS[7], &[&fields[..], &more[..]].concat());
+    for f in merged.pole_frames.iter().filter(|f| f.frame.starts_with("point_clouds[")) {
+        let c = correction_at(dg, corrected, f.time);
+        for (k, d) in f.detections.iter().enumerate() {
+            let matched = f.matches.iter().find(|m| m.detection == k).map(|m| m.cadastre_id.clone());
+            let [lowest, highest] = d.height_extent_m;
+            let values = vec![text(f.frame.clone()), real(f.time), real(d.diameter_m), real(d.sigma())];
+            let rest =
+                [real(lowest), real(highest), real(d.lean), real(d.range_m), real(d.centre[0]), real(d.centre[1])];
+            let at = [d.centre[0] + c[0], d.centre[1] + c[1]];
+            layer.push(at, [values, rest.to_vec(), vec![text(matched.unwrap_or_default())]].concat());
+        }
+    }
+    layer.0
+}
+
+/// What the point clouds say of the cadastre: stems with no cadastre object of a compatible class within the
+/// matching gate in a slice whose other stems did match (so the DG error was within the gate there; in a
+/// slice where nothing matched, the trajectory may be off by more than the gate), as `change` =
+/// `not_in_cadastre` at the corrected position, for an agency to review. Stems left unmatched for other
+/// reasons (ambiguous, a rival nearby) are not changes and are left out; objects
+/// the cloud should have shown but did not are not listed (the run does not record what the cloud covers:
+/// `plumbline poles compare` does).
+fn cadastre_changes(merged: &Merged, dg: &Trajectory, corrected: &Trajectory) -> PointLayer {
+    let fields = [("change", T), ("frame", T), ("time", R), ("diameter_m", R), ("sigma_m", R), ("highest_m", R)];
+    let mut layer = Layer::new(LAYERS[8], &fields);
+    for f in merged.pole_frames.iter().filter(|f| f.frame.starts_with("point_clouds[") && f.offset.is_some()) {
+        let c = correction_at(dg, corrected, f.time);
+        for u in f.unmatched.iter().filter(|u| label(&u.reason) == "no_candidate") {
+            let Some(d) = f.detections.get(u.detection) else { continue };
+            let at = [d.centre[0] + c[0], d.centre[1] + c[1]];
+            let values = vec![text("not_in_cadastre"), text(f.frame.clone()), real(f.time), real(d.diameter_m)];
+            layer.push(at, [values, vec![real(d.sigma()), real(d.height_extent_m[1])]].concat());
+        }
+    }
+    layer.0
 }
 
 /// Tie points at their aerial coordinates (or the adjusted ones when they have none).

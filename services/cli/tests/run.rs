@@ -215,14 +215,22 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
 /// must beat the DG trajectory's).
 fn check_cloud_control(campaign: &Path, results: &Path, timed: bool) -> (usize, f64) {
     let mut updates = Vec::new();
-    let mut cloud_frames = 0;
+    let (mut cloud_frames, mut stems) = (0, 0);
     for entry in std::fs::read_dir(results.join("tiles")).unwrap() {
         let tile: Value = serde_json::from_slice(&std::fs::read(entry.unwrap().path()).unwrap()).unwrap();
         updates.extend(tile["poles"].as_array().cloned().unwrap_or_default());
         let frames = tile["pole_frames"].as_array().cloned().unwrap_or_default();
-        cloud_frames += frames.iter().filter(|f| f["frame"].as_str().unwrap().starts_with("point_clouds[")).count();
+        let clouds: Vec<&Value> =
+            frames.iter().filter(|f| f["frame"].as_str().unwrap().starts_with("point_clouds[")).collect();
+        cloud_frames += clouds.len();
+        stems += clouds.iter().map(|f| f["detections"].as_array().map_or(0, Vec::len)).sum::<usize>();
     }
     assert!(cloud_frames > 0, "no time slice of the cloud was searched");
+    // The inventory: every stem of the clouds in `detected_poles`, at its corrected position.
+    let gpkg = Dataset::open(results.join("observations.gpkg")).unwrap();
+    let detected = gpkg.layer_by_name("detected_poles").unwrap().feature_count();
+    assert_eq!(detected as usize, stems, "one feature per stem");
+    assert!(gpkg.layer_by_name("cadastre_changes").is_ok());
     assert!(updates.len() >= 5, "{} pole updates from the cloud", updates.len());
 
     // Truth: DG error per epoch (time, east, north) and the poles (true and listed positions).
