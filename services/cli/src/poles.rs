@@ -18,9 +18,7 @@ use clap::{Args as ClapArgs, Subcommand};
 use plumbline_campaign::manifest::{Cadastre, ClassAccuracy, PoleClass};
 use plumbline_campaign::{CadastreFeature, Epsg, Location};
 use plumbline_poles::las_header::LAS_PREFIX_BYTES;
-use plumbline_poles::{
-    LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from,
-};
+use plumbline_poles::{LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from};
 use plumbline_runtime::cadastre::{CadastreSource, inspect_cadastre, read_cadastre};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer, geopackage_in};
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
@@ -107,11 +105,7 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
         let (prefix, _) = ctx.files().read_prefix(url, LAS_PREFIX_BYTES as u64).await?;
         let header =
             parse_las_header(file_name(url), &prefix, None).map_err(|e| invalid(format!("point cloud {e}")))?;
-        let epsg = match &header.crs {
-            LasCrs::GeoKeys { epsg } => *epsg,
-            LasCrs::Wkt(wkt) => plumbline_runtime::epsg_of_wkt(wkt),
-            LasCrs::Missing | LasCrs::NotRead => None,
-        };
+        let epsg = header.crs.epsg(plumbline_runtime::epsg_of_wkt);
         eprintln!(
             "{}: LAS {}.{}, point format {}{}, {} points, CRS {}",
             file_name(url),

@@ -82,27 +82,6 @@ impl RangeReader {
         self.window
     }
 
-    /// Bytes `at..at + n` (fewer at the end of the file) without moving the read position.
-    pub fn bytes_at(&mut self, at: u64, n: usize) -> io::Result<Vec<u8>> {
-        let saved = self.position;
-        self.position = at;
-        let mut out = vec![0; n.min(usize::try_from(self.size.saturating_sub(at)).unwrap_or(usize::MAX))];
-        let read = self.read_full(&mut out);
-        self.position = saved;
-        read.map(|()| out)
-    }
-
-    fn read_full(&mut self, mut out: &mut [u8]) -> io::Result<()> {
-        while !out.is_empty() {
-            let n = self.read(out)?;
-            if n == 0 {
-                return Err(io::Error::new(io::ErrorKind::UnexpectedEof, format!("{}: past its end", self.url)));
-            }
-            out = &mut out[n..];
-        }
-        Ok(())
-    }
-
     /// Make the window hold the read position.
     fn fill(&mut self) -> io::Result<()> {
         let start = self.position;

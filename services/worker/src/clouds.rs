@@ -23,7 +23,7 @@ use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::{BBox, TileId};
 use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
-use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasCrs, LasHeader, parse_las_header};
+use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasHeader, parse_las_header};
 use plumbline_poles::{
     CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemDetector,
     match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
@@ -90,17 +90,15 @@ pub(crate) async fn process(
         out.read_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let trajectory = Arc::clone(trajectory.get_or_insert_with(|| Arc::new(campaign.trajectory.trajectory.clone())));
-        let timed = cloud.time != CloudTime::None && header.has_gps_time();
-        let (read, found, counts) = if timed {
+        let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
+        let (read, found, counts) = if cloud.time != CloudTime::None && header.has_gps_time() {
             let adjusted = match cloud.time {
                 CloudTime::AdjustedStandard => true,
                 CloudTime::WeekSeconds => false,
                 CloudTime::Header | CloudTime::None => header.adjusted_standard_gps_time,
             };
-            let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
             blocking(move || timed_stream(spec, trajectory, reader, adjusted)).await?
         } else {
-            let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
             untimed_stream(files, &url, spec, trajectory, *fetch).await?
         };
         out.process_s += t1.elapsed().as_secs_f64();
@@ -237,11 +235,7 @@ fn reaches(h: &LasHeader, fetch: &BBox) -> bool {
 
 /// Why a cloud cannot give control in a campaign of `campaign_epsg`, if it cannot.
 fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<(), String> {
-    let header_epsg = match &h.crs {
-        LasCrs::GeoKeys { epsg } => *epsg,
-        LasCrs::Wkt(wkt) => plumbline_runtime::crs::epsg_of_wkt(wkt),
-        _ => None,
-    };
+    let header_epsg = h.crs.epsg(plumbline_runtime::epsg_of_wkt);
     match (cloud.epsg.map(|e| e.0), header_epsg) {
         (Some(given), _) if given != campaign_epsg => {
             Err(format!("{url}: `epsg = {given}` is not the campaign's EPSG:{campaign_epsg}; reproject the cloud"))

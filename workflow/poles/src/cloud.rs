@@ -232,20 +232,15 @@ impl<T: ScannerTrack> CloudSlicer<T> {
         } else {
             stems.iter().map(|(_, t)| t).sum::<f64>() / stems.len() as f64
         };
-        let Some((origin, dg_sigma_m)) = self.track.at(time) else {
-            self.counts.off_trajectory += 1;
-            return;
-        };
-        self.counts.stems += stems.len() as u64;
-        let ground = median(stems.iter().map(|(s, _)| s.ground_m).collect()).unwrap_or(origin.z);
-        let detections = stems.iter().map(|(s, _)| detection(s, &origin, self.config.reliable_range_m)).collect();
-        let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
-        self.inputs.push(MatchInput {
-            frame: format!("{}{:.1}", self.prefix, 0.5 * (span.start + span.end)),
-            time,
-            dg_sigma_m,
-            detections: FrameDetections { ground_height_m: ground, view, detections },
-        });
+        let frame = format!("{}{:.1}", self.prefix, 0.5 * (span.start + span.end));
+        let stems: Vec<&Stem> = stems.iter().map(|(s, _)| s).collect();
+        match slice_input(frame, time, &stems, &self.track, self.config.reliable_range_m) {
+            Some(input) => {
+                self.counts.stems += stems.len() as u64;
+                self.inputs.push(input);
+            }
+            None => self.counts.off_trajectory += 1,
+        }
     }
 
     /// Process what is left; the frames (in time order) and the counts.
@@ -352,23 +347,39 @@ pub fn untimed_inputs(
     for group in timed.chunk_by(|a, b| (a.0 / config.slice_s).floor() == (b.0 / config.slice_s).floor()) {
         counts.slices += 1;
         let time = group.iter().map(|(t, _)| t).sum::<f64>() / group.len() as f64;
-        let Some((origin, dg_sigma_m)) = track.at(time) else {
-            counts.off_trajectory += 1;
-            continue;
-        };
-        counts.stems += group.len() as u64;
-        let slice = (time / config.slice_s).floor();
-        let ground = median(group.iter().map(|(_, s)| s.ground_m).collect()).unwrap_or(origin.z);
-        let detections = group.iter().map(|(_, s)| detection(s, &origin, config.reliable_range_m)).collect();
-        let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
-        inputs.push(MatchInput {
-            frame: format!("{prefix}{:.1}", (slice + 0.5) * config.slice_s),
-            time,
-            dg_sigma_m,
-            detections: FrameDetections { ground_height_m: ground, view, detections },
-        });
+        let frame = format!("{prefix}{:.1}", ((time / config.slice_s).floor() + 0.5) * config.slice_s);
+        let stems: Vec<&Stem> = group.iter().map(|(_, s)| *s).collect();
+        match slice_input(frame, time, &stems, track, config.reliable_range_m) {
+            Some(input) => {
+                counts.stems += stems.len() as u64;
+                inputs.push(input);
+            }
+            None => counts.off_trajectory += 1,
+        }
     }
     (inputs, counts)
+}
+
+/// A slice's stems as the matcher's frame at `time`, seen from the scanner's DG position then (`None` off the
+/// trajectory). Clouds show no sector the way a camera does: the view is empty, so no cadastre pole is listed
+/// as unseen.
+fn slice_input(
+    frame: String,
+    time: f64,
+    stems: &[&Stem],
+    track: &impl ScannerTrack,
+    reliable_range_m: f64,
+) -> Option<MatchInput> {
+    let (origin, dg_sigma_m) = track.at(time)?;
+    let ground = median(stems.iter().map(|s| s.ground_m).collect()).unwrap_or(origin.z);
+    let detections = stems.iter().map(|s| detection(s, &origin, reliable_range_m)).collect();
+    let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
+    Some(MatchInput {
+        frame,
+        time,
+        dg_sigma_m,
+        detections: FrameDetections { ground_height_m: ground, view, detections },
+    })
 }
 
 /// The mean GPS time of a stem's band points (within 5 cm of its circle): when it was scanned.

@@ -122,16 +122,10 @@ pub fn read_las(file: &str, bytes: Vec<u8>) -> Result<LasPoints, LasError> {
 pub fn stream_las_points<B: AsRef<[u8]> + Send + Sync + 'static>(
     file: &str,
     bytes: B,
-    mut visit: impl FnMut(&[LasPoint]),
+    visit: impl FnMut(&[LasPoint]),
 ) -> Result<(LasHeader, u64), LasError> {
     let len = bytes.as_ref().len() as u64;
-    let mut points = Vec::new();
-    stream_batches(file, Cursor::new(bytes), len, true, |first, batch| {
-        points.clear();
-        append(file, first, batch, &mut points)?;
-        visit(&points);
-        Ok(())
-    })
+    stream_las_points_from(file, Cursor::new(bytes), len, visit)
 }
 
 /// Stream a LAS or LAZ file's coordinates from memory in batches of up to 65 536 points, checked as in

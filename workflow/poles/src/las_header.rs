@@ -98,6 +98,17 @@ pub enum LasCrs {
     NotRead,
 }
 
+impl LasCrs {
+    /// The EPSG code the record names; a WKT's through `of_wkt` (GDAL/PROJ, which this crate does not use).
+    pub fn epsg(&self, of_wkt: impl FnOnce(&str) -> Option<u32>) -> Option<u32> {
+        match self {
+            Self::GeoKeys { epsg } => *epsg,
+            Self::Wkt(wkt) => of_wkt(wkt),
+            Self::Missing | Self::NotRead => None,
+        }
+    }
+}
+
 /// The public header of a LAS or LAZ file, checked.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LasHeader {

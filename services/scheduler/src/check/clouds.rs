@@ -36,11 +36,7 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, cloud: &PointC
         );
     }
     let campaign = c.epsg;
-    let header_epsg = match &header.crs {
-        LasCrs::GeoKeys { epsg } => *epsg,
-        LasCrs::Wkt(wkt) => plumbline_runtime::crs::epsg_of_wkt(wkt),
-        _ => None,
-    };
+    let header_epsg = header.crs.epsg(plumbline_runtime::epsg_of_wkt);
     match (cloud.epsg.map(|e| e.0), header_epsg) {
         (Some(given), _) if given != campaign => c.problem(
             field,
