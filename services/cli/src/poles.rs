@@ -225,6 +225,7 @@ fn layer_of(stems: &[Stem]) -> PointLayer {
         ("points", FieldType::Integer),
         ("arc_deg", FieldType::Real),
         ("rms_m", FieldType::Real),
+        ("fit", FieldType::Text),
     ];
     let features = stems
         .iter()
@@ -246,6 +247,7 @@ fn layer_of(stems: &[Stem]) -> PointLayer {
                 FieldValue::Integer(i64::try_from(s.points).unwrap_or(i64::MAX)),
                 FieldValue::Real(s.arc_deg),
                 FieldValue::Real(s.rms_m),
+                FieldValue::Text(s.fit.name().to_owned()),
             ],
         })
         .collect();

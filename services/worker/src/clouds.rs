@@ -25,8 +25,8 @@ use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
 use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasHeader, parse_las_header};
 use plumbline_poles::{
-    CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemDetector,
-    match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
+    CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemConfig,
+    StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
 };
 use plumbline_runtime::Files;
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
@@ -167,7 +167,8 @@ async fn untimed_stream(
     trajectory: Arc<Trajectory>,
     fetch: BBox,
 ) -> anyhow::Result<Searched> {
-    let mut detector = StemDetector::new(spec.config.stems);
+    // Thin stems need the scan lines' times to be told from grazed walls (`StemConfig::thin_stems`).
+    let mut detector = StemDetector::new(StemConfig { thin_stems: false, ..spec.config.stems });
     let b = fetch;
     let inside = move |p: &[f64; 3]| {
         p[0] >= b.min_east - REACH_M

@@ -3,7 +3,8 @@
 //! issue-6 figures (recall, precision, χ²) on a `district` world, the same for the roof laser scanner's
 //! cloud (`cloud_accuracy`). Environment: POLE_BENCH_LENGTH (route
 //! metres, default 2000), POLE_BENCH_WIDTH (depth image width, default 640; height = width × 9/16),
-//! POLE_BENCH_RATE (Hz, default 1), POLE_BENCH_SEED (default 1).
+//! POLE_BENCH_RATE (Hz, default 1), POLE_BENCH_SEED (default 1), POLE_BENCH_CLOUD_ONLY (only the
+//! laser scanner's figures), POLE_BENCH_STEMS_ONLY (only the static stems' throughput).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
 #[path = "../tests/common/mod.rs"]
@@ -45,6 +46,10 @@ fn main() {
     }
     let started = Instant::now();
     let sc = Scenario::new(Preset::District, seed, length, (width, width * 9 / 16), rate);
+    if env("POLE_BENCH_CLOUD_ONLY", false) {
+        cloud_accuracy(&sc);
+        return;
+    }
     let pngs: Vec<Vec<u8>> = (0..sc.shots.len()).map(|i| sc.png(i)).collect();
     println!(
         "district world, seed {seed}, {length} m route, {} depth frames {}×{} at {rate} Hz rendered in {:.1} s",
@@ -222,6 +227,7 @@ fn cloud_accuracy(sc: &Scenario) {
     let all = vec![f64::NEG_INFINITY..f64::INFINITY];
     let mut slicer = CloudSlicer::new(CloudConfig::default(), "c@", track, all);
     let mut band_hits: HashMap<u32, usize> = HashMap::new();
+    let mut surfaces: HashMap<(i64, i64), HashMap<String, usize>> = HashMap::new();
     let ground = sc.world.config.ground_height;
     let (mut points, mut bytes, mut scan_s, mut read_s, mut slice_s) = (0usize, 0usize, 0.0, 0.0, 0.0);
     let encoding = LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None };
@@ -233,6 +239,11 @@ fn cloud_accuracy(sc: &Scenario) {
                 && (1.0..=1.6).contains(&(p.truth[2] - ground))
             {
                 *band_hits.entry(id).or_default() += 1;
+            }
+            if (1.0..=1.6).contains(&(p.truth[2] - ground)) {
+                let kind = format!("{:?}", p.surface).split('(').next().unwrap_or("").to_owned();
+                let cell = ((p.truth[0] / 0.25).floor() as i64, (p.truth[1] / 0.25).floor() as i64);
+                *surfaces.entry(cell).or_default().entry(kind).or_default() += 1;
             }
         }
         let las: Vec<LasPoint> =
@@ -275,7 +286,36 @@ fn cloud_accuracy(sc: &Scenario) {
         let FrameReport::V1(r) = report;
         let truth_of: Vec<Option<u32>> = r.detections.iter().map(|d| pole_of(r.time, d.centre)).collect();
         false_detections += truth_of.iter().filter(|t| t.is_none()).count();
+        if env("POLE_BENCH_MISSED", false) {
+            for (d, _) in r.detections.iter().zip(&truth_of).filter(|(_, t)| t.is_none()) {
+                let e = dg_error(r.time);
+                let (x, y) = (d.centre[0] - e[0], d.centre[1] - e[1]);
+                let mut seen: HashMap<String, usize> = HashMap::new();
+                for i in -1..=1 {
+                    for j in -1..=1 {
+                        let cell = ((x / 0.25).floor() as i64 + i, (y / 0.25).floor() as i64 + j);
+                        for (k, n) in surfaces.get(&cell).into_iter().flatten() {
+                            *seen.entry(k.clone()).or_default() += n;
+                        }
+                    }
+                }
+                println!(
+                    "|   off any pole: {:.1} m, {} points, extent {:.2?}, ⌀ {:.3}, surfaces {seen:?} |",
+                    d.range_m, d.points, d.height_extent_m, d.diameter_m
+                );
+            }
+        }
         detected.extend(truth_of.iter().flatten().copied());
+        if env("POLE_BENCH_MISSED", false) {
+            for (d, t) in r.detections.iter().zip(&truth_of) {
+                if let (Some(id), true) = (t, (d.diameter_m - 0.08).abs() < 1e-9) {
+                    println!(
+                        "|   thin on pole {id}: {:.1} m, {} points, extent {:.2?} |",
+                        d.range_m, d.points, d.height_extent_m
+                    );
+                }
+            }
+        }
         for m in &r.matches {
             matches += 1;
             if by_key[&m.cadastre_id].world_id != truth_of[m.detection] {
@@ -306,6 +346,17 @@ fn cloud_accuracy(sc: &Scenario) {
             hit.len(),
             100.0 * found(&hit) as f64 / hit.len().max(1) as f64
         );
+        if env("POLE_BENCH_MISSED", false) {
+            for p in sc.world.poles.iter().filter(|p| near.contains(&p.id) && !detected.contains(&p.id)) {
+                let d =
+                    records.iter().map(|r| (r[0] - p.base[0]).hypot(r[1] - p.base[1])).fold(f64::INFINITY, f64::min);
+                let hits = band_hits.get(&p.id).copied().unwrap_or(0);
+                println!(
+                    "|   missed {:?} {} ⌀ {:.3} m, {d:.1} m from the drive, {hits} band hits at {:.1},{:.1} |",
+                    p.class, p.id, p.diameter, p.base[0], p.base[1]
+                );
+            }
+        }
     }
     println!("| detections off any pole (> 0.5 m) | {false_detections} |");
     println!(

@@ -18,7 +18,7 @@ use serde::{Deserialize, Serialize};
 use crate::detect::{Detection, FrameDetections, ViewSector};
 use crate::las::LasPoint;
 use crate::matching::MatchInput;
-use crate::stems::{Stem, StemConfig, StemDetector};
+use crate::stems::{Stem, StemConfig, StemDetector, StemFit, THIN_DIAMETER_M, THIN_SPAN_M};
 
 /// How a cloud is cut and searched.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -42,7 +42,13 @@ pub struct CloudConfig {
 
 impl Default for CloudConfig {
     fn default() -> Self {
-        let stems = StemConfig { band_half_m: 0.25, max_base_m: 1.2, min_top_m: 1.7, ..StemConfig::default() };
+        let stems = StemConfig {
+            band_half_m: 0.25,
+            max_base_m: 1.2,
+            min_top_m: 1.7,
+            thin_stems: true,
+            ..StemConfig::default()
+        };
         Self { slice_s: 1.0, margin_s: 0.5, reliable_range_m: 25.0, stems }
     }
 }
@@ -226,6 +232,8 @@ impl<T: ScannerTrack> CloudSlicer<T> {
             .into_iter()
             .filter_map(|s| scan_time(&s, &points, &self.config.stems).map(|t| (s, t)))
             .filter(|(_, t)| span.contains(t))
+            .filter(|(s, t)| s.fit != StemFit::Front || in_front(s, *t, &points, &self.track, &self.config))
+            .map(|(s, t)| (thin_centre(s, &self.track, t), t))
             .collect();
         let time = if stems.is_empty() {
             0.5 * (span.start + span.end)
@@ -334,10 +342,10 @@ pub fn untimed_inputs(
     config: &CloudConfig,
 ) -> (Vec<MatchInput>, CloudCounts) {
     let mut counts = CloudCounts::default();
-    let mut timed: Vec<(f64, &Stem)> = Vec::new();
+    let mut timed: Vec<(f64, Stem)> = Vec::new();
     for s in stems {
         match passes.nearest(s.centre, reach_m) {
-            Pass::At(t) if wanted.iter().any(|w| w.contains(&t)) => timed.push((t, s)),
+            Pass::At(t) if wanted.iter().any(|w| w.contains(&t)) => timed.push((t, thin_centre(s.clone(), track, t))),
             Pass::Ambiguous => counts.ambiguous += 1,
             _ => {}
         }
@@ -348,7 +356,7 @@ pub fn untimed_inputs(
         counts.slices += 1;
         let time = group.iter().map(|(t, _)| t).sum::<f64>() / group.len() as f64;
         let frame = format!("{prefix}{:.1}", ((time / config.slice_s).floor() + 0.5) * config.slice_s);
-        let stems: Vec<&Stem> = group.iter().map(|(_, s)| *s).collect();
+        let stems: Vec<&Stem> = group.iter().map(|(_, s)| s).collect();
         match slice_input(frame, time, &stems, track, config.reliable_range_m) {
             Some(input) => {
                 counts.stems += stems.len() as u64;
@@ -381,6 +389,104 @@ fn slice_input(
         detections: FrameDetections { ground_height_m: ground, view, detections },
     })
 }
+
+/// Scan lines within this time of a thin stem's are its neighbours, s (±6 profiles at 200 Hz, ±0.3 m of
+/// driving at 10 m/s).
+const NEIGHBOUR_S: f64 = 0.03;
+/// A neighbour's beam within this horizontal bearing of a thin stem's, seen from the scanner, points at it,
+/// rad (3°)…
+const NEIGHBOUR_BEARING_RAD: f64 = 0.052;
+/// …when its elevation angle lies within those of the stem's band points widened by this, rad (0.5°, about a
+/// profile scanner's angular step: a parked car's roof below the beam to a post does not count).
+const NEIGHBOUR_ELEVATION_RAD: f64 = 0.0087;
+/// A neighbour's point this much nearer to the scanner than a thin stem lies in front of it, m.
+const NEARER_M: f64 = 0.15;
+/// Points in front of a thin stem spanning this much height stand upright: a wall, m. (Flat ones — the roof of
+/// a car parked by a post, met by the beams just beside it — lie at one height.)
+const UPRIGHT_M: f64 = 0.2;
+
+/// Whether a thin stem ([`StemFit::Front`]) lies within `reliable_range_m` of the scanner and stands in front
+/// of what the neighbouring scan lines hit: along the
+/// beams that met its band, the profiles beside it meet no upright surface nearer to the scanner (three points
+/// or more spanning `UPRIGHT_M` of height). A post crossed by one or two profiles is a foreground object — the
+/// beams beside it reach past it — while a wall grazed by single profiles looks like a post in each, and the
+/// profiles on one side hit it nearer, all up the band. (A parked car in front of a post is met by steeper
+/// beams and does not count; the flat roof of one beside it may be met by the same beams, at one height.)
+/// The end of a free-standing wall grazed this way passes: nothing stands in front of its first scan line.
+fn in_front(stem: &Stem, time: f64, points: &[&LasPoint], track: &impl ScannerTrack, config: &CloudConfig) -> bool {
+    let Some((s, _)) = track.at(time) else { return false };
+    let c = &config.stems;
+    let near: Vec<&LasPoint> = points.iter().copied().filter(|p| (p.gps_time - time).abs() <= NEIGHBOUR_S).collect();
+    // The horizontal angle between the beams to `p` and to the stem's centre.
+    let (ux, uy) = (stem.centre[0] - s.x, stem.centre[1] - s.y);
+    let off_beam = |p: &[f64; 3]| {
+        let (vx, vy) = (p[0] - s.x, p[1] - s.y);
+        (ux * vy - uy * vx).atan2(ux * vx + uy * vy).abs()
+    };
+    let range = |p: &[f64; 3]| (p[0] - s.x).hypot(p[1] - s.y);
+    let elevation = |p: &[f64; 3]| (p[2] - s.z).atan2(range(p));
+    let rho = range(&[stem.centre[0], stem.centre[1], 0.0]);
+    if rho > config.reliable_range_m {
+        return false;
+    }
+    let band = stem.ground_m + c.breast_height_m - c.band_half_m..stem.ground_m + c.breast_height_m + c.band_half_m;
+    let reach = 0.5 * THIN_SPAN_M + 0.03;
+    let on_stem = |p: &[f64; 3]| (p[0] - stem.centre[0]).hypot(p[1] - stem.centre[1]) <= reach;
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for p in near.iter().filter(|p| on_stem(&p.position) && band.contains(&p.position[2])) {
+        let e = elevation(&p.position);
+        (lo, hi) = (lo.min(e), hi.max(e));
+    }
+    if lo > hi {
+        return false;
+    }
+    let beams = lo - NEIGHBOUR_ELEVATION_RAD..hi + NEIGHBOUR_ELEVATION_RAD;
+    let (mut nearer, mut low, mut high) = (0usize, f64::INFINITY, f64::NEG_INFINITY);
+    for p in near.iter().map(|p| &p.position) {
+        if !on_stem(p)
+            && beams.contains(&elevation(p))
+            && off_beam(p) <= NEIGHBOUR_BEARING_RAD
+            && range(p) < rho - NEARER_M
+        {
+            nearer += 1;
+            (low, high) = (low.min(p[2]), high.max(p[2]));
+        }
+    }
+    nearer < 3 || high - low < UPRIGHT_M
+}
+
+/// A thin stem's centre ([`StemFit::Front`]: the mean of its near face) moved away from the scanner's position
+/// at `time` by 2/π of the reported radius — where the axis of a cylinder lies behind the mean of its
+/// evenly swept near half — with the covariance that leaves: `THIN_ALONG_BEAM_SIGMA_M` along the beam (the
+/// radius is not measured) and `THIN_ACROSS_BEAM_SIGMA_M` across it (where the scan line crossed the stem).
+/// A circle-fitted stem, or one scanned off the trajectory, is returned as it is.
+fn thin_centre(mut stem: Stem, track: &impl ScannerTrack, time: f64) -> Stem {
+    if stem.fit != StemFit::Front {
+        return stem;
+    }
+    if let Some((scanner, _)) = track.at(time) {
+        let (dx, dy) = (stem.centre[0] - scanner.x, stem.centre[1] - scanner.y);
+        let d = dx.hypot(dy);
+        if d > 0.5 {
+            let (ux, uy) = (dx / d, dy / d);
+            let back = THIN_DIAMETER_M / std::f64::consts::PI;
+            stem.centre = [stem.centre[0] + back * ux, stem.centre[1] + back * uy];
+            let (along, across) = (THIN_ALONG_BEAM_SIGMA_M.powi(2), THIN_ACROSS_BEAM_SIGMA_M.powi(2));
+            stem.covariance = [
+                [along * ux * ux + across * uy * uy, (along - across) * ux * uy],
+                [(along - across) * ux * uy, along * uy * uy + across * ux * ux],
+            ];
+        }
+    }
+    stem
+}
+
+/// σ along the beam of a thin stem's centre moved back from its face, m: 2/π of a radius of 2–6 cm against
+/// the 4 cm assumed, with the face's range noise.
+const THIN_ALONG_BEAM_SIGMA_M: f64 = 0.01;
+/// σ across the beam of a thin stem's centre, m: one or two scan lines cross a stem of 2–6 cm radius
+/// anywhere within it (a uniform spread over ±4 cm has σ 2.3 cm).
+const THIN_ACROSS_BEAM_SIGMA_M: f64 = 0.02;
 
 /// The mean GPS time of a stem's band points (within 5 cm of its circle): when it was scanned.
 fn scan_time(stem: &Stem, points: &[&LasPoint], c: &StemConfig) -> Option<f64> {
@@ -489,6 +595,67 @@ mod tests {
         assert_eq!((inputs.len(), counts.stems), (1, 1));
         assert_eq!(inputs[0].time, 102.0);
         assert!((inputs[0].detections.detections[0].range_m - 5.0).abs() < 0.1);
+    }
+
+    /// A profile scanner 2.5 m up, driving north along x = 0 at 10 m/s from t = 100 s, 200 profiles/s, its
+    /// beams every 0.4° in the plane across the drive (right side): the ground, a sign post of 6 cm at
+    /// (8, 20) that only the profile at y = 20 crosses, and a building from y = 30 on: its front along
+    /// x = 6 from its corner (6, 30.5) north, and its side wall, facing the scanner as it comes, grazed at 3.6°
+    /// from that corner to (14, 30): each profile meets the side wall at one place, 0.8 m from the next one's.
+    fn thin_post_and_grazed_wall() -> Vec<LasPoint> {
+        let (post, r) = ([8.0, 20.0], 0.03);
+        let mut out = Vec::new();
+        for i in 0..800 {
+            let t = 100.0 + f64::from(i) * 0.005;
+            let y = 0.05 * f64::from(i);
+            let dy: f64 = y - post[1];
+            let post_x = (dy.abs() < r).then(|| post[0] - (r * r - dy * dy).sqrt());
+            let wall_x = (30.0..=30.5).contains(&y).then(|| 6.0 + (30.5 - y) / 0.0625);
+            let front_x = (y >= 30.5).then_some(6.0);
+            for k in 0..225 {
+                let e = (-60.0 + 0.4 * f64::from(k)).to_radians();
+                let z_at = |x: f64| 2.5 + x * e.tan();
+                let mut hit: Option<f64> = (e < 0.0).then(|| -2.5 / e.tan()).filter(|&x| x <= 60.0);
+                for (x, top) in [(post_x, 3.0), (wall_x, 5.0), (front_x, 5.0)] {
+                    if let Some(x) = x.filter(|&x| (0.0..=top).contains(&z_at(x))) {
+                        hit = Some(hit.map_or(x, |h| h.min(x)));
+                    }
+                }
+                if let Some(x) = hit {
+                    out.push(LasPoint { position: [x, y, z_at(x).max(0.0)], gps_time: t });
+                }
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn a_thin_post_crossed_by_one_profile_is_found_and_a_grazed_wall_is_not() {
+        let points = thin_post_and_grazed_wall();
+        let track = |t: f64| Some((Vector3::new(0.0, 10.0 * (t - 100.0), 2.5), 0.3));
+        let detections = |config: CloudConfig| {
+            let mut slicer = CloudSlicer::new(config, "c:", track, vec![0.0..1e9]);
+            for batch in points.chunks(5000) {
+                slicer.push(batch);
+            }
+            let (inputs, _) = slicer.finish();
+            inputs.into_iter().flat_map(|i| i.detections.detections).collect::<Vec<Detection>>()
+        };
+        let found = detections(CloudConfig::default());
+        assert_eq!(found.len(), 1, "{found:?}");
+        let d = &found[0];
+        // The face's mean lies 3 cm before the axis; moved back by 2/π of the reported 4 cm radius.
+        assert!((d.centre[0] - 8.0).hypot(d.centre[1] - 20.0) < 0.01, "{d:?}");
+        assert_eq!(d.diameter_m, THIN_DIAMETER_M);
+        // Along the beam (east) the radius is not measured; across it (north) the crossing is not known.
+        assert!((d.covariance[0][0] - THIN_ALONG_BEAM_SIGMA_M.powi(2)).abs() < 1e-9, "{d:?}");
+        assert!((d.covariance[1][1] - THIN_ACROSS_BEAM_SIGMA_M.powi(2)).abs() < 1e-9, "{d:?}");
+        // Without thin stems the post is not seen at all, and the wall never was.
+        let circles = CloudConfig {
+            stems: StemConfig { thin_stems: false, ..CloudConfig::default().stems },
+            ..CloudConfig::default()
+        };
+        assert!(detections(circles).is_empty());
     }
 
     #[test]

@@ -48,4 +48,4 @@ pub use pipeline::{
 };
 pub use points::{FramePoint, FramePoints};
 pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};
-pub use stems::{Stem, StemClass, StemConfig, StemDetector};
+pub use stems::{Stem, StemClass, StemConfig, StemDetector, StemFit};

@@ -12,6 +12,9 @@
 //!    distances, refitted without the points beyond 3 robust σ — twigs, branch stubs), keeping those of a
 //!    plausible diameter, a small residual and an arc of at least `min_arc_deg` (a facade or a car's side
 //!    is a long line: no circle fits it): the candidates;
+//!    Clusters too thin for a circle — a sign post of 6–8 cm crossed by one or two profiles of a moving
+//!    scanner shows its near face only — become *front* candidates when they span at most `THIN_SPAN_M`:
+//!    their centre is the mean of the face's points, their diameter a guess (see [`StemFit::Front`]);
 //! 3. [`StemDetector::surroundings`]: the points within 3.5 m of a candidate, 0.2 m to `max_height_m` above
 //!    ground, are kept — what the stems are followed in. Memory grows with the band and the stems'
 //!    surroundings, not with the cloud.
@@ -70,6 +73,10 @@ pub struct StemConfig {
     pub min_top_m: f64,
     /// Points higher above ground are not kept, m.
     pub max_height_m: f64,
+    /// Report thin stems seen from one side only ([`StemFit::Front`]). Off by default: in a static cloud a
+    /// wall grazed by single scan lines looks the same; the moving-scanner path turns it on and keeps only
+    /// those that stand in front of what the neighbouring scan lines hit (`cloud::in_front`).
+    pub thin_stems: bool,
 }
 
 impl Default for StemConfig {
@@ -88,6 +95,7 @@ impl Default for StemConfig {
             max_base_m: 0.7,
             min_top_m: 2.0,
             max_height_m: 20.0,
+            thin_stems: false,
         }
     }
 }
@@ -151,6 +159,41 @@ impl StemClass {
     }
 }
 
+/// How a stem's centre and diameter were found.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum StemFit {
+    /// A circle fitted to the band's points: centre, diameter and their σ measured.
+    Circle,
+    /// Too few sides seen for a circle (a thin stem crossed by one or two scan lines): the centre is the mean
+    /// of the near face's points, which lies about 2/π of a radius toward the scanner (a caller that knows
+    /// where the scanner stood moves it back, see `cloud::thin_centre`); the diameter is `THIN_DIAMETER_M`
+    /// with a σ covering the 4–12 cm of sign posts and masts, and the centre's covariance the face offset.
+    Front,
+}
+
+impl StemFit {
+    /// Its name in outputs.
+    pub fn name(self) -> &'static str {
+        match self {
+            StemFit::Circle => "circle",
+            StemFit::Front => "front",
+        }
+    }
+}
+
+/// A band cluster spanning at most this can be a thin stem's near face, m.
+pub const THIN_SPAN_M: f64 = 0.12;
+/// The diameter reported for a thin stem, m, and its σ.
+pub const THIN_DIAMETER_M: f64 = 0.08;
+/// σ of a thin stem's reported diameter, m.
+pub const THIN_DIAMETER_SIGMA_M: f64 = 0.03;
+/// σ (each axis) of a thin stem's centre taken from its near face alone, m: the face's mean lies 2/π of an
+/// unknown 2–6 cm radius from the axis, toward an unknown scanner.
+pub const THIN_CENTRE_SIGMA_M: f64 = 0.03;
+/// Fewest band points for a thin stem (one profile across a post at 15 m leaves about five).
+const THIN_MIN_POINTS: usize = 5;
+
 /// One detected stem.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Stem {
@@ -176,8 +219,10 @@ pub struct Stem {
     pub points: usize,
     /// Arc of the circle the band's points cover, degrees.
     pub arc_deg: f64,
-    /// RMS of the band's circle fit, m.
+    /// RMS of the band's circle fit (of the points about their mean for a front fit), m.
     pub rms_m: f64,
+    /// How the centre and diameter were found.
+    pub fit: StemFit,
 }
 
 /// The detector, fed in two passes (see the module).
@@ -289,10 +334,13 @@ impl StemDetector {
             let c = self.config;
             let found: Vec<Candidate> = clusters(&self.band, c.link_m)
                 .into_iter()
-                .filter(|cluster| cluster.len() >= c.min_points)
+                .filter(|cluster| {
+                    cluster.len() >= if c.thin_stems { THIN_MIN_POINTS.min(c.min_points) } else { c.min_points }
+                })
                 .filter_map(|cluster| {
                     let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| self.band[i]).collect();
-                    candidate(&pts, &c)
+                    let circle = if pts.len() >= c.min_points { candidate(&pts, &c) } else { None };
+                    circle.or_else(|| if c.thin_stems { thin_candidate(&pts) } else { None })
                 })
                 .collect();
             for Candidate { fit, .. } in &found {
@@ -377,12 +425,13 @@ impl StemDetector {
 
     fn stem_of(&self, candidate: &Candidate, index: &GridIndex) -> Option<Stem> {
         let c = &self.config;
-        let Candidate { fit, arc, points } = candidate;
-        let (arc, points) = (*arc, *points);
-        let diameter = 2.0 * fit.r;
+        let Candidate { fit, arc, points, thin } = candidate;
+        let (arc, points, thin) = (*arc, *points, *thin);
+        let diameter = if thin { THIN_DIAMETER_M } else { 2.0 * fit.r };
         let ground = self.ground_at(fit.centre[0], fit.centre[1])?;
         // Follow the stem up and down from the band, each slice from the centre of the one before (a leaning
-        // stem moves), while the slice's points lie on the circle and no more lie just outside it.
+        // stem moves), while the slice's points lie on the circle and no more lie just outside it. A thin
+        // stem's face is followed about a fixed centre: points within its span, none too many just beyond.
         let tolerance = (0.25 * fit.r).max(0.03);
         let on_stem = |h0: f64, centre: [f64; 2]| -> Option<[f64; 2]> {
             let mut ring = Vec::new();
@@ -392,13 +441,15 @@ impl StemDetector {
                     continue;
                 }
                 let d = (p[0] - centre[0]).hypot(p[1] - centre[1]);
-                if (d - fit.r).abs() <= tolerance {
+                let on = if thin { d <= fit.r + tolerance } else { (d - fit.r).abs() <= tolerance };
+                if on {
                     ring.push([p[0], p[1]]);
                 } else if d > fit.r + tolerance && d <= fit.r + OUTSIDE_M {
                     outside += 1;
                 }
             }
-            (ring.len() >= 3 && outside <= 2 * ring.len()).then(|| centroid_on_circle(&ring, centre, fit.r))
+            let next = if thin { centre } else { centroid_on_circle(&ring, centre, fit.r) };
+            (ring.len() >= 3 && outside <= 2 * ring.len()).then_some(next)
         };
         let band_low = c.breast_height_m - c.band_half_m;
         let mut centres: Vec<(f64, [f64; 2])> = vec![(c.breast_height_m, fit.centre)];
@@ -430,7 +481,7 @@ impl StemDetector {
             centre: fit.centre,
             covariance: [[cov[(0, 0)], cov[(0, 1)]], [cov[(1, 0)], cov[(1, 1)]]],
             diameter_m: diameter,
-            diameter_sigma_m: 2.0 * cov[(2, 2)].max(0.0).sqrt(),
+            diameter_sigma_m: if thin { THIN_DIAMETER_SIGMA_M } else { 2.0 * cov[(2, 2)].max(0.0).sqrt() },
             ground_m: ground,
             extent_m: [base, top],
             lean,
@@ -439,6 +490,7 @@ impl StemDetector {
             points,
             arc_deg: arc,
             rms_m: fit.rms,
+            fit: if thin { StemFit::Front } else { StemFit::Circle },
         })
     }
 
@@ -467,6 +519,8 @@ struct Candidate {
     arc: f64,
     /// Points the fit kept.
     points: usize,
+    /// A thin stem's near face, not a circle (see [`StemFit::Front`]); `fit.r` is then the face's half span.
+    thin: bool,
 }
 
 /// A band cluster's circle, when it can be a stem's: not wider than any stem with its twigs, a circle
@@ -482,7 +536,25 @@ fn candidate(cluster: &[[f64; 2]], c: &StemConfig) -> Option<Candidate> {
         return None;
     }
     let arc = arc_deg(&pts, fit.centre);
-    (arc >= c.min_arc_deg).then_some(Candidate { fit, arc, points: pts.len() })
+    (arc >= c.min_arc_deg).then_some(Candidate { fit, arc, points: pts.len(), thin: false })
+}
+
+/// A band cluster no circle fits that can be a thin stem's near face: it spans at most `THIN_SPAN_M`. Its
+/// centre is the points' mean, with the covariance `THIN_CENTRE_SIGMA_M` gives; `r` is half its span, the
+/// reach its face is followed in.
+fn thin_candidate(cluster: &[[f64; 2]]) -> Option<Candidate> {
+    let (min, max) = bounds(cluster);
+    let span = (max[0] - min[0]).hypot(max[1] - min[1]);
+    if cluster.len() < THIN_MIN_POINTS || span > THIN_SPAN_M {
+        return None;
+    }
+    let n = cluster.len() as f64;
+    let centre = cluster.iter().fold([0.0, 0.0], |a, p| [a[0] + p[0] / n, a[1] + p[1] / n]);
+    let rms = (cluster.iter().map(|p| (p[0] - centre[0]).powi(2) + (p[1] - centre[1]).powi(2)).sum::<f64>() / n).sqrt();
+    let var = THIN_CENTRE_SIGMA_M * THIN_CENTRE_SIGMA_M;
+    let covariance = Matrix3::from_diagonal(&Vector3::new(var, var, 0.0));
+    let fit = Circle { centre, r: 0.5 * span, rms, covariance };
+    Some(Candidate { fit, arc: arc_deg(cluster, centre), points: cluster.len(), thin: true })
 }
 
 /// Radius around a stem searched for a crown, m.
