@@ -236,6 +236,9 @@ fn reaches(h: &LasHeader, fetch: &BBox) -> bool {
 
 /// Why a cloud cannot give control in a campaign of `campaign_epsg`, if it cannot.
 fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<(), String> {
+    if h.copc {
+        return Err(format!("{url} is a COPC cloud (points by octree node, not in GPS-time order): not read"));
+    }
     let header_epsg = h.crs.epsg(plumbline_runtime::epsg_of_wkt);
     match (cloud.epsg.map(|e| e.0), header_epsg) {
         (Some(given), _) if given != campaign_epsg => {

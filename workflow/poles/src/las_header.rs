@@ -15,6 +15,9 @@ pub const LAS_PREFIX_BYTES: usize = 64 * 1024;
 const VLR_HEADER_LEN: u64 = 54;
 /// The VLR user id of coordinate-system records.
 const PROJECTION_USER_ID: &[u8] = b"LASF_Projection";
+/// COPC 1.0's info VLR: user `copc`, record 1, always the first VLR.
+const COPC_USER_ID: &[u8] = b"copc";
+const COPC_INFO_RECORD: u16 = 1;
 /// OGC coordinate-system WKT.
 const WKT_RECORD: u16 = 2112;
 /// GeoTIFF GeoKeyDirectoryTag.
@@ -148,6 +151,9 @@ pub struct LasHeader {
     pub number_of_evlrs: u32,
     /// The declared coordinate reference system.
     pub crs: LasCrs,
+    /// A cloud-optimised point cloud (COPC 1.0: the first VLR is `copc` record 1): its points are stored by
+    /// octree node, not in GPS-time order.
+    pub copc: bool,
 }
 
 impl LasHeader {
@@ -248,6 +254,7 @@ pub fn parse_las_header(name: &str, prefix: &[u8], file_len: Option<u64>) -> Res
     let vlrs = Gap { start: u64::from(header_size), end: u64::from(offset_to_point_data), count: number_of_vlrs };
     let found = h.scan_vlrs(&vlrs)?;
     let complete = found.complete && number_of_evlrs == 0;
+    let copc = found.copc;
     let crs = found.crs(global_encoding & WKT_BIT != 0, complete);
     Ok(LasHeader {
         version,
@@ -268,6 +275,7 @@ pub fn parse_las_header(name: &str, prefix: &[u8], file_len: Option<u64>) -> Res
         start_of_first_evlr,
         number_of_evlrs,
         crs,
+        copc,
     })
 }
 
@@ -303,6 +311,8 @@ struct Gap {
 struct FoundCrs {
     wkt: Option<String>,
     geokeys: Option<Option<u32>>,
+    /// The first VLR is COPC's info record.
+    copc: bool,
     /// Every announced VLR was within the bytes given.
     complete: bool,
 }
@@ -431,6 +441,9 @@ impl Fields<'_> {
                 let last = end - 1;
                 let problem = format!("VLR {index} (bytes {at}–{last}) runs past the point data at byte {}", gap.end);
                 return Err(self.invalid("number_of_vlrs", problem));
+            }
+            if index == 0 && until_nul(user_id) == COPC_USER_ID && record_id == COPC_INFO_RECORD {
+                found.copc = true;
             }
             if is_projection(user_id) && matches!(record_id, WKT_RECORD | GEOKEYS_RECORD) {
                 let Some(data) = span(self.bytes, data_at, u64::from(length)) else { return Ok(found) };
@@ -663,6 +676,18 @@ mod tests {
         let mut evlr = Spec { vlrs: Vec::new(), ..spec }.file();
         evlr[243..247].copy_from_slice(&1u32.to_le_bytes());
         assert_eq!(parse("c.las", &evlr).unwrap().crs, LasCrs::NotRead);
+    }
+
+    #[test]
+    fn a_copc_cloud_is_told_by_its_first_vlr() {
+        let copc = Spec { vlrs: vec![("copc", 1, vec![0; 160])], ..Spec::default() };
+        assert!(parse("c.copc.laz", &copc.file()).unwrap().copc);
+        // The record anywhere but first, or another record of that user, is not COPC.
+        let second = Spec { vlrs: vec![wkt_vlr(WKT_25832), ("copc", 1, vec![0; 160])], ..Spec::default() };
+        assert!(!parse("c.laz", &second.file()).unwrap().copc);
+        let other = Spec { vlrs: vec![("copc", 1000, vec![0; 32])], ..Spec::default() };
+        assert!(!parse("c.laz", &other.file()).unwrap().copc);
+        assert!(!parse("c.las", &Spec::default().file()).unwrap().copc);
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //! count, bounds over the drive, CRS (the header's or the manifest's `epsg`), GPS time (without it, or with
 //! `time = "none"`, the run times stems by the drive's nearest pass: a warning).
 
-use plumbline_campaign::manifest::{CloudTime, PointCloud};
+use plumbline_campaign::manifest::{CloudFormat, CloudTime, PointCloud};
 use plumbline_poles::las_header::{LAS_PREFIX_BYTES, LasCrs, parse_las_header};
 
 use super::{Checker, RASTER_REACH_M};
@@ -18,6 +18,31 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, cloud: &PointC
         Ok(h) => h,
         Err(e) => return c.problem(field, e),
     };
+    let found = if header.copc {
+        CloudFormat::Copc
+    } else if header.compressed {
+        CloudFormat::Laz
+    } else {
+        CloudFormat::Las
+    };
+    if let Some(declared) = cloud.format
+        && declared != found
+    {
+        c.problem(
+            &format!("{field}.format"),
+            format!("`{url}` is declared `{}`, but its header says {}", declared.name(), found.name()),
+        );
+    }
+    if found == CloudFormat::Copc {
+        c.problem(
+            field,
+            format!(
+                "`{url}` is a COPC cloud: its points are stored by octree node, and plumbline reads a drive's \
+                 clouds in GPS-time order; give the scanner's LAS/LAZ strips (e.g. `pdal translate` with a \
+                 `filters.sort` on GpsTime)"
+            ),
+        );
+    }
     let (min, max) = (header.min, header.max);
     if let Some(drive) = c.drive
         && header.point_count > 0

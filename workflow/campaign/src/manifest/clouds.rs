@@ -25,6 +25,9 @@ pub struct PointCloud {
     /// The time scale of the points' GPS times.
     #[serde(default)]
     pub time: CloudTime,
+    /// The file's format, when declared: `validate` checks it against the header.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub format: Option<CloudFormat>,
     /// Where the scanner sits on the vehicle (its centre is where the range errors point from); the
     /// navigation reference point when absent.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -47,6 +50,30 @@ pub enum CloudTime {
     None,
 }
 
+/// A point cloud's file format.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum CloudFormat {
+    /// Uncompressed LAS 1.0–1.4.
+    Las,
+    /// LASzip-compressed LAS (LAZ).
+    Laz,
+    /// Cloud-optimised point cloud (COPC 1.0: LAZ 1.4 stored by octree node). Not read yet: `validate` refuses
+    /// it, asking for the drive's strips in GPS-time order.
+    Copc,
+}
+
+impl CloudFormat {
+    /// Its name in a manifest.
+    pub fn name(self) -> &'static str {
+        match self {
+            CloudFormat::Las => "las",
+            CloudFormat::Laz => "laz",
+            CloudFormat::Copc => "copc",
+        }
+    }
+}
+
 /// The table form of a [`PointCloud`].
 #[derive(Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
@@ -60,6 +87,9 @@ struct PointCloudTable {
     /// The time scale of the points' GPS times.
     #[serde(default)]
     time: CloudTime,
+    /// The file's format (`las`, `laz` or `copc`), when declared: `validate` checks it against the header.
+    #[serde(default)]
+    format: Option<CloudFormat>,
     /// Where the scanner sits on the vehicle (its centre is where the range errors point from); the
     /// navigation reference point when absent.
     #[serde(default)]
@@ -93,15 +123,15 @@ impl<'de> Deserialize<'de> for PointCloud {
         impl<'de> Visitor<'de> for Entry {
             type Value = PointCloud;
             fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
-                f.write_str("a location or a table with `url` (and `epsg`, `time`, `mount`)")
+                f.write_str("a location or a table with `url` (and `epsg`, `time`, `format`, `mount`)")
             }
             fn visit_str<E: de::Error>(self, v: &str) -> Result<PointCloud, E> {
                 let url = Location::deserialize(de::value::StrDeserializer::<E>::new(v))?;
-                Ok(PointCloud { url, epsg: None, time: CloudTime::Header, mount: None })
+                Ok(PointCloud { url, epsg: None, time: CloudTime::Header, format: None, mount: None })
             }
             fn visit_map<A: MapAccess<'de>>(self, map: A) -> Result<PointCloud, A::Error> {
                 let t = PointCloudTable::deserialize(de::value::MapAccessDeserializer::new(map))?;
-                Ok(PointCloud { url: t.url, epsg: t.epsg, time: t.time, mount: t.mount })
+                Ok(PointCloud { url: t.url, epsg: t.epsg, time: t.time, format: t.format, mount: t.mount })
             }
         }
         deserializer.deserialize_any(Entry)
