@@ -122,19 +122,40 @@ fn detected_poles(merged: &Merged, dg: &Trajectory, corrected: &Trajectory) -> P
 /// matching gate in a slice whose other stems did match (so the DG error was within the gate there; in a
 /// slice where nothing matched, the trajectory may be off by more than the gate), as `change` =
 /// `not_in_cadastre` at the corrected position, for an agency to review. Stems left unmatched for other
-/// reasons (ambiguous, a rival nearby) are not changes and are left out; objects
-/// the cloud should have shown but did not are not listed (the run does not record what the cloud covers:
-/// `plumbline poles compare` does).
+/// reasons (ambiguous, a rival nearby) are not changes and are left out. And cadastre poles the clouds should
+/// have shown: within `cover_m` of the scanner in a slice whose stems matched, matched by no slice of any
+/// cloud, as `not_seen` at the cadastre's position (gone in reality — or hidden behind a parked car or a
+/// hedge when scanned: a prompt to look, not a verdict).
 fn cadastre_changes(merged: &Merged, dg: &Trajectory, corrected: &Trajectory) -> PointLayer {
-    let fields = [("change", T), ("frame", T), ("time", R), ("diameter_m", R), ("sigma_m", R), ("highest_m", R)];
-    let mut layer = Layer::new(LAYERS[8], &fields);
-    for f in merged.pole_frames.iter().filter(|f| f.frame.starts_with("point_clouds[") && f.offset.is_some()) {
+    let fields = [("change", T), ("cadastre_id", T), ("class", T), ("frame", T), ("time", R), ("diameter_m", R)];
+    let mut layer = Layer::new(LAYERS[8], &[&fields[..], &[("sigma_m", R), ("highest_m", R)][..]].concat());
+    let clouds: Vec<_> =
+        merged.pole_frames.iter().filter(|f| f.frame.starts_with("point_clouds[") && f.offset.is_some()).collect();
+    for f in &clouds {
         let c = correction_at(dg, corrected, f.time);
         for u in f.unmatched.iter().filter(|u| label(&u.reason) == "no_candidate") {
             let Some(d) = f.detections.get(u.detection) else { continue };
             let at = [d.centre[0] + c[0], d.centre[1] + c[1]];
-            let values = vec![text("not_in_cadastre"), text(f.frame.clone()), real(f.time), real(d.diameter_m)];
-            layer.push(at, [values, vec![real(d.sigma()), real(d.height_extent_m[1])]].concat());
+            let values = vec![text("not_in_cadastre"), text(""), text(""), text(f.frame.clone()), real(f.time)];
+            let rest = [real(d.diameter_m), real(d.sigma()), real(d.height_extent_m[1])];
+            layer.push(at, [values, rest.to_vec()].concat());
+        }
+    }
+    // In the cadastre but not seen: within a slice's cover, matched by no slice of any cloud.
+    let matched: HashSet<&str> = merged
+        .pole_frames
+        .iter()
+        .filter(|f| f.frame.starts_with("point_clouds["))
+        .flat_map(|f| f.matches.iter().map(|m| m.cadastre_id.as_str()))
+        .collect();
+    let mut listed: HashSet<&str> = HashSet::new();
+    for f in &clouds {
+        for u in f.unseen.iter().filter(|u| !matched.contains(u.cadastre_id.as_str())) {
+            if listed.insert(u.cadastre_id.as_str()) {
+                let values = vec![text("not_seen"), text(u.cadastre_id.clone()), text(label(&u.class))];
+                let rest = [text(f.frame.clone()), real(f.time), real(f64::NAN), real(f64::NAN), real(f64::NAN)];
+                layer.push(u.position, [values, rest.to_vec()].concat());
+            }
         }
     }
     layer.0

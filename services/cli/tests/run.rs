@@ -196,6 +196,7 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
     let results = campaign.join("results");
     let (timed, after) = check_cloud_control(&campaign, &results, true);
     eprintln!("{timed} pole updates from the cloud's GPS times; 2D RMSE after {after:.3} m");
+    check_not_seen(&campaign, &results);
 
     // The same clouds declared without GPS time: each stem takes the time the drive passed nearest to it.
     let untimed = manifest
@@ -206,6 +207,59 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
     plumbline(&["run", "--quiet", campaign.join("untimed.toml").to_str().unwrap()]).run().success();
     let (n, after) = check_cloud_control(&campaign, &campaign.join("untimed"), false);
     eprintln!("{n} pole updates by the nearest pass; 2D RMSE after {after:.3} m");
+}
+
+/// `cadastre_changes`' `not_seen` objects: none matched by any slice of the cloud, and every cadastre entry of
+/// an object gone in reality (a ghost of the truth table) within 8 m of the scanner in a slice whose stems
+/// matched is among them.
+fn check_not_seen(campaign: &Path, results: &Path) {
+    let (mut matched, mut covered) = (std::collections::HashSet::new(), Vec::new());
+    for entry in std::fs::read_dir(results.join("tiles")).unwrap() {
+        let tile: Value = serde_json::from_slice(&std::fs::read(entry.unwrap().path()).unwrap()).unwrap();
+        for f in tile["pole_frames"].as_array().into_iter().flatten() {
+            for m in f["matches"].as_array().into_iter().flatten() {
+                matched.insert(m["cadastre_id"].as_str().unwrap().to_owned());
+            }
+            if !f["offset"].is_null() {
+                let o = &f["view"]["origin"];
+                covered.push([o[0].as_f64().unwrap(), o[1].as_f64().unwrap()]);
+            }
+        }
+    }
+    let gpkg = Dataset::open(results.join("observations.gpkg")).unwrap();
+    let mut layer = gpkg.layer_by_name("cadastre_changes").unwrap();
+    let (change, id) = (layer.defn().field_index("change").unwrap(), layer.defn().field_index("cadastre_id").unwrap());
+    let not_seen: Vec<(String, f64, f64)> = layer
+        .features()
+        .filter(|f| f.field_as_string(change).unwrap().as_deref() == Some("not_seen"))
+        .map(|f| {
+            let (x, y, _) = f.geometry().unwrap().get_point(0);
+            (f.field_as_string(id).unwrap().unwrap(), x, y)
+        })
+        .collect();
+    for (id, ..) in &not_seen {
+        assert!(!matched.contains(id), "{id} is listed as not seen but a slice matched it");
+    }
+    // Ghosts: cadastre entries of objects gone in reality (the truth's id, listed east and north).
+    let truth = std::fs::read_to_string(campaign.join("truth/poles.csv")).unwrap();
+    let ghosts: Vec<(String, f64, f64)> = truth
+        .lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|c| c[8] == "gone_in_reality")
+        .map(|c| (c[1].to_owned(), c[6].parse().unwrap(), c[7].parse().unwrap()))
+        .collect();
+    let near: Vec<&(String, f64, f64)> =
+        ghosts.iter().filter(|g| covered.iter().any(|o| (o[0] - g.1).hypot(o[1] - g.2) <= 8.0)).collect();
+    for g in &near {
+        assert!(not_seen.iter().any(|n| (n.1 - g.1).hypot(n.2 - g.2) < 0.01), "ghost {g:?} not listed: {not_seen:?}");
+    }
+    eprintln!(
+        "{} not seen, {} of {} ghosts within 8 m of a matched slice among them",
+        not_seen.len(),
+        near.len(),
+        ghosts.len()
+    );
 }
 
 /// The pole updates of a run's tiles are from the cloud and each of the right cadastre object: its observed

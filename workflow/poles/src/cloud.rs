@@ -32,6 +32,9 @@ pub struct CloudConfig {
     pub margin_s: f64,
     /// Stems farther from the scanner than this give no coordinate update, metres (detection only).
     pub reliable_range_m: f64,
+    /// A slice covers the cadastre objects within this of the scanner's position: those no slice matched
+    /// are listed as not seen (`cadastre_changes` in the run's observations), metres.
+    pub cover_m: f64,
     /// The stem detector. Its defaults here differ from an inventory's ([`StemConfig::default`]) where a
     /// moving scanner sees less than a static survey: a band of 1.05–1.55 m (a stem 10 m away is crossed by
     /// few profiles, each measuring it every 7 cm of height at 0.4°), a base hidden up to 1.2 m (a parked
@@ -49,16 +52,20 @@ impl Default for CloudConfig {
             thin_stems: true,
             ..StemConfig::default()
         };
-        Self { slice_s: 1.0, margin_s: 0.5, reliable_range_m: 25.0, stems }
+        Self { slice_s: 1.0, margin_s: 0.5, reliable_range_m: 25.0, cover_m: 10.0, stems }
     }
 }
 
 impl CloudConfig {
     /// Check every parameter; the error names the first bad one.
     pub fn check(&self) -> Result<(), String> {
-        for (field, value) in
-            [("slice_s", self.slice_s), ("margin_s", self.margin_s), ("reliable_range_m", self.reliable_range_m)]
-        {
+        let fields = [
+            ("slice_s", self.slice_s),
+            ("margin_s", self.margin_s),
+            ("reliable_range_m", self.reliable_range_m),
+            ("cover_m", self.cover_m),
+        ];
+        for (field, value) in fields {
             if !(value.is_finite() && value > 0.0) {
                 return Err(format!("clouds.{field} = {value}: expected a finite number > 0"));
             }
@@ -242,7 +249,7 @@ impl<T: ScannerTrack> CloudSlicer<T> {
         };
         let frame = format!("{}{:.1}", self.prefix, 0.5 * (span.start + span.end));
         let stems: Vec<&Stem> = stems.iter().map(|(s, _)| s).collect();
-        match slice_input(frame, time, &stems, &self.track, self.config.reliable_range_m) {
+        match slice_input(frame, time, &stems, &self.track, &self.config) {
             Some(input) => {
                 self.counts.stems += stems.len() as u64;
                 self.inputs.push(input);
@@ -357,7 +364,7 @@ pub fn untimed_inputs(
         let time = group.iter().map(|(t, _)| t).sum::<f64>() / group.len() as f64;
         let frame = format!("{prefix}{:.1}", ((time / config.slice_s).floor() + 0.5) * config.slice_s);
         let stems: Vec<&Stem> = group.iter().map(|(_, s)| s).collect();
-        match slice_input(frame, time, &stems, track, config.reliable_range_m) {
+        match slice_input(frame, time, &stems, track, config) {
             Some(input) => {
                 counts.stems += stems.len() as u64;
                 inputs.push(input);
@@ -369,19 +376,26 @@ pub fn untimed_inputs(
 }
 
 /// A slice's stems as the matcher's frame at `time`, seen from the scanner's DG position then (`None` off the
-/// trajectory). Clouds show no sector the way a camera does: the view is empty, so no cadastre pole is listed
-/// as unseen.
+/// trajectory). Its view is the circle of `cover_m` around that position: the cadastre poles in it the slice
+/// did not match are its unseen ones (a pole stays in view of two or three slices and is matched in one;
+/// whoever reads the reports takes the unseen that no slice matched).
 fn slice_input(
     frame: String,
     time: f64,
     stems: &[&Stem],
     track: &impl ScannerTrack,
-    reliable_range_m: f64,
+    config: &CloudConfig,
 ) -> Option<MatchInput> {
+    let reliable_range_m = config.reliable_range_m;
     let (origin, dg_sigma_m) = track.at(time)?;
     let ground = median(stems.iter().map(|s| s.ground_m).collect()).unwrap_or(origin.z);
     let detections = stems.iter().map(|s| detection(s, &origin, reliable_range_m)).collect();
-    let view = ViewSector { origin: [origin.x, origin.y], from_rad: 0.0, width_rad: 0.0, max_range_m: 0.0 };
+    let view = ViewSector {
+        origin: [origin.x, origin.y],
+        from_rad: 0.0,
+        width_rad: std::f64::consts::TAU,
+        max_range_m: config.cover_m,
+    };
     Some(MatchInput {
         frame,
         time,

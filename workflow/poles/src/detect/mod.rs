@@ -115,11 +115,12 @@ pub struct ViewSector {
 }
 
 impl ViewSector {
-    /// Whether a point lies in the sector, `margin_rad` inside its edges.
+    /// Whether a point lies in the sector, `margin_rad` inside its edges (a full circle has none).
     pub fn contains(&self, p: [f64; 2], margin_rad: f64) -> bool {
         let (dx, dy) = (p[0] - self.origin[0], p[1] - self.origin[1]);
         let off = (dy.atan2(dx) - self.from_rad).rem_euclid(std::f64::consts::TAU);
-        dx.hypot(dy) <= self.max_range_m && off >= margin_rad && off <= self.width_rad - margin_rad
+        let full = self.width_rad >= std::f64::consts::TAU;
+        dx.hypot(dy) <= self.max_range_m && (full || (off >= margin_rad && off <= self.width_rad - margin_rad))
     }
 }
 
