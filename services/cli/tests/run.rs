@@ -207,6 +207,32 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
     plumbline(&["run", "--quiet", campaign.join("untimed.toml").to_str().unwrap()]).run().success();
     let (n, after) = check_cloud_control(&campaign, &campaign.join("untimed"), false);
     eprintln!("{n} pole updates by the nearest pass; 2D RMSE after {after:.3} m");
+
+    // The same clouds in ETRS89 / UTM zone 33N (the campaign is in zone 32N), saying so in their WKT: the
+    // run moves them into the campaign's CRS as it streams them.
+    let to_33 = plumbline_runtime::CrsTransform::new(25832, 25833).unwrap();
+    let wkt = Some(plumbline_runtime::crs::wkt_of_epsg(25833).unwrap());
+    std::fs::create_dir_all(campaign.join("lidar33")).unwrap();
+    for entry in std::fs::read_dir(campaign.join("lidar")).unwrap() {
+        let path = entry.unwrap().path();
+        let mut points = Vec::new();
+        plumbline_poles::stream_las_points("strip", std::fs::read(&path).unwrap(), |b| points.extend_from_slice(b))
+            .unwrap();
+        let (mut xs, mut ys): (Vec<f64>, Vec<f64>) = points.iter().map(|p| (p.position[0], p.position[1])).unzip();
+        to_33.transform(&mut xs, &mut ys, &mut []).unwrap();
+        for (p, (x, y)) in points.iter_mut().zip(xs.into_iter().zip(ys)) {
+            (p.position[0], p.position[1]) = (x, y);
+        }
+        let encoding =
+            plumbline_poles::LasEncoding { compressed: true, wkt: wkt.clone(), adjusted_standard_week: None };
+        let laz = plumbline_poles::encode_las(&points, &encoding).unwrap();
+        std::fs::write(campaign.join("lidar33").join(path.file_name().unwrap()), laz).unwrap();
+    }
+    let utm33 = manifest.replace("\"lidar/", "\"lidar33/").replace("output = \"results/\"", "output = \"utm33/\"");
+    std::fs::write(campaign.join("utm33.toml"), utm33).unwrap();
+    plumbline(&["run", "--quiet", campaign.join("utm33.toml").to_str().unwrap()]).run().success();
+    let (n, after) = check_cloud_control(&campaign, &campaign.join("utm33"), true);
+    eprintln!("{n} pole updates from clouds in EPSG:25833; 2D RMSE after {after:.3} m");
 }
 
 /// `cadastre_changes`' `not_seen` objects: none matched by any slice of the cloud, and every cadastre entry of

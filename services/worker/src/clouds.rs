@@ -8,8 +8,10 @@
 //! the time the drive passed nearest to it (`plumbline_poles::untimed_inputs`).
 //! A cloud is read by range requests (`RangeReader`, 8 MiB at a time, from disk or S3) and decoded as it
 //! arrives: a tile holds one window of the file and one time window of points, whatever the file's size.
-//! A cloud that cannot be used is a skipped item naming the file and why (unreadable, not LAS, another CRS,
-//! no GPS time); one corrupt record ends that cloud's reading, keeping the slices already searched.
+//! A cloud in another CRS than the campaign's (its header's, or the manifest's `epsg`) is transformed to it
+//! through GDAL/PROJ as it streams ([`Reproject`]). A cloud that cannot be used is a skipped item naming the
+//! file and why (unreadable, not LAS, COPC, a CRS with no transformation to the campaign's); one corrupt
+//! record ends that cloud's reading, keeping the slices already searched.
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -28,8 +30,8 @@ use plumbline_poles::{
     CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemConfig,
     StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
 };
-use plumbline_runtime::Files;
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
+use plumbline_runtime::{CrsTransform, Files};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::{SkipReason, blocking, skipped};
@@ -72,11 +74,14 @@ pub(crate) async fn process(
                 continue;
             }
         };
-        if !reaches(&header, fetch) {
-            continue;
-        }
-        if let Err(detail) = check_header(&header, cloud, campaign.manifest.crs.0, &url) {
-            out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+        let reproject = match check_header(&header, cloud, campaign.manifest.crs.0, &url) {
+            Ok(r) => r,
+            Err(detail) => {
+                out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+                continue;
+            }
+        };
+        if !reaches(&header, reproject, fetch) {
             continue;
         }
         let reader = match RangeReader::open(files, &url, DEFAULT_WINDOW).await {
@@ -90,7 +95,8 @@ pub(crate) async fn process(
         out.read_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let trajectory = Arc::clone(trajectory.get_or_insert_with(|| Arc::new(campaign.trajectory.trajectory.clone())));
-        let spec = Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone() };
+        let spec =
+            Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone(), reproject };
         let (read, found, counts) = if cloud.time != CloudTime::None && header.has_gps_time() {
             let adjusted = match cloud.time {
                 CloudTime::AdjustedStandard => true,
@@ -131,6 +137,48 @@ struct Stream {
     config: CloudConfig,
     /// The tile's share of the drive.
     spans: Vec<Range<f64>>,
+    /// The transformation to the campaign's CRS, when the cloud is in another.
+    reproject: Option<Reproject>,
+}
+
+/// A cloud's CRS to the campaign's: the EPSG codes, the transformation itself built on the thread that uses
+/// it (GDAL handles are not `Send`).
+#[derive(Clone, Copy, Debug)]
+struct Reproject {
+    from: u32,
+    to: u32,
+}
+
+impl Reproject {
+    fn transform(&self) -> Result<CrsTransform, String> {
+        CrsTransform::new(self.from, self.to).map_err(|e| e.to_string())
+    }
+}
+
+/// Points moved into the campaign's CRS in place, a batch at a time (the coordinate buffers are reused).
+struct Transformer {
+    transform: CrsTransform,
+    xyz: [Vec<f64>; 3],
+}
+
+impl Transformer {
+    fn new(reproject: Option<Reproject>) -> Result<Option<Self>, String> {
+        reproject.map(|r| Ok(Self { transform: r.transform()?, xyz: Default::default() })).transpose()
+    }
+
+    /// Transform the positions of `items` (a batch either transforms whole or fails, naming both CRSs).
+    fn apply<P>(&mut self, items: &mut [P], position: fn(&mut P) -> &mut [f64; 3]) -> Result<(), String> {
+        for (axis, v) in self.xyz.iter_mut().enumerate() {
+            v.clear();
+            v.extend(items.iter_mut().map(|p| position(p)[axis]));
+        }
+        let [xs, ys, zs] = &mut self.xyz;
+        self.transform.transform(xs, ys, zs).map_err(|e| e.to_string())?;
+        for (k, p) in items.iter_mut().enumerate() {
+            *position(p) = [xs[k], ys[k], zs[k]];
+        }
+        Ok(())
+    }
 }
 
 type Searched = (Result<(), LasError>, Vec<MatchInput>, CloudCounts);
@@ -145,17 +193,34 @@ fn track(trajectory: Arc<Trajectory>, mount: CameraMount) -> impl Fn(f64) -> Opt
 
 /// A cloud with GPS time, streamed once through a [`CloudSlicer`] (on a blocking thread).
 fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, adjusted: bool) -> Searched {
+    let name = format!("point_clouds[{}]", spec.index);
+    let mut transformer = match Transformer::new(spec.reproject) {
+        Ok(t) => t,
+        Err(e) => return (Err(LasError::Reproject { file: name, problem: e }), Vec::new(), CloudCounts::default()),
+    };
     let track = track(trajectory, spec.mount);
     let mut slicer = CloudSlicer::new(spec.config, &frame_prefix(spec.index), track, spec.spans);
     let mut converted: Vec<LasPoint> = Vec::new();
-    let (name, len) = (format!("point_clouds[{}]", spec.index), reader.size());
+    let mut failed: Option<String> = None;
+    let len = reader.size();
     let read = stream_las_points_from(&name, reader, len, |batch| {
         converted.clear();
         converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
+        if let Some(t) = transformer.as_mut()
+            && let Err(e) = t.apply(&mut converted, |p| &mut p.position)
+        {
+            failed.get_or_insert(e);
+            return;
+        }
         slicer.push(&converted);
     });
     let (found, counts) = slicer.finish();
-    (read.map(|_| ()), found, counts)
+    let read = match (read, failed) {
+        (Err(e), _) => Err(e),
+        (Ok(_), Some(problem)) => Err(LasError::Reproject { file: name, problem }),
+        (Ok(_), None) => Ok(()),
+    };
+    (read, found, counts)
 }
 
 /// A cloud without GPS time: its stems near the tile (three streamed passes by range reads, points beyond
@@ -180,18 +245,38 @@ async fn untimed_stream(
     for pass in 0..3 {
         let reader = RangeReader::open(files, url, DEFAULT_WINDOW).await?;
         let name = url.to_owned();
+        let reproject = spec.reproject;
         let (returned, read) = blocking(move || {
-            let mut near: Vec<[f64; 3]> = Vec::new();
+            let mut transformer = match Transformer::new(reproject) {
+                Ok(t) => t,
+                Err(problem) => return (detector, Err(LasError::Reproject { file: name, problem })),
+            };
+            let (mut near, mut moved): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (Vec::new(), Vec::new());
+            let mut failed: Option<String> = None;
             let len = reader.size();
             let read = stream_las_xyz_from(&name, reader, len, |batch| {
                 near.clear();
-                near.extend(batch.iter().filter(|p| inside(p)));
+                if let Some(t) = transformer.as_mut() {
+                    moved.clear();
+                    moved.extend_from_slice(batch);
+                    if let Err(e) = t.apply(&mut moved, |p| p) {
+                        failed.get_or_insert(e);
+                        return;
+                    }
+                    near.extend(moved.iter().filter(|p| inside(p)));
+                } else {
+                    near.extend(batch.iter().filter(|p| inside(p)));
+                }
                 match pass {
                     0 => detector.ground(&near),
                     1 => detector.collect(&near),
                     _ => detector.surroundings(&near),
                 }
             });
+            let read = match (read, failed) {
+                (Ok(_), Some(problem)) => Err(LasError::Reproject { file: name, problem }),
+                (read, _) => read,
+            };
             (detector, read)
         })
         .await?;
@@ -225,29 +310,42 @@ async fn read_header(files: &Files, url: &str) -> Result<LasHeader, SkippedInput
     parse_las_header(url, &prefix, Some(len)).map_err(|e| skipped("poles", url, SkipReason::Decode, e.to_string()))
 }
 
-/// Whether the cloud's bounds come within [`REACH_M`] of the fetch box.
-fn reaches(h: &LasHeader, fetch: &BBox) -> bool {
+/// Whether the cloud's bounds (in the campaign's CRS: their corners and edge middles transformed) come within
+/// [`REACH_M`] of the fetch box.
+fn reaches(h: &LasHeader, reproject: Option<Reproject>, fetch: &BBox) -> bool {
+    let Some([min_e, min_n, max_e, max_n]) = campaign_bounds(h, reproject) else { return false };
     h.point_count > 0
-        && h.min[0] <= fetch.max_east + REACH_M
-        && h.max[0] >= fetch.min_east - REACH_M
-        && h.min[1] <= fetch.max_north + REACH_M
-        && h.max[1] >= fetch.min_north - REACH_M
+        && min_e <= fetch.max_east + REACH_M
+        && max_e >= fetch.min_east - REACH_M
+        && min_n <= fetch.max_north + REACH_M
+        && max_n >= fetch.min_north - REACH_M
 }
 
-/// Why a cloud cannot give control in a campaign of `campaign_epsg`, if it cannot.
-fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<(), String> {
+/// The header's horizontal bounds in the campaign's CRS (min east, min north, max east, max north); `None`
+/// when they cannot be transformed.
+fn campaign_bounds(h: &LasHeader, reproject: Option<Reproject>) -> Option<[f64; 4]> {
+    let b = [h.min[0], h.min[1], h.max[0], h.max[1]];
+    match reproject {
+        None => Some(b),
+        Some(r) => r.transform().ok()?.transform_bounds(b).ok(),
+    }
+}
+
+/// Whether a cloud can give control in a campaign of `campaign_epsg`: the transformation its points need
+/// when its CRS (the manifest's `epsg`, else the header's) is another; an error when it cannot be read (COPC)
+/// or no transformation exists.
+fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<Option<Reproject>, String> {
     if h.copc {
         return Err(format!("{url} is a COPC cloud (points by octree node, not in GPS-time order): not read"));
     }
-    let header_epsg = h.crs.epsg(plumbline_runtime::epsg_of_wkt);
-    match (cloud.epsg.map(|e| e.0), header_epsg) {
-        (Some(given), _) if given != campaign_epsg => {
-            Err(format!("{url}: `epsg = {given}` is not the campaign's EPSG:{campaign_epsg}; reproject the cloud"))
+    let from = cloud.epsg.map(|e| e.0).or_else(|| h.crs.epsg(plumbline_runtime::epsg_of_wkt));
+    match from {
+        Some(from) if from != campaign_epsg => {
+            let r = Reproject { from, to: campaign_epsg };
+            r.transform().map_err(|e| format!("{url} is in EPSG:{from}: {e}"))?;
+            Ok(Some(r))
         }
-        (None, Some(epsg)) if epsg != campaign_epsg => {
-            Err(format!("{url} is in EPSG:{epsg}, the campaign in EPSG:{campaign_epsg}; reproject the cloud"))
-        }
-        _ => Ok(()),
+        _ => Ok(None),
     }
 }
 
@@ -347,6 +445,50 @@ mod tests {
         // Each window once, plus the few the header and chunk-table checks read out of order.
         assert!(fetched.requests() >= size / window, "{} requests", fetched.requests());
         assert!(fetched.bytes() < size + 4 * window, "{} bytes fetched of {size}", fetched.bytes());
+    }
+
+    /// A cloud in UTM zone 33N (its WKT says so) in a zone-32N campaign is moved into the campaign's CRS: its
+    /// bounds for the tile test, its points as they stream; a code PROJ does not know is refused, naming it.
+    #[test]
+    fn a_cloud_in_another_crs_is_transformed_into_the_campaigns() {
+        let to_33 = CrsTransform::new(25832, 25833).unwrap();
+        let campaign_xy = [(565_000.0, 5_933_000.0), (565_040.0, 5_933_030.0)];
+        let points: Vec<LasPoint> = campaign_xy
+            .iter()
+            .map(|&(x, y)| {
+                let (e, n, _) = to_33.transform_point(x, y, 0.0).unwrap();
+                LasPoint { position: [e, n, 12.5], gps_time: 1.0 }
+            })
+            .collect();
+        let wkt = Some(plumbline_runtime::crs::wkt_of_epsg(25833).unwrap());
+        let las = encode_las(&points, &LasEncoding { compressed: false, wkt, adjusted_standard_week: None }).unwrap();
+        let header = parse_las_header("a.las", &las, Some(las.len() as u64)).unwrap();
+        let cloud =
+            PointCloud { url: "lidar/a.las".into(), epsg: None, time: CloudTime::Header, format: None, mount: None };
+        let reproject = check_header(&header, &cloud, 25832, "a.las").unwrap().unwrap();
+        assert_eq!((reproject.from, reproject.to), (25833, 25832));
+        assert_eq!(check_header(&header, &cloud, 25833, "a.las").unwrap().map(|r| r.from), None);
+        // The bounds land around the campaign coordinates (zone 33's box turns by the grids' convergence, so
+        // its transformed box is a little larger), and reach a tile there only.
+        let b = campaign_bounds(&header, Some(reproject)).unwrap();
+        let (lo, hi) = ([565_000.0, 5_933_000.0], [565_040.0, 5_933_030.0]);
+        assert!(
+            (0..2).all(|k| b[k] <= lo[k] && b[k] > lo[k] - 3.0 && b[k + 2] >= hi[k] && b[k + 2] < hi[k] + 3.0),
+            "{b:?}"
+        );
+        let tile = BBox { min_east: 565_060.0, min_north: 5_933_000.0, max_east: 565_300.0, max_north: 5_933_200.0 };
+        assert!(reaches(&header, Some(reproject), &tile));
+        assert!(!reaches(&header, None, &tile), "untransformed, the cloud lies in zone 33's coordinates");
+        let mut t = Transformer::new(Some(reproject)).unwrap().unwrap();
+        let mut moved = points.clone();
+        t.apply(&mut moved, |p| &mut p.position).unwrap();
+        for (p, (x, y)) in moved.iter().zip(campaign_xy) {
+            assert!((p.position[0] - x).abs() < 0.01 && (p.position[1] - y).abs() < 0.01, "{p:?}");
+            assert_eq!(p.position[2], 12.5);
+        }
+        let unknown = PointCloud { epsg: Some(plumbline_campaign::Epsg(999_999)), ..cloud };
+        let refused = check_header(&header, &unknown, 25832, "a.las").unwrap_err();
+        assert!(refused.contains("EPSG:999999"), "{refused}");
     }
 
     #[test]

@@ -70,6 +70,14 @@ pub enum LasError {
         /// The format number.
         format: u8,
     },
+    /// The points cannot be transformed into the campaign's CRS (the caller's transformation failed).
+    #[error("point cloud {file}: cannot be moved into the campaign's CRS: {problem}")]
+    Reproject {
+        /// The file.
+        file: String,
+        /// What the transformation said.
+        problem: String,
+    },
     /// A record's coordinate is not finite after scaling.
     #[error("point cloud {file}: point record {record}: field `{field}` is not finite")]
     NotFinite {

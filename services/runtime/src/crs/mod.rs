@@ -93,6 +93,19 @@ impl CrsTransform {
         })
     }
 
+    /// The bounding box `[min x, min y, max x, max y]` in the target CRS: the box of its corners and edge
+    /// middles transformed (enough for the few-kilometre extents of clouds and rasters, whose edges bend
+    /// little between projected CRSs).
+    pub fn transform_bounds(&self, b: [f64; 4]) -> Result<[f64; 4], CrsError> {
+        let ([x0, y0, x1, y1], xm, ym) = (b, 0.5 * (b[0] + b[2]), 0.5 * (b[1] + b[3]));
+        let mut xs = [x0, xm, x1, x0, x1, x0, xm, x1];
+        let mut ys = [y0, y0, y0, ym, ym, y1, y1, y1];
+        self.transform(&mut xs, &mut ys, &mut [])?;
+        let min = |v: &[f64]| v.iter().copied().fold(f64::INFINITY, f64::min);
+        let max = |v: &[f64]| v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        Ok([min(&xs), min(&ys), max(&xs), max(&ys)])
+    }
+
     /// Transforms one point `(x, y, z)`.
     pub fn transform_point(&self, x: f64, y: f64, z: f64) -> Result<(f64, f64, f64), CrsError> {
         let (mut xs, mut ys, mut zs) = ([x], [y], [z]);
