@@ -332,11 +332,13 @@ fn campaign_bounds(h: &LasHeader, reproject: Option<Reproject>) -> Option<[f64; 
 }
 
 /// Whether a cloud can give control in a campaign of `campaign_epsg`: the transformation its points need
-/// when its CRS (the manifest's `epsg`, else the header's) is another; an error when it cannot be read (COPC)
-/// or no transformation exists.
+/// when its CRS (the manifest's `epsg`, else the header's) is another; an error when it cannot be read (COPC,
+/// unless declared without time: the time-less path reads points in any order) or no transformation exists.
 fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<Option<Reproject>, String> {
-    if h.copc {
-        return Err(format!("{url} is a COPC cloud (points by octree node, not in GPS-time order): not read"));
+    if h.copc && cloud.time != CloudTime::None {
+        return Err(format!(
+            "{url} is a COPC cloud (points by octree node, not in GPS-time order): read only with `time = \"none\"`"
+        ));
     }
     let from = cloud.epsg.map(|e| e.0).or_else(|| h.crs.epsg(plumbline_runtime::epsg_of_wkt));
     match from {
@@ -489,6 +491,25 @@ mod tests {
         let unknown = PointCloud { epsg: Some(plumbline_campaign::Epsg(999_999)), ..cloud };
         let refused = check_header(&header, &unknown, 25832, "a.las").unwrap_err();
         assert!(refused.contains("EPSG:999999"), "{refused}");
+    }
+
+    /// A real COPC file (the poles crate's `tests/data/autzen.copc.laz`) is refused for the timed path, whose
+    /// slices need points in time order, and taken by the time-less one, which reads any order.
+    #[test]
+    fn a_copc_cloud_is_read_only_without_time() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../workflow/poles/tests/data/autzen.copc.laz");
+        let bytes = std::fs::read(path).unwrap();
+        let header = parse_las_header("autzen.copc.laz", &bytes, Some(bytes.len() as u64)).unwrap();
+        let cloud = |time| PointCloud {
+            url: "lidar/autzen.copc.laz".into(),
+            epsg: Some(plumbline_campaign::Epsg(2992)),
+            time,
+            format: None,
+            mount: None,
+        };
+        let refused = check_header(&header, &cloud(CloudTime::Header), 2992, "autzen.copc.laz").unwrap_err();
+        assert!(refused.contains("COPC") && refused.contains("time = \"none\""), "{refused}");
+        assert!(check_header(&header, &cloud(CloudTime::None), 2992, "autzen.copc.laz").unwrap().is_none());
     }
 
     #[test]

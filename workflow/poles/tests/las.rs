@@ -287,3 +287,25 @@ fn every_point_format_streams_its_coordinates() {
         }
     }
 }
+
+/// A real COPC file (`tests/data/autzen.copc.laz`, see the README there): its header says COPC, LAS 1.4
+/// format 7 with a WKT CRS, and its octree chunks stream as LAZ — the 107 points with the coordinates and GPS
+/// times laspy 2.7 reads from it.
+#[test]
+fn a_real_copc_file_is_recognised_and_streams_as_laz() {
+    use plumbline_poles::{LasCrs, parse_las_header, stream_las_points};
+    let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/autzen.copc.laz")).unwrap();
+    let header = parse_las_header("autzen.copc.laz", &bytes, Some(bytes.len() as u64)).unwrap();
+    assert!(header.copc && header.compressed);
+    assert_eq!((header.version, header.point_format, header.point_count), ((1, 4), 7, 107));
+    assert!(matches!(header.crs, LasCrs::Wkt(_)), "{:?}", header.crs);
+    let mut points = Vec::new();
+    stream_las_points("autzen.copc.laz", bytes, |b| points.extend_from_slice(b)).unwrap();
+    assert_eq!(points.len(), 107);
+    let first = points[0];
+    assert!((first.position[0] - 638_433.07).abs() < 1e-6 && (first.position[1] - 849_326.8).abs() < 1e-6);
+    assert!((first.position[2] - 425.51).abs() < 1e-6 && (first.gps_time - 245_372.405_819_218).abs() < 1e-6);
+    let (lo, hi) =
+        points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.gps_time), hi.max(p.gps_time)));
+    assert!((lo - 245_372.405_819_218).abs() < 1e-6 && (hi - 249_780.160_155_575).abs() < 1e-6, "{lo} {hi}");
+}
