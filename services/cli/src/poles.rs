@@ -18,7 +18,9 @@ use clap::{Args as ClapArgs, Subcommand};
 use plumbline_campaign::manifest::{Cadastre, ClassAccuracy, PoleClass};
 use plumbline_campaign::{CadastreFeature, Epsg, Location};
 use plumbline_poles::las_header::LAS_PREFIX_BYTES;
-use plumbline_poles::{LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from};
+use plumbline_poles::{
+    LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from,
+};
 use plumbline_runtime::cadastre::{CadastreSource, inspect_cadastre, read_cadastre};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer, geopackage_in};
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
@@ -114,7 +116,12 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
             header.point_format,
             if header.compressed { " (LAZ)" } else { "" },
             header.point_count,
-            epsg.map_or_else(|| "not recorded".to_owned(), |c| format!("EPSG:{c}"))
+            match (epsg, &header.crs) {
+                (Some(c), _) => format!("EPSG:{c}"),
+                (None, LasCrs::Missing) => "not recorded".to_owned(),
+                (None, LasCrs::NotRead) => "not read (it may lie past the VLRs, in an extended VLR)".to_owned(),
+                (None, _) => "recorded without an EPSG code".to_owned(),
+            }
         );
         recorded.push((url.clone(), epsg));
     }

@@ -132,3 +132,23 @@ fn convergence_needs_a_projected_crs() {
     let err = meridian_convergence(WGS84, 10.0, 53.5).expect_err("geographic");
     assert!(matches!(err, CrsError::NotProjected { code: WGS84 }), "{err}");
 }
+
+/// A compound CRS as LAS deliveries record it (horizontal + vertical, no code of its own) gives its horizontal
+/// part's EPSG code, in WKT 1 and WKT 2; a WKT that is no CRS gives none.
+#[test]
+fn a_compound_crs_gives_its_horizontal_code() {
+    use plumbline_runtime::crs::wkt_of_epsg;
+    use plumbline_runtime::epsg_of_wkt;
+    let (horizontal, vertical) = (wkt_of_epsg(UTM32_ETRS89).unwrap(), wkt_of_epsg(5783).unwrap());
+    let wkt1 = format!("COMPD_CS[\"ETRS89 / UTM 32N + DHHN92 height\",{horizontal},{vertical}]");
+    assert_eq!(epsg_of_wkt(&wkt1), Some(UTM32_ETRS89));
+    // Like Autzen's record (the COPC test file of the poles crate): Oregon GIC Lambert (ft) + NAVD88, here as
+    // WKT 2 around a WKT 1 horizontal part (which GDAL cannot parse whole: the part is found all the same).
+    let oregon = wkt_of_epsg(2992).unwrap();
+    let wkt2 = format!(
+        "COMPOUNDCRS[\"NAD83 / Oregon GIC Lambert (ft) + NAVD88 height (ftUS)\",{oregon},VERTCRS[\"NAVD88 height (ftUS)\",VDATUM[\"North American Vertical Datum 1988\"],CS[vertical,1],AXIS[\"gravity-related height (H)\",up,LENGTHUNIT[\"US survey foot\",0.304800609601219]]]]"
+    );
+    assert_eq!(epsg_of_wkt(&wkt2), Some(2992));
+    assert_eq!(epsg_of_wkt("COMPD_CS[\"broken\",PROJCS[\"x\""), None);
+    assert_eq!(epsg_of_wkt(&horizontal), Some(UTM32_ETRS89));
+}

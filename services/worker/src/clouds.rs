@@ -500,6 +500,8 @@ mod tests {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../workflow/poles/tests/data/autzen.copc.laz");
         let bytes = std::fs::read(path).unwrap();
         let header = parse_las_header("autzen.copc.laz", &bytes, Some(bytes.len() as u64)).unwrap();
+        // Its CRS record is compound (Oregon GIC Lambert in feet + NAVD88 height): the horizontal part counts.
+        assert_eq!(header.crs.epsg(plumbline_runtime::epsg_of_wkt), Some(2992));
         let cloud = |time| PointCloud {
             url: "lidar/autzen.copc.laz".into(),
             epsg: Some(plumbline_campaign::Epsg(2992)),

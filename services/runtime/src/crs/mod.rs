@@ -139,13 +139,43 @@ pub fn wkt_of_epsg(epsg: u32) -> Result<String, CrsError> {
 }
 
 /// The EPSG code of a CRS given as WKT (e.g. a LAS file's `LASF_Projection` record), when GDAL/PROJ can
-/// identify one; `None` for a WKT it cannot parse or a CRS without a code.
+/// identify one; `None` for a WKT it cannot parse or a CRS without a code. A compound CRS (horizontal plus
+/// vertical, as LAS deliveries often record) without a code of its own gives its horizontal part's.
 pub fn epsg_of_wkt(wkt: &str) -> Option<u32> {
     crate::gdal_messages::route_gdal_messages();
-    let mut srs = SpatialRef::from_wkt(wkt).ok()?;
     let code = |s: &SpatialRef| match s.auth_name().as_deref() {
         Some("EPSG") => s.auth_code().ok().and_then(|c| u32::try_from(c).ok()),
         _ => None,
     };
-    code(&srs).or_else(|| srs.auto_identify_epsg().ok().and_then(|()| code(&srs)))
+    let own = SpatialRef::from_wkt(wkt)
+        .ok()
+        .and_then(|mut srs| code(&srs).or_else(|| srs.auto_identify_epsg().ok().and_then(|()| code(&srs))));
+    own.or_else(|| horizontal_part(wkt).and_then(epsg_of_wkt))
+}
+
+/// The horizontal element of a compound CRS's WKT — the first projected or geographic CRS inside WKT 1
+/// `COMPD_CS[…]` or WKT 2 `COMPOUNDCRS[…]`, brackets matched outside quoted names; `None` for another WKT.
+fn horizontal_part(wkt: &str) -> Option<&str> {
+    let head = wkt.trim_start();
+    if !(head.starts_with("COMPD_CS[") || head.starts_with("COMPOUNDCRS[")) {
+        return None;
+    }
+    let inner = &head[head.find('[')? + 1..];
+    let start =
+        ["PROJCS[", "PROJCRS[", "GEOGCS[", "GEOGCRS[", "GEODCRS["].iter().filter_map(|k| inner.find(k)).min()?;
+    let (mut depth, mut quoted) = (0usize, false);
+    for (i, ch) in inner[start..].char_indices() {
+        match ch {
+            '"' => quoted = !quoted,
+            '[' if !quoted => depth += 1,
+            ']' if !quoted => {
+                depth = depth.checked_sub(1)?;
+                if depth == 0 {
+                    return inner.get(start..start + i + 1);
+                }
+            }
+            _ => {}
+        }
+    }
+    None
 }
