@@ -176,27 +176,58 @@ fn csv_rows(path: &Path) -> Vec<Vec<f64>> {
     text.lines().skip(1).map(|l| l.split(',').map(|v| v.parse().unwrap_or(f64::NAN)).collect()).collect()
 }
 
-/// A campaign whose only pole sensor is the simulated roof laser scanner: `run` reads its LAZ strips, finds
-/// the stems per time slice and every coordinate update it makes is of the right cadastre object, its
-/// observed position off the truth by the DG error of its time only (within a few centimetres; trees lean).
+/// A campaign whose only pole sensor is the simulated roof laser scanner: `run` reads its strips (written as
+/// COPC, read by octree node; then the same points as time-ordered LAZ), finds the stems per time slice and
+/// every coordinate update it makes is of the right cadastre object, its observed position off the truth by
+/// the DG error of its time only (within a few centimetres; trees lean).
 #[test]
 fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
     let dir = tempfile::tempdir().unwrap();
     let campaign = dir.path().join("mls");
     let out = campaign.to_str().unwrap();
-    let args = ["--length", "200", "--panorama-width", "512", "--point-cloud", "laz", "--no-depth", "--out", out];
+    let args = ["--length", "200", "--panorama-width", "512", "--point-cloud", "copc", "--no-depth", "--out", out];
     plumbline(&[&["simulate", "--preset", "tiny", "--seed", "3", "--profile", "canyon"][..], &args].concat())
         .run()
         .success();
     let manifest = std::fs::read_to_string(campaign.join("campaign.toml")).unwrap();
     assert!(manifest.contains("[[point_clouds]]") && !manifest.contains("[[depth]]"), "{manifest}");
+    assert!(manifest.contains("format = \"copc\"") && manifest.contains(".copc.laz"), "{manifest}");
     let run = plumbline(&["run", "--quiet", campaign.join("campaign.toml").to_str().unwrap()]).run();
     run.success();
 
     let results = campaign.join("results");
     let (timed, after) = check_cloud_control(&campaign, &results, true);
-    eprintln!("{timed} pole updates from the cloud's GPS times; 2D RMSE after {after:.3} m");
+    eprintln!("{timed} pole updates from the COPC cloud's GPS times; 2D RMSE after {after:.3} m");
     check_not_seen(&campaign, &results);
+
+    // The same points as LAZ strips in GPS-time order, streamed whole: the same control.
+    let strips = |dir: &str, transform: &dyn Fn(&mut Vec<plumbline_poles::LasPoint>), wkt: Option<String>| {
+        std::fs::create_dir_all(campaign.join(dir)).unwrap();
+        for entry in std::fs::read_dir(campaign.join("lidar")).unwrap() {
+            let path = entry.unwrap().path();
+            let mut points = Vec::new();
+            plumbline_poles::stream_las_points("strip", std::fs::read(&path).unwrap(), |b| points.extend_from_slice(b))
+                .unwrap();
+            points.sort_by(|a, b| a.gps_time.total_cmp(&b.gps_time));
+            transform(&mut points);
+            let encoding =
+                plumbline_poles::LasEncoding { compressed: true, wkt: wkt.clone(), adjusted_standard_week: None };
+            let laz = plumbline_poles::encode_las(&points, &encoding).unwrap();
+            let name = path.file_name().unwrap().to_str().unwrap().replace(".copc.laz", ".laz");
+            std::fs::write(campaign.join(dir).join(name), laz).unwrap();
+        }
+    };
+    strips("lidar_laz", &|_| {}, Some(plumbline_runtime::crs::wkt_of_epsg(25832).unwrap()));
+    let laz = manifest
+        .replace("\"lidar/", "\"lidar_laz/")
+        .replace(".copc.laz\"", ".laz\"")
+        .replace("format = \"copc\"", "format = \"laz\"")
+        .replace("output = \"results/\"", "output = \"laz/\"");
+    std::fs::write(campaign.join("laz.toml"), laz).unwrap();
+    plumbline(&["run", "--quiet", campaign.join("laz.toml").to_str().unwrap()]).run().success();
+    let (n, after) = check_cloud_control(&campaign, &campaign.join("laz"), true);
+    eprintln!("{n} pole updates from the same points as LAZ; 2D RMSE after {after:.3} m");
+    assert_eq!(n, timed, "COPC read by node and LAZ read whole give the same updates");
 
     // The same clouds declared without GPS time: each stem takes the time the drive passed nearest to it.
     let untimed = manifest
@@ -210,25 +241,19 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
 
     // The same clouds in ETRS89 / UTM zone 33N (the campaign is in zone 32N), saying so in their WKT: the
     // run moves them into the campaign's CRS as it streams them.
-    let to_33 = plumbline_runtime::CrsTransform::new(25832, 25833).unwrap();
-    let wkt = Some(plumbline_runtime::crs::wkt_of_epsg(25833).unwrap());
-    std::fs::create_dir_all(campaign.join("lidar33")).unwrap();
-    for entry in std::fs::read_dir(campaign.join("lidar")).unwrap() {
-        let path = entry.unwrap().path();
-        let mut points = Vec::new();
-        plumbline_poles::stream_las_points("strip", std::fs::read(&path).unwrap(), |b| points.extend_from_slice(b))
-            .unwrap();
+    let to_33 = |points: &mut Vec<plumbline_poles::LasPoint>| {
         let (mut xs, mut ys): (Vec<f64>, Vec<f64>) = points.iter().map(|p| (p.position[0], p.position[1])).unzip();
-        to_33.transform(&mut xs, &mut ys, &mut []).unwrap();
+        plumbline_runtime::CrsTransform::new(25832, 25833).unwrap().transform(&mut xs, &mut ys, &mut []).unwrap();
         for (p, (x, y)) in points.iter_mut().zip(xs.into_iter().zip(ys)) {
             (p.position[0], p.position[1]) = (x, y);
         }
-        let encoding =
-            plumbline_poles::LasEncoding { compressed: true, wkt: wkt.clone(), adjusted_standard_week: None };
-        let laz = plumbline_poles::encode_las(&points, &encoding).unwrap();
-        std::fs::write(campaign.join("lidar33").join(path.file_name().unwrap()), laz).unwrap();
-    }
-    let utm33 = manifest.replace("\"lidar/", "\"lidar33/").replace("output = \"results/\"", "output = \"utm33/\"");
+    };
+    strips("lidar33", &to_33, Some(plumbline_runtime::crs::wkt_of_epsg(25833).unwrap()));
+    let utm33 = manifest
+        .replace("\"lidar/", "\"lidar33/")
+        .replace(".copc.laz\"", ".laz\"")
+        .replace("format = \"copc\"", "format = \"laz\"")
+        .replace("output = \"results/\"", "output = \"utm33/\"");
     std::fs::write(campaign.join("utm33.toml"), utm33).unwrap();
     plumbline(&["run", "--quiet", campaign.join("utm33.toml").to_str().unwrap()]).run().success();
     let (n, after) = check_cloud_control(&campaign, &campaign.join("utm33"), true);

@@ -8,9 +8,13 @@
 //! the time the drive passed nearest to it (`plumbline_poles::untimed_inputs`).
 //! A cloud is read by range requests (`RangeReader`, 8 MiB at a time, from disk or S3) and decoded as it
 //! arrives: a tile holds one window of the file and one time window of points, whatever the file's size.
+//! A COPC cloud is read by octree node instead (`plumbline_poles::CopcIndex`): only the nodes whose cubes
+//! come within [`REACH_M`] of the tile's fetch box are decoded. Their points are not in time order, so a
+//! timed COPC tile gathers the points of its own time windows, sorts them and then slices them: it holds
+//! the tile's share of the cloud, not one window.
 //! A cloud in another CRS than the campaign's (its header's, or the manifest's `epsg`) is transformed to it
 //! through GDAL/PROJ as it streams ([`Reproject`]). A cloud that cannot be used is a skipped item naming the
-//! file and why (unreadable, not LAS, COPC, a CRS with no transformation to the campaign's); one corrupt
+//! file and why (unreadable, not LAS, a CRS with no transformation to the campaign's); one corrupt
 //! record ends that cloud's reading, keeping the slices already searched.
 
 use std::ops::Range;
@@ -27,8 +31,8 @@ use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
 use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasHeader, parse_las_header};
 use plumbline_poles::{
-    CloudConfig, CloudCounts, CloudSlicer, LasError, LasPoint, MatchInput, PassIndex, PoleConfig, StemConfig,
-    StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
+    CloudConfig, CloudCounts, CloudSlicer, CopcIndex, CopcNode, LasError, LasPoint, MatchInput, PassIndex, PoleConfig,
+    StemConfig, StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
 };
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
 use plumbline_runtime::{CrsTransform, Files};
@@ -95,8 +99,15 @@ pub(crate) async fn process(
         out.read_s += t0.elapsed().as_secs_f64();
         let t1 = Instant::now();
         let trajectory = Arc::clone(trajectory.get_or_insert_with(|| Arc::new(campaign.trajectory.trajectory.clone())));
-        let spec =
-            Stream { index: i, mount: scanner_mount(cloud), config: config.clouds, spans: spans.clone(), reproject };
+        let spec = Stream {
+            index: i,
+            mount: scanner_mount(cloud),
+            config: config.clouds,
+            spans: spans.clone(),
+            reproject,
+            copc: header.copc,
+            fetch: *fetch,
+        };
         let (read, found, counts) = if cloud.time != CloudTime::None && header.has_gps_time() {
             let adjusted = match cloud.time {
                 CloudTime::AdjustedStandard => true,
@@ -105,7 +116,7 @@ pub(crate) async fn process(
             };
             blocking(move || timed_stream(spec, trajectory, reader, adjusted)).await?
         } else {
-            untimed_stream(files, &url, spec, trajectory, *fetch).await?
+            untimed_stream(files, &url, spec, trajectory).await?
         };
         out.process_s += t1.elapsed().as_secs_f64();
         if let Err(e) = read {
@@ -139,6 +150,10 @@ struct Stream {
     spans: Vec<Range<f64>>,
     /// The transformation to the campaign's CRS, when the cloud is in another.
     reproject: Option<Reproject>,
+    /// A COPC cloud, read by the octree nodes near `fetch`.
+    copc: bool,
+    /// The tile's fetch box.
+    fetch: BBox,
 }
 
 /// A cloud's CRS to the campaign's: the EPSG codes, the transformation itself built on the thread that uses
@@ -202,25 +217,84 @@ fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, 
     let mut slicer = CloudSlicer::new(spec.config, &frame_prefix(spec.index), track, spec.spans);
     let mut converted: Vec<LasPoint> = Vec::new();
     let mut failed: Option<String> = None;
-    let len = reader.size();
-    let read = stream_las_points_from(&name, reader, len, |batch| {
+    // Week seconds in the campaign's CRS; `false` when the transformation failed (the reading ends there).
+    let mut convert = |batch: &[LasPoint], converted: &mut Vec<LasPoint>| {
         converted.clear();
         converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
-        if let Some(t) = transformer.as_mut()
-            && let Err(e) = t.apply(&mut converted, |p| &mut p.position)
-        {
-            failed.get_or_insert(e);
-            return;
+        match transformer.as_mut().map(|t| t.apply(converted, |p| &mut p.position)) {
+            Some(Err(e)) => {
+                failed.get_or_insert(e);
+                false
+            }
+            _ => true,
         }
-        slicer.push(&converted);
-    });
-    let (found, counts) = slicer.finish();
+    };
+    let len = reader.size();
+    let read = if spec.copc {
+        // Nodes come in octree order: gather the tile's time windows, then slice them in time order.
+        let mut kept: Vec<LasPoint> = Vec::new();
+        let mut points = 0u64;
+        let read = read_copc(&name, reader, len, spec.reproject, &spec.fetch, |index, source, nodes| {
+            index.stream_points(&name, source, nodes, |batch| {
+                points += batch.len() as u64;
+                if convert(batch, &mut converted) {
+                    kept.extend(converted.iter().filter(|p| slicer.needs(p.gps_time)));
+                }
+            })
+        });
+        kept.sort_by(|a, b| a.gps_time.total_cmp(&b.gps_time));
+        for batch in kept.chunks(65_536) {
+            slicer.push(batch);
+        }
+        read.map(|_| points)
+    } else {
+        stream_las_points_from(&name, reader, len, |batch| {
+            if convert(batch, &mut converted) {
+                slicer.push(&converted);
+            }
+        })
+        .map(|(_, n)| n)
+    };
+    let (found, mut counts) = slicer.finish();
+    if spec.copc
+        && let Ok(n) = read
+    {
+        // The slicer saw only the points kept; the count is of all points decoded.
+        counts.points = n;
+    }
     let read = match (read, failed) {
         (Err(e), _) => Err(e),
         (Ok(_), Some(problem)) => Err(LasError::Reproject { file: name, problem }),
         (Ok(_), None) => Ok(()),
     };
     (read, found, counts)
+}
+
+/// A COPC cloud's index read from `source`, and `decode(index, source, nodes near the fetch box)`.
+fn read_copc<R: std::io::Read + std::io::Seek>(
+    name: &str,
+    mut source: R,
+    len: u64,
+    reproject: Option<Reproject>,
+    fetch: &BBox,
+    decode: impl FnOnce(&CopcIndex, &mut R, &[CopcNode]) -> Result<u64, LasError>,
+) -> Result<u64, LasError> {
+    let index = CopcIndex::read(name, &mut source, len)?;
+    let transform = reproject.and_then(|r| r.transform().ok());
+    let nodes: Vec<CopcNode> = index
+        .nodes()
+        .iter()
+        .filter(|n| {
+            let b = [n.min[0], n.min[1], n.max[0], n.max[1]];
+            match &transform {
+                None => near(b, fetch),
+                // A cube whose corners cannot be moved is read: its points fail alone if they must.
+                Some(t) => t.transform_bounds(b).map_or(true, |b| near(b, fetch)),
+            }
+        })
+        .copied()
+        .collect();
+    decode(&index, &mut source, &nodes)
 }
 
 /// A cloud without GPS time: its stems near the tile (three streamed passes by range reads, points beyond
@@ -230,11 +304,10 @@ async fn untimed_stream(
     url: &str,
     spec: Stream,
     trajectory: Arc<Trajectory>,
-    fetch: BBox,
 ) -> anyhow::Result<Searched> {
     // Thin stems need the scan lines' times to be told from grazed walls (`StemConfig::thin_stems`).
     let mut detector = StemDetector::new(StemConfig { thin_stems: false, ..spec.config.stems });
-    let b = fetch;
+    let b = spec.fetch;
     let inside = move |p: &[f64; 3]| {
         p[0] >= b.min_east - REACH_M
             && p[0] <= b.max_east + REACH_M
@@ -245,7 +318,7 @@ async fn untimed_stream(
     for pass in 0..3 {
         let reader = RangeReader::open(files, url, DEFAULT_WINDOW).await?;
         let name = url.to_owned();
-        let reproject = spec.reproject;
+        let (reproject, copc) = (spec.reproject, spec.copc);
         let (returned, read) = blocking(move || {
             let mut transformer = match Transformer::new(reproject) {
                 Ok(t) => t,
@@ -254,7 +327,7 @@ async fn untimed_stream(
             let (mut near, mut moved): (Vec<[f64; 3]>, Vec<[f64; 3]>) = (Vec::new(), Vec::new());
             let mut failed: Option<String> = None;
             let len = reader.size();
-            let read = stream_las_xyz_from(&name, reader, len, |batch| {
+            let mut visit = |batch: &[[f64; 3]]| {
                 near.clear();
                 if let Some(t) = transformer.as_mut() {
                     moved.clear();
@@ -272,7 +345,14 @@ async fn untimed_stream(
                     1 => detector.collect(&near),
                     _ => detector.surroundings(&near),
                 }
-            });
+            };
+            let read = if copc {
+                read_copc(&name, reader, len, reproject, &b, |index, source, nodes| {
+                    index.stream_xyz(&name, source, nodes, &mut visit)
+                })
+            } else {
+                stream_las_xyz_from(&name, reader, len, visit).map(|(_, n)| n)
+            };
             let read = match (read, failed) {
                 (Ok(_), Some(problem)) => Err(LasError::Reproject { file: name, problem }),
                 (read, _) => read,
@@ -282,7 +362,7 @@ async fn untimed_stream(
         .await?;
         detector = returned;
         match read {
-            Ok((_, n)) if pass == 0 => points = n,
+            Ok(n) if pass == 0 => points = n,
             Ok(_) => {}
             Err(e) => return Ok((Err(e), Vec::new(), CloudCounts::default())),
         }
@@ -313,9 +393,14 @@ async fn read_header(files: &Files, url: &str) -> Result<LasHeader, SkippedInput
 /// Whether the cloud's bounds (in the campaign's CRS: their corners and edge middles transformed) come within
 /// [`REACH_M`] of the fetch box.
 fn reaches(h: &LasHeader, reproject: Option<Reproject>, fetch: &BBox) -> bool {
-    let Some([min_e, min_n, max_e, max_n]) = campaign_bounds(h, reproject) else { return false };
-    h.point_count > 0
-        && min_e <= fetch.max_east + REACH_M
+    let Some(b) = campaign_bounds(h, reproject) else { return false };
+    h.point_count > 0 && near(b, fetch)
+}
+
+/// Whether horizontal bounds (min east, min north, max east, max north) come within [`REACH_M`] of the fetch
+/// box.
+fn near([min_e, min_n, max_e, max_n]: [f64; 4], fetch: &BBox) -> bool {
+    min_e <= fetch.max_east + REACH_M
         && max_e >= fetch.min_east - REACH_M
         && min_n <= fetch.max_north + REACH_M
         && max_n >= fetch.min_north - REACH_M
@@ -332,14 +417,9 @@ fn campaign_bounds(h: &LasHeader, reproject: Option<Reproject>) -> Option<[f64; 
 }
 
 /// Whether a cloud can give control in a campaign of `campaign_epsg`: the transformation its points need
-/// when its CRS (the manifest's `epsg`, else the header's) is another; an error when it cannot be read (COPC,
-/// unless declared without time: the time-less path reads points in any order) or no transformation exists.
+/// when its CRS (the manifest's `epsg`, else the header's) is another; an error when no transformation
+/// exists.
 fn check_header(h: &LasHeader, cloud: &PointCloud, campaign_epsg: u32, url: &str) -> Result<Option<Reproject>, String> {
-    if h.copc && cloud.time != CloudTime::None {
-        return Err(format!(
-            "{url} is a COPC cloud (points by octree node, not in GPS-time order): read only with `time = \"none\"`"
-        ));
-    }
     let from = cloud.epsg.map(|e| e.0).or_else(|| h.crs.epsg(plumbline_runtime::epsg_of_wkt));
     match from {
         Some(from) if from != campaign_epsg => {
@@ -394,6 +474,7 @@ fn report_counts(url: &str, c: &CloudCounts, out: &mut PoleResults) {
 
 #[cfg(test)]
 mod tests {
+    use plumbline_geo::Trajectory;
     use plumbline_poles::{LasEncoding, encode_las, stream_las_points};
     use plumbline_runtime::{S3Options, Secret, write_url};
     use plumbline_testkit::MotoServer;
@@ -493,25 +574,106 @@ mod tests {
         assert!(refused.contains("EPSG:999999"), "{refused}");
     }
 
-    /// A real COPC file (the poles crate's `tests/data/autzen.copc.laz`) is refused for the timed path, whose
-    /// slices need points in time order, and taken by the time-less one, which reads any order.
+    /// A real COPC file (the poles crate's `tests/data/autzen.copc.laz`) is taken for both paths; its CRS
+    /// record is compound (Oregon GIC Lambert in feet + NAVD88 height): the horizontal part counts.
     #[test]
-    fn a_copc_cloud_is_read_only_without_time() {
+    fn a_copc_cloud_is_taken_with_or_without_time() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../workflow/poles/tests/data/autzen.copc.laz");
         let bytes = std::fs::read(path).unwrap();
-        let header = parse_las_header("autzen.copc.laz", &bytes, Some(bytes.len() as u64)).unwrap();
-        // Its CRS record is compound (Oregon GIC Lambert in feet + NAVD88 height): the horizontal part counts.
+        let header = parse_label(&bytes);
         assert_eq!(header.crs.epsg(plumbline_runtime::epsg_of_wkt), Some(2992));
-        let cloud = |time| PointCloud {
-            url: "lidar/autzen.copc.laz".into(),
-            epsg: Some(plumbline_campaign::Epsg(2992)),
-            time,
-            format: None,
-            mount: None,
+        for time in [CloudTime::Header, CloudTime::None] {
+            let cloud = PointCloud {
+                url: "lidar/autzen.copc.laz".into(),
+                epsg: Some(plumbline_campaign::Epsg(2992)),
+                time,
+                format: None,
+                mount: None,
+            };
+            assert!(check_header(&header, &cloud, 2992, "autzen.copc.laz").unwrap().is_none());
+        }
+    }
+
+    fn parse_label(bytes: &[u8]) -> LasHeader {
+        parse_las_header("autzen.copc.laz", bytes, Some(bytes.len() as u64)).unwrap()
+    }
+
+    /// A timed COPC cloud, read by the nodes near the tile and sorted, gives the tile the same slices as the
+    /// same points streamed from LAZ: a 60 s drive along a street of posts, the tile taking its middle third
+    /// (a third of the cloud lies beyond the fetch box's reach and is not decoded).
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_timed_copc_cloud_gives_the_slices_laz_gives() {
+        use plumbline_geo::attitude::Attitude;
+        use plumbline_geo::frames::Point3;
+        use plumbline_geo::trajectory::ValidationLimits;
+        use plumbline_poles::encode_copc;
+        // 60 s at 10 m/s eastwards, the scanner 2 m above flat ground; 200 profiles a second, each 180 beams
+        // over the full circle reaching the ground 8 m away or a post of 0.15 m (every 20 m, 5 m north).
+        let (e0, n0) = (565_000.0, 5_933_000.0);
+        let records: Vec<TrajectoryRecord> = (0..=600)
+            .map(|k| {
+                let t = 1000.0 + f64::from(k) * 0.1;
+                TrajectoryRecord {
+                    time: t,
+                    position: Point3::new(e0 + 10.0 * (t - 1000.0), n0, 2.0),
+                    attitude: Attitude::from_degrees(0.0, 0.0, 90.0),
+                    std: None,
+                }
+            })
+            .collect();
+        let trajectory = Arc::new(Trajectory::new(records, &ValidationLimits::default()).unwrap());
+        let mut points = Vec::new();
+        for p in 0..12_000 {
+            let t = 1000.0 + f64::from(p) / 200.0;
+            let x = e0 + 10.0 * (t - 1000.0);
+            let post = ((x / 20.0).round() * 20.0, n0 + 5.0);
+            for a in 0..180 {
+                let bearing = f64::from(a * 2).to_radians();
+                let (dx, dy) = (bearing.cos(), bearing.sin());
+                let along = (post.0 - x) * dx + (post.1 - n0) * dy;
+                let off = ((post.0 - x) * dy - (post.1 - n0) * dx).abs();
+                if along > 0.0 && off < 0.075 {
+                    let at = along - (0.075f64.powi(2) - off * off).sqrt();
+                    for h in 0..30 {
+                        let position = [x + at * dx, n0 + at * dy, f64::from(h) * 0.1];
+                        points.push(LasPoint { position, gps_time: t });
+                    }
+                } else {
+                    points.push(LasPoint { position: [x + 8.0 * dx, n0 + 8.0 * dy, 0.0], gps_time: t });
+                }
+            }
+        }
+        let encoding = LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None };
+        let laz = encode_las(&points, &encoding).unwrap();
+        let copc = encode_copc(&points, &encoding).unwrap();
+        let fetch = BBox { min_east: e0 + 200.0, min_north: n0 - 100.0, max_east: e0 + 400.0, max_north: n0 + 100.0 };
+        let spec = |copc| Stream {
+            index: 0,
+            mount: CameraMount::new([0.0; 3], &Boresight::from_degrees(0.0, 0.0, 0.0)),
+            config: CloudConfig::default(),
+            spans: vec![1020.0..1040.0],
+            reproject: None,
+            copc,
+            fetch,
         };
-        let refused = check_header(&header, &cloud(CloudTime::Header), 2992, "autzen.copc.laz").unwrap_err();
-        assert!(refused.contains("COPC") && refused.contains("time = \"none\""), "{refused}");
-        assert!(check_header(&header, &cloud(CloudTime::None), 2992, "autzen.copc.laz").unwrap().is_none());
+        let dir = tempfile::tempdir().unwrap();
+        let files = Files::new(S3Options::default());
+        let mut results = Vec::new();
+        for (name, bytes, copc) in [("s.laz", laz, false), ("s.copc.laz", copc, true)] {
+            let path = dir.path().join(name);
+            std::fs::write(&path, bytes).unwrap();
+            let reader = RangeReader::open(&files, path.to_str().unwrap(), 64 * 1024).await.unwrap();
+            let (spec, trajectory) = (spec(copc), Arc::clone(&trajectory));
+            results.push(blocking(move || timed_stream(spec, trajectory, reader, false)).await.unwrap());
+        }
+        let (read_copc, from_copc, copc_counts) = results.pop().unwrap();
+        let (read_laz, from_laz, laz_counts) = results.pop().unwrap();
+        read_laz.unwrap();
+        read_copc.unwrap();
+        assert!(from_laz.len() >= 15, "{} slices with stems", from_laz.len());
+        assert_eq!(from_copc, from_laz);
+        assert_eq!(laz_counts.points, points.len() as u64);
+        assert!(copc_counts.points < points.len() as u64 * 3 / 4, "{copc_counts:?}");
     }
 
     #[test]

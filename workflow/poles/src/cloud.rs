@@ -160,8 +160,9 @@ impl<T: ScannerTrack> CloudSlicer<T> {
         self.wanted.iter().any(|w| w.contains(&mid))
     }
 
-    /// Whether a point's time is inside the window of a wanted slice.
-    fn needed(&self, t: f64) -> bool {
+    /// Whether a point's time is inside the window of a wanted slice (a caller gathering points out of time
+    /// order, e.g. from a COPC file's nodes, keeps only these before sorting them).
+    pub fn needs(&self, t: f64) -> bool {
         let m = self.config.margin_s + self.config.slice_s;
         self.wanted.iter().any(|w| t >= w.start - m && t < w.end + m)
     }
@@ -170,7 +171,7 @@ impl<T: ScannerTrack> CloudSlicer<T> {
     pub fn push(&mut self, batch: &[LasPoint]) {
         for p in batch {
             self.counts.points += 1;
-            if !self.needed(p.gps_time) {
+            if !self.needs(p.gps_time) {
                 continue;
             }
             let k = self.slice_of(p.gps_time);

@@ -8,7 +8,7 @@ use las::Reader;
 use crate::las_header::{LAS_PREFIX_BYTES, LasHeader, LasHeaderError, parse_las_header};
 
 /// Points read per batch; a failing batch names its first record.
-const BATCH: u64 = 65_536;
+pub(crate) const BATCH: u64 = 65_536;
 /// Bytes of an extended VLR's header: reserved (2), user id (16), record id (2), record length (8),
 /// description (32).
 const EVLR_HEADER_LEN: u64 = 60;
@@ -76,6 +76,33 @@ pub enum LasError {
         /// The file.
         file: String,
         /// What the transformation said.
+        problem: String,
+    },
+    /// A COPC file's own records (info, hierarchy, LAZ items) are not usable; checked before any node is
+    /// decoded.
+    #[error("point cloud {file}: COPC `{field}`: {problem}")]
+    Copc {
+        /// The file.
+        file: String,
+        /// The record or field.
+        field: &'static str,
+        /// What is wrong.
+        problem: String,
+    },
+    /// A COPC node cannot be decoded (corrupt or truncated chunk).
+    #[error("point cloud {file}: COPC node {node}, points {first}–{last} of its {count}: {problem}")]
+    Node {
+        /// The file.
+        file: String,
+        /// The node's key, level-x-y-z.
+        node: String,
+        /// First point of the failing batch within the node (0-based).
+        first: u64,
+        /// Last point of the failing batch.
+        last: u64,
+        /// Points the node announces.
+        count: u64,
+        /// The decoder's error.
         problem: String,
     },
     /// A record's coordinate is not finite after scaling.
@@ -214,7 +241,7 @@ fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
 
 /// `read`, with a panic inside (the `laz` decoder on corrupt data) turned into an error. The reader is not
 /// used after a panic: its error ends the read.
-fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
+pub(crate) fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
     std::panic::catch_unwind(std::panic::AssertUnwindSafe(read)).unwrap_or_else(|_| {
         let message = "corrupt compressed data: the LAZ decoder failed (panicked)";
         Err(las::Error::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, message)))
@@ -226,7 +253,7 @@ fn unpanicked<T>(read: impl FnOnce() -> las::Result<T>) -> las::Result<T> {
 /// count within what the compressed points can hold. A truncated point section is left to the reader, whose
 /// error names the failing records. `at(offset, n)` gives up to `n` bytes of the `len`-byte file from
 /// `offset` (fewer at its end).
-fn check_extents(
+pub(crate) fn check_extents(
     file: &str,
     len: u64,
     mut at: impl FnMut(u64, usize) -> std::io::Result<Vec<u8>>,
@@ -248,17 +275,21 @@ fn check_extents(
         let problem = format!("{} records of {record_length} bytes end past any file", header.point_count);
         return Err(invalid("point_count", problem));
     }
-    // The reader reads the first EVLR when both fields are non-zero.
-    let evlr = header.start_of_first_evlr;
-    if evlr > 0 && header.number_of_evlrs > 0 {
-        let data_len = match evlr.checked_add(20) {
-            Some(field) => take8(field)?.map(u64::from_le_bytes),
-            None => None,
-        };
-        let end = data_len.and_then(|n| evlr.checked_add(EVLR_HEADER_LEN)?.checked_add(n)).filter(|end| *end <= len);
-        if end.is_none() {
-            let problem = format!("the extended VLR at byte {evlr} does not end within the file ({len} bytes)");
-            return Err(invalid("start_of_first_evlr", problem));
+    // The reader reads every EVLR, allocating each one's announced length: each must end within the file.
+    let mut evlr = header.start_of_first_evlr;
+    if evlr > 0 {
+        for k in 0..header.number_of_evlrs {
+            let data_len = match evlr.checked_add(20) {
+                Some(field) => take8(field)?.map(u64::from_le_bytes),
+                None => None,
+            };
+            let end =
+                data_len.and_then(|n| evlr.checked_add(EVLR_HEADER_LEN)?.checked_add(n)).filter(|end| *end <= len);
+            let Some(end) = end else {
+                let problem = format!("extended VLR {k} at byte {evlr} does not end within the file ({len} bytes)");
+                return Err(invalid("start_of_first_evlr", problem));
+            };
+            evlr = end;
         }
     }
     if header.compressed {
@@ -314,7 +345,7 @@ fn slice_at(bytes: &[u8], at: u64, n: usize) -> Vec<u8> {
 }
 
 /// Up to `n` bytes of a seekable source from `at` (fewer at its end).
-fn read_at<R: Read + Seek>(source: &mut R, at: u64, n: usize) -> std::io::Result<Vec<u8>> {
+pub(crate) fn read_at<R: Read + Seek>(source: &mut R, at: u64, n: usize) -> std::io::Result<Vec<u8>> {
     source.seek(SeekFrom::Start(at))?;
     let mut out = Vec::with_capacity(n.min(LAS_PREFIX_BYTES));
     source.take(n as u64).read_to_end(&mut out)?;
@@ -323,7 +354,7 @@ fn read_at<R: Read + Seek>(source: &mut R, at: u64, n: usize) -> std::io::Result
 
 /// A batch's coordinates into `out` (cleared first); a coordinate that is not finite is an error naming its
 /// record.
-fn xyz_of(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<[f64; 3]>) -> Result<(), LasError> {
+pub(crate) fn xyz_of(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<[f64; 3]>) -> Result<(), LasError> {
     out.clear();
     for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
         for (field, v) in [("x", x), ("y", y), ("z", z)] {
@@ -336,7 +367,7 @@ fn xyz_of(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<[f64; 3]
     Ok(())
 }
 
-fn append(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<LasPoint>) -> Result<(), LasError> {
+pub(crate) fn append(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<LasPoint>) -> Result<(), LasError> {
     let times: Vec<f64> = batch.gps_time().map(Iterator::collect).unwrap_or_default();
     for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
         let record = first + i as u64;
@@ -425,9 +456,27 @@ pub struct LasEncoding {
 /// A cloud as LAS 1.4 point format 6 (coordinates at millimetre resolution, GPS time), e.g. a simulated
 /// scanner strip. Fails when a coordinate does not fit the millimetre grid around the cloud's first point.
 pub fn encode_las(points: &[LasPoint], encoding: &LasEncoding) -> Result<Vec<u8>, las::Error> {
+    let mut builder = builder(points, encoding)?;
+    builder.point_format.is_compressed = encoding.compressed;
+    let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header()?)?;
+    for p in points {
+        let [x, y, z] = p.position;
+        writer.write_point(las::Point {
+            x,
+            y,
+            z,
+            gps_time: Some(time_of(p.gps_time, encoding)),
+            ..Default::default()
+        })?;
+    }
+    Ok(writer.into_inner()?.into_inner())
+}
+
+/// The header [`encode_las`] and `copc::encode_copc` start from: LAS 1.4 format 6, millimetre grid around
+/// the first point, the CRS and time type of `encoding`.
+pub(crate) fn builder(points: &[LasPoint], encoding: &LasEncoding) -> Result<las::Builder, las::Error> {
     let mut builder = las::Builder::from((1, 4));
     builder.point_format = las::point::Format::new(6)?;
-    builder.point_format.is_compressed = encoding.compressed;
     let origin = points.first().map_or([0.0; 3], |p| p.position.map(|v| (v / 1000.0).round() * 1000.0));
     let t = |offset| las::Transform { scale: 0.001, offset };
     builder.transforms = las::Vector { x: t(origin[0]), y: t(origin[1]), z: t(origin[2]) };
@@ -440,17 +489,22 @@ pub fn encode_las(points: &[LasPoint], encoding: &LasEncoding) -> Result<Vec<u8>
         });
         builder.has_wkt_crs = true;
     }
-    let time = |t: f64| match encoding.adjusted_standard_week {
-        Some(week) => f64::from(week) * crate::las_header::GPS_WEEK_S + t - 1e9,
-        None => t,
-    };
     if encoding.adjusted_standard_week.is_some() {
         builder.gps_time_type = las::GpsTimeType::Standard;
     }
-    let mut writer = las::Writer::new(Cursor::new(Vec::new()), builder.into_header()?)?;
-    for p in points {
-        let [x, y, z] = p.position;
-        writer.write_point(las::Point { x, y, z, gps_time: Some(time(p.gps_time)), ..Default::default() })?;
+    Ok(builder)
+}
+
+/// A point's week-second time as `encoding` writes it.
+pub(crate) fn time_of(t: f64, encoding: &LasEncoding) -> f64 {
+    match encoding.adjusted_standard_week {
+        Some(week) => f64::from(week) * crate::las_header::GPS_WEEK_S + t - 1e9,
+        None => t,
     }
-    Ok(writer.into_inner()?.into_inner())
+}
+
+/// The `las` crate's full header (VLRs and extended VLRs) from a source whose extents were checked
+/// ([`check_extents`]); a decoder panic becomes the error.
+pub(crate) fn las_header_of<R: Read + Seek>(file: &str, source: &mut R) -> Result<las::Header, LasError> {
+    unpanicked(|| las::Header::new(&mut *source)).map_err(|source| LasError::Header { file: file.to_owned(), source })
 }

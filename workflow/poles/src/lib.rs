@@ -18,6 +18,7 @@
 //! fed by [`las::stream_las_xyz`]: `plumbline poles detect`.
 
 pub mod cloud;
+pub mod copc;
 pub mod cupt;
 pub mod depth;
 pub mod detect;
@@ -30,6 +31,7 @@ pub mod report;
 pub mod stems;
 
 pub use cloud::{CloudConfig, CloudCounts, CloudSlicer, Pass, PassIndex, ScannerTrack, untimed_inputs};
+pub use copc::{CopcIndex, CopcNode, encode_copc};
 pub use cupt::{CuptConfig, coordinate_updates};
 pub use depth::{DepthError, DepthImage, decode_depth_png, depth_points};
 pub use detect::{

@@ -141,7 +141,8 @@ fn write_1_4_with_evlr(compressed: bool, n: usize) -> Vec<u8> {
 
 /// Counts the `las` and `laz` crates would allocate from are checked against the file first: before, a chunk
 /// count of u32::MAX made the `laz` crate reserve 64 GiB (the process aborted), an extended VLR length of
-/// 2^62 the `las` crate as much, and a 64-bit point count overflowed its end-of-points offset.
+/// 2^62 (of any extended VLR, not only the first) the `las` crate as much, and a 64-bit point count
+/// overflowed its end-of-points offset.
 #[test]
 fn corrupt_counts_are_errors_not_allocations() {
     let u32_at = |b: &[u8], at: usize| u32::from_le_bytes(b[at..at + 4].try_into().unwrap());
@@ -163,7 +164,12 @@ fn corrupt_counts_are_errors_not_allocations() {
         let mut bad = file.clone();
         bad[evlr + 20..evlr + 28].copy_from_slice(&(1u64 << 62).to_le_bytes());
         let err = read_las("evlr.las", bad).unwrap_err().to_string();
-        assert!(err.starts_with("point cloud evlr.las: header field `start_of_first_evlr`: the extended VLR"), "{err}");
+        assert!(err.starts_with("point cloud evlr.las: header field `start_of_first_evlr`: extended VLR 0"), "{err}");
+        // A second extended VLR announced where the file ends: each one is checked, not only the first.
+        let mut bad = file.clone();
+        bad[243..247].copy_from_slice(&2u32.to_le_bytes());
+        let err = read_las("evlr.las", bad).unwrap_err().to_string();
+        assert!(err.contains("extended VLR 1 at byte"), "{err}");
         let mut bad = file;
         bad[107..111].copy_from_slice(&0u32.to_le_bytes()); // no legacy count to disagree with
         bad[247..255].copy_from_slice(&(u64::MAX / 2).to_le_bytes());
@@ -308,4 +314,142 @@ fn a_real_copc_file_is_recognised_and_streams_as_laz() {
     let (lo, hi) =
         points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), p| (lo.min(p.gps_time), hi.max(p.gps_time)));
     assert!((lo - 245_372.405_819_218).abs() < 1e-6 && (hi - 249_780.160_155_575).abs() < 1e-6, "{lo} {hi}");
+}
+
+/// A strip-like cloud: a scanner's helix of points 0.1 ms apart along 300 m of street, on the millimetre
+/// grid the writers use.
+fn strip(n: usize) -> Vec<plumbline_poles::LasPoint> {
+    (0..n)
+        .map(|i| {
+            let f = i as f64;
+            let a = f * 0.0123;
+            let position = [
+                565_000.0 + f * 300.0 / n as f64 + a.cos() * 6.0,
+                5_933_000.0 + a.sin() * 9.0,
+                40.0 + (f * 0.7).sin() * 3.0,
+            ];
+            plumbline_poles::LasPoint {
+                position: position.map(|v| (v * 1000.0).round() / 1000.0),
+                gps_time: 345_600.0 + f * 1e-4,
+            }
+        })
+        .collect()
+}
+
+fn sorted(mut points: Vec<plumbline_poles::LasPoint>) -> Vec<plumbline_poles::LasPoint> {
+    points.sort_by(|a, b| a.gps_time.total_cmp(&b.gps_time));
+    points
+}
+
+/// `encode_copc` writes a COPC file the `las` crate's own COPC reader and its plain LAZ reader both accept,
+/// and [`CopcIndex`] decodes node by node: all nodes give back every point (to the millimetre grid), the
+/// nodes meeting a box give every point inside it and far fewer than the whole cloud.
+#[test]
+fn a_copc_file_is_written_and_read_back_node_by_node() {
+    use plumbline_poles::{CopcIndex, LasEncoding, encode_copc};
+    let points = strip(200_000);
+    let encoding = LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None };
+    let bytes = encode_copc(&points, &encoding).unwrap();
+    let len = bytes.len() as u64;
+
+    let mut theirs = las::CopcReader::new(Cursor::new(bytes.clone())).unwrap();
+    let all = theirs.query(las::LodSelection::All, las::BoundsSelection::All).unwrap();
+    assert_eq!(all.len(), points.len());
+    let mut sequential = 0;
+    plumbline_poles::stream_las_points("s.copc.laz", bytes.clone(), |b| sequential += b.len()).unwrap();
+    assert_eq!(sequential, points.len());
+
+    let mut source = Cursor::new(bytes);
+    let index = CopcIndex::read("s.copc.laz", &mut source, len).unwrap();
+    assert!(index.header().copc && index.nodes().len() > 20, "{} nodes", index.nodes().len());
+    assert!(index.nodes().iter().any(|n| n.key[0] >= 3), "the octree has depth");
+    let mut got = Vec::new();
+    let read = index.stream_points("s.copc.laz", &mut source, index.nodes(), |b| got.extend_from_slice(b)).unwrap();
+    assert_eq!(read, points.len() as u64);
+    for (a, b) in sorted(got).iter().zip(&points) {
+        assert!((0..3).all(|k| (a.position[k] - b.position[k]).abs() <= 0.0005), "{a:?} {b:?}");
+        assert!((a.gps_time - b.gps_time).abs() < 1e-9);
+    }
+
+    let area = [565_100.0, 5_932_990.0, 565_130.0, 5_933_010.0];
+    let inside = |p: &[f64; 3]| p[0] >= area[0] && p[0] <= area[2] && p[1] >= area[1] && p[1] <= area[3];
+    let nodes: Vec<_> = index.nodes().iter().copied().filter(|n| n.meets(area)).collect();
+    let mut near = Vec::new();
+    index.stream_xyz("s.copc.laz", &mut source, &nodes, |b| near.extend_from_slice(b)).unwrap();
+    let wanted = points.iter().filter(|p| inside(&p.position)).count();
+    assert!(wanted > 10_000, "{wanted}");
+    assert_eq!(near.iter().filter(|p| inside(p)).count(), wanted);
+    assert!(near.len() < points.len() / 3, "{} of {} decoded for a 30 m box", near.len(), points.len());
+}
+
+/// The real COPC file's single node decodes to the 107 points its plain LAZ reading gives.
+#[test]
+fn a_real_copc_file_reads_by_node() {
+    use plumbline_poles::{CopcIndex, stream_las_points};
+    let bytes = std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/autzen.copc.laz")).unwrap();
+    let len = bytes.len() as u64;
+    let mut whole = Vec::new();
+    stream_las_points("autzen.copc.laz", bytes.clone(), |b| whole.extend_from_slice(b)).unwrap();
+    let mut source = Cursor::new(bytes);
+    let index = CopcIndex::read("autzen.copc.laz", &mut source, len).unwrap();
+    let mut got = Vec::new();
+    index.stream_points("autzen.copc.laz", &mut source, index.nodes(), |b| got.extend_from_slice(b)).unwrap();
+    assert_eq!(sorted(got), sorted(whole));
+}
+
+/// A hostile hierarchy is refused before any node is decoded, naming the node: more points than the
+/// header's, a chunk outside the point data, a key outside the octree; a chunk whose layers announce more
+/// than it holds is an error of that node (the decoder would allocate the announced sizes); a truncated file
+/// is an error, never a panic.
+#[test]
+fn a_hostile_copc_hierarchy_is_refused_naming_the_node() {
+    use plumbline_poles::{CopcIndex, LasEncoding, encode_copc};
+    let points = strip(20_000);
+    let bytes =
+        encode_copc(&points, &LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None }).unwrap();
+    let u64_at = |b: &[u8], at: usize| u64::from_le_bytes(b[at..at + 8].try_into().unwrap());
+    // The root page's offset and size are in COPC's info payload at 375 + 54 + 40.
+    let page = u64_at(&bytes, 375 + 54 + 40) as usize;
+    let entries = u64_at(&bytes, 375 + 54 + 48) as usize / 32;
+    let entry = |k: usize| page + 32 * k;
+    let open = |b: Vec<u8>| {
+        let len = b.len() as u64;
+        let mut source = Cursor::new(b);
+        CopcIndex::read("h.copc.laz", &mut source, len).map(|i| (i, source))
+    };
+    assert!(open(bytes.clone()).is_ok());
+
+    let mut more = bytes.clone();
+    more[entry(1) + 28..entry(1) + 32].copy_from_slice(&i32::MAX.to_le_bytes());
+    let e = open(more).unwrap_err().to_string();
+    assert!(e.contains("copc_hierarchy") && e.contains("more points"), "{e}");
+
+    let mut outside = bytes.clone();
+    outside[entry(2) + 16..entry(2) + 24].copy_from_slice(&(bytes.len() as u64 - 10).to_le_bytes());
+    let e = open(outside).unwrap_err().to_string();
+    assert!(e.contains("node ") && e.contains("do not lie within"), "{e}");
+
+    let mut key = bytes.clone();
+    key[entry(entries - 1) + 4..entry(entries - 1) + 8].copy_from_slice(&(1i32 << 20).to_le_bytes());
+    let e = open(key).unwrap_err().to_string();
+    assert!(e.contains("outside the octree"), "{e}");
+
+    // The root node's first layer size (after its 30-byte first point and 4-byte count) announces 1 GB.
+    let root_offset = u64_at(&bytes, entry(0) + 16) as usize;
+    let mut layers = bytes.clone();
+    layers[root_offset + 34..root_offset + 38].copy_from_slice(&1_000_000_000u32.to_le_bytes());
+    let (index, mut source) = open(layers).unwrap();
+    let e = index.stream_points("h.copc.laz", &mut source, index.nodes(), |_| {}).unwrap_err().to_string();
+    assert!(e.contains("COPC node 0-0-0-0") && e.contains("layers announce"), "{e}");
+
+    for cut in [bytes.len() / 2, page + 5, 500] {
+        let truncated = bytes[..cut].to_vec();
+        match open(truncated) {
+            Err(_) => {}
+            Ok((index, mut source)) => {
+                let read = index.stream_points("h.copc.laz", &mut source, index.nodes(), |_| {});
+                assert!(read.is_err(), "cut at {cut}");
+            }
+        }
+    }
 }

@@ -1,10 +1,11 @@
-//! The mobile laser scanner of a simulated campaign (`--point-cloud laz`): the roof profile scanner of
+//! The mobile laser scanner of a simulated campaign (`--point-cloud laz|copc`): the roof profile scanner of
 //! `plumbline_synth::mls` along the drive, written as LAZ strips (LAS 1.4, point format 6, GPS week seconds,
 //! the campaign CRS as WKT) of at most [`STRIP_S`] seconds of scanning each, as survey deliveries cut a
-//! drive into strips. Each strip is made, compressed and handed over before the next is scanned.
+//! drive into strips, or as COPC files of the same strips (points by octree node). Each strip is made,
+//! compressed and handed over before the next is scanned.
 
 use anyhow::Context as _;
-use plumbline_poles::{LasEncoding, LasPoint, encode_las};
+use plumbline_poles::{LasEncoding, LasPoint, encode_copc, encode_las};
 use plumbline_synth::mls::{ProfileScanner, profile_times, scan_profiles};
 use plumbline_synth::motion::Drive;
 use plumbline_synth::motion::dg::DgSolution;
@@ -23,6 +24,7 @@ pub(crate) fn write(
     dg: &DgSolution,
     crs: u32,
     seed: u64,
+    copc: bool,
     sink: &Sink,
 ) -> anyhow::Result<String> {
     let scanner = ProfileScanner::ROOF;
@@ -36,11 +38,16 @@ pub(crate) fn write(
         points_total += points.len();
         let points: Vec<LasPoint> =
             points.into_iter().map(|p| LasPoint { position: p.position, gps_time: p.gps_time }).collect();
-        let laz = encode_las(&points, &encoding).with_context(|| format!("LAZ strip {k}"))?;
-        let file = format!("lidar/strip_{k:03}.laz");
-        sink.put(&file, laz)?;
+        let (file, bytes, format) = if copc {
+            let bytes = encode_copc(&points, &encoding).with_context(|| format!("COPC strip {k}"))?;
+            (format!("lidar/strip_{k:03}.copc.laz"), bytes, "copc")
+        } else {
+            let bytes = encode_las(&points, &encoding).with_context(|| format!("LAZ strip {k}"))?;
+            (format!("lidar/strip_{k:03}.laz"), bytes, "laz")
+        };
+        sink.put(&file, bytes)?;
         section.push_str(&format!(
-            "[[point_clouds]]\nurl = \"{file}\"\ntime = \"week_seconds\"\n{}\n",
+            "[[point_clouds]]\nurl = \"{file}\"\nformat = \"{format}\"\ntime = \"week_seconds\"\n{}\n",
             mount("point_clouds", &scanner.mount).trim_start()
         ));
     }

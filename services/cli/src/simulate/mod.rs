@@ -21,7 +21,8 @@
 //!   `truth/depth_images.csv`;
 //! - `lidar/strip_NNN.laz` with `--point-cloud laz`: a roof profile scanner's points (LAS 1.4 format 6, GPS
 //!   week seconds, CRS as WKT), traced from the TRUE pose and georeferenced with the DG pose, in strips of at
-//!   most 30 s of scanning (module `lidar`);
+//!   most 30 s of scanning (module `lidar`); with `--point-cloud copc` the same strips as COPC files
+//!   `lidar/strip_NNN.copc.laz` (one LAZ chunk per octree node, declared `format = "copc"`);
 //! - `cadastre/poles.gpkg` (layers `poles`, `trees`, EPSG 4258) and `truth/poles.csv` (module `cadastre`);
 //! - `aerial/`: frames, `exterior_orientation.csv`, orthophoto and terrain GeoTIFFs (module `aerial`);
 //! - `map.png`: the world's buildings, streets, poles, aerial footprints and the drive coloured by DG error;
@@ -117,7 +118,7 @@ pub struct Args {
     #[arg(long, value_enum, default_value_t = FrameFormat::Jpeg)]
     pub aerial_format: FrameFormat,
     /// Mobile laser scanning along the drive (`tiny` and `district`): `laz` writes a roof profile scanner's
-    /// strips under `lidar/` and names them in the manifest.
+    /// strips under `lidar/` and names them in the manifest; `copc` writes them as COPC files.
     #[arg(long, value_enum, default_value_t = PointCloudOutput::None)]
     pub point_cloud: PointCloudOutput,
     /// Write no depth images (e.g. to run pole control from the point cloud alone).
@@ -132,6 +133,8 @@ pub enum PointCloudOutput {
     None,
     /// LAZ strips of a roof profile scanner.
     Laz,
+    /// The same strips as COPC (cloud-optimised: points by octree node).
+    Copc,
 }
 
 /// A frame size `WIDTHxHEIGHT`, each 100–40000 pixels.
@@ -286,8 +289,9 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         if !args.no_depth {
             sections.depth = Some(imagery::depth(&world, &drive, &dg, &sizes, seed, sink)?);
         }
-        if args.point_cloud == PointCloudOutput::Laz {
-            sections.point_clouds = Some(lidar::write(&world, &drive, &dg, crs, seed, sink)?);
+        if args.point_cloud != PointCloudOutput::None {
+            let copc = args.point_cloud == PointCloudOutput::Copc;
+            sections.point_clouds = Some(lidar::write(&world, &drive, &dg, crs, seed, copc, sink)?);
         }
         sections.cadastre = Some(cadastre::write(&world, crs, seed, sink)?);
         let frames = aerial::FrameOptions::of(args);

@@ -36,17 +36,6 @@ pub(crate) async fn point_cloud(c: &mut Checker<'_>, field: &str, cloud: &PointC
             format!("`{url}` is declared `{}`, but its header says {}", declared.name(), found.name()),
         );
     }
-    if found == CloudFormat::Copc && cloud.time != CloudTime::None {
-        c.problem(
-            field,
-            format!(
-                "`{url}` is a COPC cloud: its points are stored by octree node, and plumbline reads a drive's \
-                 clouds by GPS time in time order; give the scanner's LAS/LAZ strips (e.g. `pdal translate` with \
-                 a `filters.sort` on GpsTime), or declare `time = \"none\"` to have its stems timed by the \
-                 drive's nearest pass (weaker control)"
-            ),
-        );
-    }
     let campaign = c.epsg;
     let header_epsg = header.crs.epsg(plumbline_runtime::epsg_of_wkt);
     match (cloud.epsg, header_epsg) {

@@ -58,8 +58,8 @@ pub enum CloudFormat {
     Las,
     /// LASzip-compressed LAS (LAZ).
     Laz,
-    /// Cloud-optimised point cloud (COPC 1.0: LAZ 1.4 stored by octree node, not in GPS-time order): read only
-    /// with `time = "none"`, whose path takes points in any order.
+    /// Cloud-optimised point cloud (COPC 1.0: LAZ 1.4 stored by octree node, not in GPS-time order): each tile
+    /// reads the nodes near it and sorts their points by time.
     Copc,
 }
 
