@@ -103,6 +103,8 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     config.check().map_err(|e| invalid(format!("--min-height: {e}")))?;
     // The CRS each cloud records, from its header.
     let mut recorded: Vec<(String, Option<u32>)> = Vec::new();
+    // Metres per unit of each cloud's heights (its WKT's vertical CRS; 1 without one).
+    let mut height_units: Vec<f64> = Vec::new();
     for url in &args.clouds {
         let (prefix, _) = ctx.files().read_prefix(url, LAS_PREFIX_BYTES as u64).await?;
         let header =
@@ -124,6 +126,16 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
             }
         );
         recorded.push((url.clone(), epsg));
+        let height_unit = match &header.crs {
+            LasCrs::Wkt(wkt) => plumbline_runtime::vertical_unit_of_wkt(wkt),
+            _ => None,
+        };
+        if let Some((name, m)) = &height_unit
+            && *m != 1.0
+        {
+            eprintln!("{}: heights in {name} ({m} m), converted to metres", file_name(url));
+        }
+        height_units.push(height_unit.map_or(1.0, |u| u.1));
     }
     let epsg = match args.epsg {
         Some(code) => Some(code),
@@ -145,18 +157,43 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     if epsg.is_none() {
         eprintln!("warning: no cloud records a CRS and no --epsg was given: the layer is written without a CRS");
     }
+    // Metres per unit of the coordinates: the detector measures in metres, the layers keep the CRS's units.
+    let unit = match epsg {
+        Some(code) if !plumbline_runtime::is_projected(code).unwrap_or(true) => {
+            return Err(invalid(format!(
+                "EPSG:{code} is geographic (degrees): stems are measured in metres; give the clouds in a projected \
+                 CRS"
+            )));
+        }
+        Some(code) => plumbline_runtime::linear_unit_m(code).unwrap_or(1.0),
+        None => 1.0,
+    };
+    if unit != 1.0 {
+        eprintln!("coordinates in units of {unit} m: measured in metres, the layers written in the CRS's units");
+    }
     let mut detector = StemDetector::new(config);
     let mut total = 0u64;
     for pass in 0..3 {
-        for url in &args.clouds {
+        for (url, &height_unit) in args.clouds.iter().zip(&height_units) {
             let reader = RangeReader::open(ctx.files(), url, DEFAULT_WINDOW).await?;
             let name = file_name(url).to_owned();
+            let scale = [unit, unit, height_unit];
             let (returned, read) = tokio::task::spawn_blocking(move || {
                 let len = reader.size();
-                let read = stream_las_xyz_from(&name, reader, len, |batch| match pass {
-                    0 => detector.ground(batch),
-                    1 => detector.collect(batch),
-                    _ => detector.surroundings(batch),
+                let mut metric: Vec<[f64; 3]> = Vec::new();
+                let read = stream_las_xyz_from(&name, reader, len, |batch| {
+                    let batch = if scale == [1.0; 3] {
+                        batch
+                    } else {
+                        metric.clear();
+                        metric.extend(batch.iter().map(|p| [p[0] * scale[0], p[1] * scale[1], p[2] * scale[2]]));
+                        &metric
+                    };
+                    match pass {
+                        0 => detector.ground(batch),
+                        1 => detector.collect(batch),
+                        _ => detector.surroundings(batch),
+                    }
                 });
                 (detector, read)
             })
@@ -198,10 +235,10 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
         fields: columns(&[("cell_m", FieldType::Real)]),
         features: detector_cells
             .iter()
-            .map(|c| PointFeature { x: c[0], y: c[1], values: vec![FieldValue::Real(COVERAGE_CELL_M)] })
+            .map(|c| PointFeature { x: c[0] / unit, y: c[1] / unit, values: vec![FieldValue::Real(COVERAGE_CELL_M)] })
             .collect(),
     };
-    let layers = [layer_of(&stems), covered];
+    let layers = [layer_of(&stems, unit), covered];
     let bytes = tokio::task::spawn_blocking(move || geopackage_in(&layers, epsg))
         .await
         .context("the GeoPackage task failed")??;
@@ -215,8 +252,8 @@ fn columns(fields: &[(&str, FieldType)]) -> Vec<(String, FieldType)> {
     fields.iter().map(|(n, t)| ((*n).to_owned(), *t)).collect()
 }
 
-/// The `detected_poles` layer.
-fn layer_of(stems: &[Stem]) -> PointLayer {
+/// The `detected_poles` layer, its points in units of `unit` metres (the CRS's), its attributes in metres.
+fn layer_of(stems: &[Stem], unit: f64) -> PointLayer {
     let fields = [
         ("class", FieldType::Text),
         ("diameter_m", FieldType::Real),
@@ -237,8 +274,8 @@ fn layer_of(stems: &[Stem]) -> PointLayer {
     let features = stems
         .iter()
         .map(|s| PointFeature {
-            x: s.centre[0],
-            y: s.centre[1],
+            x: s.centre[0] / unit,
+            y: s.centre[1] / unit,
             values: vec![
                 FieldValue::Text(s.class.name().to_owned()),
                 FieldValue::Real(s.diameter_m),

@@ -127,6 +127,49 @@ fn street_cloud(compressed: bool, epsg: Option<u16>) -> (Vec<u8>, Vec<plumbline_
     (writer.into_inner().unwrap().into_inner(), truth)
 }
 
+/// The scanned street in feet — Oregon GIC Lambert (international feet) with NAVD88 heights in US survey
+/// feet, as a compound WKT like Autzen's — is measured in metres and written back in feet: the same four
+/// stems, centres within 3 cm, diameters within 2 cm (in metres).
+#[test]
+fn poles_detect_measures_a_cloud_in_feet_in_metres() {
+    use gdal::vector::LayerAccess as _;
+    let (ft, us_ft) = (0.3048, 0.304800609601219);
+    let (points, truth) = plumbline_synth::scan::scan_scene(&plumbline_synth::scan::ScanScene::default(), 3);
+    let horizontal = plumbline_runtime::crs::wkt_of_epsg(2992).unwrap();
+    let wkt = format!(
+        "COMPD_CS[\"NAD83 / Oregon GIC Lambert (ft) + NAVD88 height (ftUS)\",{horizontal},VERT_CS[\"NAVD88 height \
+         (ftUS)\",VERT_DATUM[\"North American Vertical Datum 1988\",2005],UNIT[\"US survey foot\",{us_ft}],AXIS[\"Up\",UP]]]"
+    );
+    let feet: Vec<plumbline_poles::LasPoint> = points
+        .iter()
+        .map(|p| plumbline_poles::LasPoint { position: [p[0] / ft, p[1] / ft, p[2] / us_ft], gps_time: 0.0 })
+        .collect();
+    let encoding = plumbline_poles::LasEncoding { compressed: true, wkt: Some(wkt), adjusted_standard_week: None };
+    let dir = tempfile::tempdir().unwrap();
+    let (cloud, out) = (dir.path().join("street_ft.laz"), dir.path().join("poles.gpkg"));
+    std::fs::write(&cloud, plumbline_poles::encode_las(&feet, &encoding).unwrap()).unwrap();
+    let r = plumbline(&["poles", "detect", cloud.to_str().unwrap(), "--out", out.to_str().unwrap()]).run();
+    r.success();
+    assert!(r.stderr.contains("CRS EPSG:2992") && r.stderr.contains("heights in US survey foot"), "{}", r.stderr);
+    assert!(r.stderr.contains("4 stems: 2 poles, 2 trunks"), "{}", r.stderr);
+    let ds = gdal::Dataset::open(&out).unwrap();
+    let mut layer = ds.layer_by_name("detected_poles").unwrap();
+    let di = layer.defn().field_index("diameter_m").unwrap();
+    let found: Vec<(f64, f64, f64)> = layer
+        .features()
+        .map(|f| {
+            let (x, y, _) = f.geometry().unwrap().get_point(0);
+            (x * ft, y * ft, f.field_as_double(di).unwrap().unwrap())
+        })
+        .collect();
+    assert_eq!(found.len(), 4, "{found:?}");
+    for t in &truth {
+        let c = t.centre_at(1.3);
+        let near = found.iter().any(|(x, y, d)| (x - c[0]).hypot(y - c[1]) < 0.03 && (d - t.diameter_m).abs() < 0.02);
+        assert!(near, "{t:?}: {found:?}");
+    }
+}
+
 /// `plumbline poles detect` on a scanned street (two trees, two poles, a facade, a car, a bush): the four
 /// stems in a GeoPackage layer with the cloud's CRS, centres within 3 cm and diameters within 2 cm; a cloud
 /// without a CRS record is written without one and said so, or takes `--epsg`; a truncated LAZ is an error

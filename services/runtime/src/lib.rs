@@ -35,7 +35,10 @@ pub mod trajectory;
 pub mod vrt;
 
 pub use config::{ConfigError, LogConfig, LogFormat, NatsConfig, RuntimeConfig, StoreConfig};
-pub use crs::{CrsError, CrsTransform, MeridianConvergence, crs_name, epsg_of_wkt, is_projected, meridian_convergence};
+pub use crs::{
+    CrsError, CrsTransform, MeridianConvergence, crs_name, epsg_of_wkt, is_projected, linear_unit_m,
+    meridian_convergence, vertical_unit_of_wkt,
+};
 pub use errors::{InvalidInput, OrInvalid, invalid, is_invalid};
 pub use files::{Files, file_name};
 pub use logging::{TracingError, TracingGuard, init_tracing};

@@ -152,3 +152,21 @@ fn a_compound_crs_gives_its_horizontal_code() {
     assert_eq!(epsg_of_wkt("COMPD_CS[\"broken\",PROJCS[\"x\""), None);
     assert_eq!(epsg_of_wkt(&horizontal), Some(UTM32_ETRS89));
 }
+
+/// Heights' unit from a WKT's vertical CRS (WKT 1 and 2, alone or in a compound CRS); none without one.
+#[test]
+fn the_height_unit_comes_from_the_vertical_crs() {
+    use plumbline_runtime::crs::wkt_of_epsg;
+    use plumbline_runtime::{linear_unit_m, vertical_unit_of_wkt};
+    let (horizontal, vertical) = (wkt_of_epsg(UTM32_ETRS89).unwrap(), wkt_of_epsg(5783).unwrap());
+    assert_eq!(vertical_unit_of_wkt(&format!("COMPD_CS[\"x\",{horizontal},{vertical}]")), Some(("metre".into(), 1.0)));
+    assert_eq!(vertical_unit_of_wkt(&horizontal), None);
+    // Autzen's record (the poles crate's COPC test file): NAVD88 height in US survey feet.
+    let autzen = "COMPD_CS[\"NAD83 / Oregon GIC Lambert (ft) + NAVD88 height (ftUS)\",PROJCS[\"NAD83 / Oregon GIC Lambert (ft)\",UNIT[\"foot\",0.3048]],VERT_CS[\"NAVD88 height (ftUS)\",VERT_DATUM[\"North American Vertical Datum 1988\",2005],UNIT[\"US survey foot\",0.304800609601219,AUTHORITY[\"EPSG\",\"9003\"]],AXIS[\"Gravity-related height\",UP]]]";
+    assert_eq!(vertical_unit_of_wkt(autzen), Some(("US survey foot".into(), 0.304800609601219)));
+    let wkt2 = "VERTCRS[\"NAVD88 height (ftUS)\",VDATUM[\"North American Vertical Datum 1988\"],CS[vertical,1],AXIS[\"gravity-related height (H)\",up,LENGTHUNIT[\"US survey foot\",0.304800609601219]]]";
+    assert_eq!(vertical_unit_of_wkt(wkt2).map(|u| u.1), Some(0.304800609601219));
+    assert_eq!(vertical_unit_of_wkt("VERT_CS[\"broken\",UNIT[\"x\",-1]]"), None);
+    assert_eq!(linear_unit_m(UTM32_ETRS89).unwrap(), 1.0);
+    assert!((linear_unit_m(2992).unwrap() - 0.3048).abs() < 1e-12);
+}

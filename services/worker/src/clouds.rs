@@ -29,7 +29,7 @@ use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::{BBox, TileId};
 use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
-use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasHeader, parse_las_header};
+use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasCrs, LasHeader, parse_las_header};
 use plumbline_poles::{
     CloudConfig, CloudCounts, CloudSlicer, CopcIndex, CopcNode, LasError, LasPoint, MatchInput, PassIndex, PoleConfig,
     StemConfig, StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
@@ -106,6 +106,7 @@ pub(crate) async fn process(
             spans: spans.clone(),
             reproject,
             copc: header.copc,
+            z_unit: height_unit(&header, &url),
             fetch: *fetch,
         };
         let (read, found, counts) = if cloud.time != CloudTime::None && header.has_gps_time() {
@@ -152,6 +153,8 @@ struct Stream {
     reproject: Option<Reproject>,
     /// A COPC cloud, read by the octree nodes near `fetch`.
     copc: bool,
+    /// Metres per unit of the cloud's heights (its CRS record's vertical unit; 1 without one).
+    z_unit: f64,
     /// The tile's fetch box.
     fetch: BBox,
 }
@@ -220,7 +223,10 @@ fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, 
     // Week seconds in the campaign's CRS; `false` when the transformation failed (the reading ends there).
     let mut convert = |batch: &[LasPoint], converted: &mut Vec<LasPoint>| {
         converted.clear();
-        converted.extend(batch.iter().map(|p| LasPoint { gps_time: week_seconds(p.gps_time, adjusted), ..*p }));
+        converted.extend(batch.iter().map(|p| {
+            let [x, y, z] = p.position;
+            LasPoint { gps_time: week_seconds(p.gps_time, adjusted), position: [x, y, z * spec.z_unit] }
+        }));
         match transformer.as_mut().map(|t| t.apply(converted, |p| &mut p.position)) {
             Some(Err(e)) => {
                 failed.get_or_insert(e);
@@ -232,9 +238,12 @@ fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, 
     let len = reader.size();
     let read = if spec.copc {
         // Nodes come in octree order: gather the tile's time windows, then slice them in time order.
+        // One vector reserved for what the nodes hold (pages never touched cost nothing, and it never grows
+        // by copying), sorted in place.
         let mut kept: Vec<LasPoint> = Vec::new();
         let mut points = 0u64;
         let read = read_copc(&name, reader, len, spec.reproject, &spec.fetch, |index, source, nodes| {
+            kept.reserve_exact(reservation(nodes));
             index.stream_points(&name, source, nodes, |batch| {
                 points += batch.len() as u64;
                 if convert(batch, &mut converted) {
@@ -242,10 +251,17 @@ fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, 
                 }
             })
         });
-        kept.sort_by(|a, b| a.gps_time.total_cmp(&b.gps_time));
+        kept.sort_unstable_by(|a, b| {
+            let position = |p: &LasPoint| p.position;
+            a.gps_time.total_cmp(&b.gps_time).then_with(|| {
+                let (pa, pb) = (position(a), position(b));
+                pa[0].total_cmp(&pb[0]).then(pa[1].total_cmp(&pb[1])).then(pa[2].total_cmp(&pb[2]))
+            })
+        });
         for batch in kept.chunks(65_536) {
             slicer.push(batch);
         }
+        drop(kept);
         read.map(|_| points)
     } else {
         stream_las_points_from(&name, reader, len, |batch| {
@@ -268,6 +284,14 @@ fn timed_stream(spec: Stream, trajectory: Arc<Trajectory>, reader: RangeReader, 
         (Ok(_), None) => Ok(()),
     };
     (read, found, counts)
+}
+
+/// Points to reserve for the nodes' decoded points: their count, but no more than one per compressed byte
+/// (the counts come from the file, the bytes were checked against its size).
+fn reservation(nodes: &[CopcNode]) -> usize {
+    let count: u64 = nodes.iter().map(|n| n.point_count).sum();
+    let bytes: u64 = nodes.iter().map(CopcNode::byte_size).sum();
+    usize::try_from(count.min(bytes)).unwrap_or(0)
 }
 
 /// A COPC cloud's index read from `source`, and `decode(index, source, nodes near the fetch box)`.
@@ -318,7 +342,7 @@ async fn untimed_stream(
     for pass in 0..3 {
         let reader = RangeReader::open(files, url, DEFAULT_WINDOW).await?;
         let name = url.to_owned();
-        let (reproject, copc) = (spec.reproject, spec.copc);
+        let (reproject, copc, z_unit) = (spec.reproject, spec.copc, spec.z_unit);
         let (returned, read) = blocking(move || {
             let mut transformer = match Transformer::new(reproject) {
                 Ok(t) => t,
@@ -339,6 +363,9 @@ async fn untimed_stream(
                     near.extend(moved.iter().filter(|p| inside(p)));
                 } else {
                     near.extend(batch.iter().filter(|p| inside(p)));
+                }
+                if z_unit != 1.0 {
+                    near.iter_mut().for_each(|p| p[2] *= z_unit);
                 }
                 match pass {
                     0 => detector.ground(&near),
@@ -395,6 +422,19 @@ async fn read_header(files: &Files, url: &str) -> Result<LasHeader, SkippedInput
 fn reaches(h: &LasHeader, reproject: Option<Reproject>, fetch: &BBox) -> bool {
     let Some(b) = campaign_bounds(h, reproject) else { return false };
     h.point_count > 0 && near(b, fetch)
+}
+
+/// Metres per unit of a cloud's heights: its WKT record's vertical unit (e.g. US survey feet in a compound
+/// CRS), 1 without one.
+fn height_unit(h: &LasHeader, url: &str) -> f64 {
+    let LasCrs::Wkt(wkt) = &h.crs else { return 1.0 };
+    match plumbline_runtime::vertical_unit_of_wkt(wkt) {
+        Some((name, m)) if m != 1.0 => {
+            tracing::info!(cloud = %url, unit = %name, metres = m, "heights converted to metres");
+            m
+        }
+        _ => 1.0,
+    }
 }
 
 /// Whether horizontal bounds (min east, min north, max east, max north) come within [`REACH_M`] of the fetch
@@ -575,13 +615,16 @@ mod tests {
     }
 
     /// A real COPC file (the poles crate's `tests/data/autzen.copc.laz`) is taken for both paths; its CRS
-    /// record is compound (Oregon GIC Lambert in feet + NAVD88 height): the horizontal part counts.
+    /// record is compound (Oregon GIC Lambert in feet + NAVD88 height in US survey feet): the horizontal part
+    /// gives the code, the vertical part the heights' unit.
     #[test]
     fn a_copc_cloud_is_taken_with_or_without_time() {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/../../workflow/poles/tests/data/autzen.copc.laz");
         let bytes = std::fs::read(path).unwrap();
         let header = parse_label(&bytes);
         assert_eq!(header.crs.epsg(plumbline_runtime::epsg_of_wkt), Some(2992));
+        // Its heights are NAVD88 in US survey feet: the run takes them in metres.
+        assert!((height_unit(&header, "autzen.copc.laz") - 0.304_800_609_601_219).abs() < 1e-15);
         for time in [CloudTime::Header, CloudTime::None] {
             let cloud = PointCloud {
                 url: "lidar/autzen.copc.laz".into(),
@@ -654,6 +697,7 @@ mod tests {
             spans: vec![1020.0..1040.0],
             reproject: None,
             copc,
+            z_unit: 1.0,
             fetch,
         };
         let dir = tempfile::tempdir().unwrap();

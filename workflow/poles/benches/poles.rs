@@ -230,6 +230,7 @@ fn cloud_accuracy(sc: &Scenario) {
     let mut surfaces: HashMap<(i64, i64), HashMap<String, usize>> = HashMap::new();
     let ground = sc.world.config.ground_height;
     let (mut points, mut bytes, mut scan_s, mut read_s, mut slice_s) = (0usize, 0usize, 0.0, 0.0, 0.0);
+    let (mut copc_s, mut copc_bytes) = (0.0, 0usize);
     let encoding = LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None };
     for strip in times.chunks((30.0 * scanner.profile_rate_hz) as usize) {
         let t = Instant::now();
@@ -254,6 +255,16 @@ fn cloud_accuracy(sc: &Scenario) {
         let t = Instant::now();
         stream_las_points("strip", ArcBytes(laz.clone()), |_| {}).unwrap();
         read_s += t.elapsed().as_secs_f64();
+        // The same strip as COPC, every node decoded (the writing is not timed).
+        let copc = plumbline_poles::encode_copc(&las, &encoding).unwrap();
+        copc_bytes += copc.len();
+        let t = Instant::now();
+        let mut source = Cursor::new(copc);
+        let len = source.get_ref().len() as u64;
+        let index = plumbline_poles::CopcIndex::read("strip", &mut source, len).unwrap();
+        let decoded = index.stream_points("strip", &mut source, index.nodes(), |_| {}).unwrap();
+        assert_eq!(decoded, las.len() as u64);
+        copc_s += t.elapsed().as_secs_f64();
         let t = Instant::now();
         stream_las_points("strip", ArcBytes(laz), |b| slicer.push(b)).unwrap();
         slice_s += t.elapsed().as_secs_f64();
@@ -327,6 +338,12 @@ fn cloud_accuracy(sc: &Scenario) {
     println!("| points / LAZ bytes | {:.1} M / {:.0} MB |", points as f64 / 1e6, bytes as f64 / 1e6);
     println!("| scan + compress (simulation) | {scan_s:.1} s |");
     println!("| LAZ read | {read_s:.1} s ({:.2} M points/s) |", points as f64 / read_s / 1e6);
+    println!(
+        "| COPC read, every node ({:.0} MB against {:.0} MB of LAZ) | {copc_s:.1} s ({:.2} M points/s) |",
+        copc_bytes as f64 / 1e6,
+        bytes as f64 / 1e6,
+        points as f64 / copc_s / 1e6
+    );
     println!("| LAZ read + slices + stems | {slice_s:.1} s ({:.2} M points/s) |", points as f64 / slice_s / 1e6);
     println!("| matching | {match_s:.2} s |\n| slices searched | {} |", counts.slices);
     for (name, trees) in [("poles", false), ("trees", true)] {

@@ -47,6 +47,11 @@ impl CopcNode {
         self.min[0] <= b[2] && self.max[0] >= b[0] && self.min[1] <= b[3] && self.max[1] >= b[1]
     }
 
+    /// Bytes of the node's LAZ chunk.
+    pub fn byte_size(&self) -> u64 {
+        self.byte_size
+    }
+
     fn name(&self) -> String {
         let [l, x, y, z] = self.key;
         format!("{l}-{x}-{y}-{z}")
@@ -278,6 +283,8 @@ fn layer_count(items: &[LazItem]) -> Option<u64> {
 const GRID: f64 = 128.0;
 /// The deepest level the writer makes (points past it stay in their level-10 node).
 const WRITE_LEVELS: i32 = 10;
+/// Fewest points of a node with children: a smaller subtree is written as one node.
+const MIN_NODE_POINTS: usize = 20_000;
 
 /// A cloud as a COPC 1.0 file (LAS 1.4 point format 6 at millimetre resolution with GPS time, one LAZ chunk
 /// per octree node, as [`crate::encode_las`] writes LAZ otherwise): e.g. the simulator's COPC variant. Each
@@ -391,24 +398,43 @@ pub fn encode_copc(points: &[LasPoint], encoding: &LasEncoding) -> Result<Vec<u8
     Ok(out.into_inner())
 }
 
-/// The octree nodes of `points` (indices, in the points' order), in level order.
+/// The octree nodes of `points` (indices, in the points' order), in level order. A subtree holding fewer
+/// than [`MIN_NODE_POINTS`] points is one node (decoding many nodes of a few points each costs a decoder
+/// set-up apiece).
 fn octree(points: &[LasPoint], centre: [f64; 3], halfsize: f64) -> Vec<([i32; 4], Vec<usize>)> {
-    let mut nodes: HashMap<[i32; 4], Vec<usize>> = HashMap::new();
+    let mut home: Vec<[i32; 4]> = Vec::with_capacity(points.len());
     let mut taken: HashSet<([i32; 4], [i32; 3])> = HashSet::new();
     let root = centre.map(|c| c - halfsize);
-    for (i, p) in points.iter().enumerate() {
+    for p in points {
         let mut key = [0, 0, 0, 0];
         loop {
             let size = 2.0 * halfsize / f64::from(1 << key[0]);
             let local = [0, 1, 2].map(|a| (p.position[a] - root[a]) / size - f64::from(key[a + 1]));
             let cell = local.map(|u| ((u * GRID).floor() as i32).clamp(0, GRID as i32 - 1));
             if key[0] == WRITE_LEVELS || taken.insert((key, cell)) {
-                nodes.entry(key).or_default().push(i);
+                home.push(key);
                 break;
             }
             let half = local.map(|u| i32::from(u >= 0.5));
             key = [key[0] + 1, 2 * key[1] + half[0], 2 * key[2] + half[1], 2 * key[3] + half[2]];
         }
+    }
+    // Points in each subtree, then each point to the highest node on its way whose subtree is small.
+    let ancestor = |k: [i32; 4], l: i32| {
+        let d = k[0] - l;
+        [l, k[1] >> d, k[2] >> d, k[3] >> d]
+    };
+    let mut subtree: HashMap<[i32; 4], usize> = HashMap::new();
+    for k in &home {
+        for l in 0..=k[0] {
+            *subtree.entry(ancestor(*k, l)).or_default() += 1;
+        }
+    }
+    let mut nodes: HashMap<[i32; 4], Vec<usize>> = HashMap::new();
+    for (i, k) in home.iter().enumerate() {
+        let small = |l: i32| subtree.get(&ancestor(*k, l)).is_some_and(|&n| n < MIN_NODE_POINTS);
+        let level = (0..=k[0]).find(|&l| small(l)).unwrap_or(k[0]);
+        nodes.entry(ancestor(*k, level)).or_default().push(i);
     }
     let mut nodes: Vec<_> = nodes.into_iter().collect();
     nodes.sort_by_key(|(k, _)| *k);

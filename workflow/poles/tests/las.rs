@@ -361,8 +361,18 @@ fn a_copc_file_is_written_and_read_back_node_by_node() {
 
     let mut source = Cursor::new(bytes);
     let index = CopcIndex::read("s.copc.laz", &mut source, len).unwrap();
-    assert!(index.header().copc && index.nodes().len() > 20, "{} nodes", index.nodes().len());
-    assert!(index.nodes().iter().any(|n| n.key[0] >= 3), "the octree has depth");
+    let levels: Vec<i32> = index.nodes().iter().map(|n| n.key[0]).collect();
+    assert!(index.header().copc && levels.len() > 8 && levels.iter().any(|&l| l >= 2), "levels {levels:?}");
+    // A node with children heads a subtree of 20,000 points or more (a smaller subtree is one node).
+    let within = |c: [i32; 4], n: [i32; 4]| {
+        let d = c[0] - n[0];
+        d >= 0 && (1..4).all(|a| c[a] >> d == n[a])
+    };
+    for n in index.nodes() {
+        let subtree: Vec<_> = index.nodes().iter().filter(|c| within(c.key, n.key)).collect();
+        let total: u64 = subtree.iter().map(|c| c.point_count).sum();
+        assert!(subtree.len() == 1 || total >= 20_000, "{n:?} heads {} nodes of {total} points", subtree.len());
+    }
     let mut got = Vec::new();
     let read = index.stream_points("s.copc.laz", &mut source, index.nodes(), |b| got.extend_from_slice(b)).unwrap();
     assert_eq!(read, points.len() as u64);

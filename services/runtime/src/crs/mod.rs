@@ -161,21 +161,43 @@ fn horizontal_part(wkt: &str) -> Option<&str> {
         return None;
     }
     let inner = &head[head.find('[')? + 1..];
-    let start =
-        ["PROJCS[", "PROJCRS[", "GEOGCS[", "GEOGCRS[", "GEODCRS["].iter().filter_map(|k| inner.find(k)).min()?;
+    element(inner, &["PROJCS[", "PROJCRS[", "GEOGCS[", "GEOGCRS[", "GEODCRS["])
+}
+
+/// The first element of `wkt` opening with one of `keys`, up to its matching bracket (brackets inside
+/// quoted names do not count).
+fn element<'a>(wkt: &'a str, keys: &[&str]) -> Option<&'a str> {
+    let start = keys.iter().filter_map(|k| wkt.find(k)).min()?;
     let (mut depth, mut quoted) = (0usize, false);
-    for (i, ch) in inner[start..].char_indices() {
+    for (i, ch) in wkt[start..].char_indices() {
         match ch {
             '"' => quoted = !quoted,
             '[' if !quoted => depth += 1,
             ']' if !quoted => {
                 depth = depth.checked_sub(1)?;
                 if depth == 0 {
-                    return inner.get(start..start + i + 1);
+                    return wkt.get(start..start + i + 1);
                 }
             }
             _ => {}
         }
     }
     None
+}
+
+/// The unit of heights a CRS's WKT gives (its vertical CRS's unit, WKT 1 `VERT_CS` or WKT 2 `VERTCRS`, alone or
+/// in a compound CRS): the unit's name and metres per unit. `None` when the WKT has no vertical CRS (heights
+/// are then taken to be metres) or its unit cannot be read.
+pub fn vertical_unit_of_wkt(wkt: &str) -> Option<(String, f64)> {
+    let vertical = element(wkt, &["VERT_CS[", "VERTCRS[", "VERTICALCRS["])?;
+    let unit = element(vertical, &["UNIT["])?;
+    let body = &unit[unit.find('[')? + 1..unit.len() - 1];
+    let (name, rest) = body.trim_start().strip_prefix('"')?.split_once('"')?;
+    let factor: f64 = rest.trim_start().strip_prefix(',')?.split([',', ']']).next()?.trim().parse().ok()?;
+    (factor.is_finite() && factor > 0.0).then(|| (name.to_owned(), factor))
+}
+
+/// Metres per unit of a projected CRS's coordinates (1 for metres, 0.3048 for the international foot).
+pub fn linear_unit_m(epsg: u32) -> Result<f64, CrsError> {
+    Ok(spatial_ref(epsg)?.linear_units())
 }
