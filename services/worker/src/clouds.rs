@@ -570,6 +570,59 @@ mod tests {
         assert!(fetched.bytes() < size + 4 * window, "{} bytes fetched of {size}", fetched.bytes());
     }
 
+    /// A COPC cloud on a real S3-compatible server: a tile reads its hierarchy and only the nodes near its
+    /// fetch box, by range requests — under a third of the file for a box over 100 m of a 1.5 km strip — and
+    /// gets every point inside the box.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_copc_cloud_on_s3_is_read_by_the_nodes_a_tile_needs() {
+        use plumbline_poles::encode_copc;
+        let server = MotoServer::start();
+        server.create_bucket("clouds");
+        let s3 = S3Options {
+            endpoint: Some(server.endpoint()),
+            region: Some("eu-central-1".to_owned()),
+            access_key_id: Some("plumbline-test".to_owned()),
+            secret_access_key: Some(Secret::new("plumbline-test-secret")),
+            allow_http: false,
+            virtual_hosted_style: false,
+        };
+        // A 1.5 km strip eastwards, ±10 m across, points 1 ms apart, on the millimetre grid.
+        let points: Vec<LasPoint> = (0..1_500_000)
+            .map(|i| {
+                let f = f64::from(i);
+                let position = [565_000.0 + f * 1e-3, 5_933_000.0 + (f * 0.37).sin() * 10.0, (f * 0.11).cos() * 3.0];
+                LasPoint { position: position.map(|v| (v * 1000.0).round() / 1000.0), gps_time: f * 1e-3 }
+            })
+            .collect();
+        let copc =
+            encode_copc(&points, &LasEncoding { compressed: true, wkt: None, adjusted_standard_week: None }).unwrap();
+        let size = copc.len() as u64;
+        let url = "s3://clouds/lidar/strip_000.copc.laz";
+        write_url(url, &s3, bytes::Bytes::from(copc)).await.unwrap();
+        let files = Files::new(s3);
+        let reader = RangeReader::open(&files, url, 64 * 1024).await.unwrap();
+        let fetched = reader.fetched();
+        let fetch = BBox { min_east: 565_700.0, min_north: 5_932_900.0, max_east: 565_800.0, max_north: 5_933_100.0 };
+        let got = blocking(move || {
+            let mut got: Vec<[f64; 3]> = Vec::new();
+            read_copc(url, reader, size, None, &fetch, |index, source, nodes| {
+                index.stream_xyz(url, source, nodes, |b| got.extend_from_slice(b))
+            })
+            .map(|_| got)
+        })
+        .await
+        .unwrap()
+        .unwrap();
+        let inside = |p: &[f64; 3]| p[0] >= fetch.min_east && p[0] <= fetch.max_east;
+        let wanted = points.iter().filter(|p| inside(&p.position)).count();
+        assert!(wanted > 90_000, "{wanted}");
+        assert_eq!(got.iter().filter(|p| inside(p)).count(), wanted);
+        eprintln!("{} of {} points decoded, {} of {size} bytes fetched", got.len(), points.len(), fetched.bytes());
+        // 14 % of the points and 20 % of the bytes when written.
+        assert!(got.len() < points.len() / 4, "{} of {} points decoded", got.len(), points.len());
+        assert!(fetched.bytes() < size / 3, "{} bytes fetched of {size}", fetched.bytes());
+    }
+
     /// A cloud in UTM zone 33N (its WKT says so) in a zone-32N campaign is moved into the campaign's CRS: its
     /// bounds for the tile test, its points as they stream; a code PROJ does not know is refused, naming it.
     #[test]
