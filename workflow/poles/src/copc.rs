@@ -184,7 +184,7 @@ impl CopcIndex {
             return Err(LasError::NoGpsTime { file: file.to_owned(), format });
         }
         let mut points = Vec::new();
-        self.decode(file, source, nodes, |first, batch| {
+        self.decode(file, source, nodes, true, |first, batch| {
             points.clear();
             append(file, first, batch, &mut points)?;
             visit(&points);
@@ -201,18 +201,26 @@ impl CopcIndex {
         mut visit: impl FnMut(&[[f64; 3]]),
     ) -> Result<u64, LasError> {
         let mut xyz = Vec::new();
-        self.decode(file, source, nodes, |first, batch| xyz_of(file, first, batch, &mut xyz).map(|()| visit(&xyz)))
+        self.decode(file, source, nodes, false, |first, batch| {
+            xyz_of(file, first, batch, &mut xyz).map(|()| visit(&xyz))
+        })
     }
 
-    /// Decode the nodes in batches: `visit(number of points decoded before, batch)`.
+    /// Decode the nodes in batches — coordinates, and GPS time when `need_time` (the other layers are skipped
+    /// undecoded): `visit(number of points decoded before, batch)`.
     fn decode<R: Read + Seek>(
         &self,
         file: &str,
         source: &mut R,
         nodes: &[CopcNode],
+        need_time: bool,
         mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
     ) -> Result<u64, LasError> {
         let record_len = usize::from(self.summary.point_record_length);
+        let mut selection = laz::DecompressionSelection::xy_returns_channel().decompress_z();
+        if need_time {
+            selection = selection.decompress_gps_time();
+        }
         let mut done = 0u64;
         for node in nodes {
             let failed = |first: u64, last: u64, problem: String| LasError::Node {
@@ -227,6 +235,7 @@ impl CopcIndex {
             source.seek(SeekFrom::Start(node.offset)).map_err(|e| failed(0, 0, e.to_string()))?;
             let mut decompressor = LayeredPointRecordDecompressor::new(&mut *source);
             decompressor.set_fields_from(&self.items).map_err(|e| failed(0, 0, e.to_string()))?;
+            decompressor.set_selection(selection);
             let mut first = 0u64;
             while first < node.point_count {
                 let n = BATCH.min(node.point_count - first);

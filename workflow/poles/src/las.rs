@@ -217,6 +217,9 @@ fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
     let io = |source| LasError::Header { file: file.to_owned(), source: las::Error::Io(source) };
     let header = check_extents(file, len, |at, n| read_at(&mut source, at, n))?;
     source.seek(SeekFrom::Start(0)).map_err(io)?;
+    if header.compressed {
+        return stream_laz(file, source, header, need_time, visit);
+    }
     let mut reader =
         unpanicked(|| Reader::new(source)).map_err(|source| LasError::Header { file: file.to_owned(), source })?;
     let format = *reader.header().point_format();
@@ -237,6 +240,44 @@ fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
         first += n;
     }
     Ok((header, total))
+}
+
+/// The LAZ side of [`stream_batches`], decoding only the fields used: coordinates, and GPS time when
+/// `need_time` (LAS 1.4 formats store the others in layers of their own, which are then skipped undecoded).
+fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
+    file: &str,
+    mut source: R,
+    checked: LasHeader,
+    need_time: bool,
+    mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
+) -> Result<(LasHeader, u64), LasError> {
+    let header = las_header_of(file, &mut source)?;
+    let format = *header.point_format();
+    if need_time && !format.has_gps_time {
+        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
+    }
+    let at_header = |source| LasError::Header { file: file.to_owned(), source };
+    let vlr = header.laz_vlr().map_err(at_header)?;
+    let mut selection = laz::DecompressionSelection::xy_returns_channel().decompress_z();
+    if need_time {
+        selection = selection.decompress_gps_time();
+    }
+    source.seek(SeekFrom::Start(u64::from(checked.offset_to_point_data))).map_err(|e| at_header(e.into()))?;
+    let mut decompressor =
+        unpanicked(|| Ok(laz::LasZipDecompressor::selective(source, vlr, selection)?)).map_err(at_header)?;
+    let record_len = usize::from(format.len());
+    let total = header.number_of_points();
+    let mut first = 0u64;
+    while first < total {
+        let n = BATCH.min(total - first);
+        let records = |source| LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source };
+        let mut bytes = vec![0; usize::try_from(n).unwrap_or(0) * record_len];
+        unpanicked(|| Ok(laz::LazDecompressor::decompress_many(&mut decompressor, &mut bytes)?)).map_err(records)?;
+        let batch = las::PointDataBuilder::new().for_header(&header).build_from_bytes(bytes).map_err(records)?;
+        visit(first, &batch)?;
+        first += n;
+    }
+    Ok((checked, total))
 }
 
 /// `read`, with a panic inside (the `laz` decoder on corrupt data) turned into an error. The reader is not

@@ -14,6 +14,7 @@
 //! the same fed a batch of frames at a time, holding the points of a bounded number of frames (the worker's
 //! way through a tile of any length).
 //! [`las_header::parse_las_header`] checks a point cloud's header from its first bytes, without the points.
+//! [`copc::CopcIndex`] reads a COPC file's octree nodes, checked against the file, only those a caller selects.
 //! [`stems::StemDetector`] finds poles and trunks in a static cloud (no trajectory, time or scanner needed),
 //! fed by [`las::stream_las_xyz`]: `plumbline poles detect`.
 
