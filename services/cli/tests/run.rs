@@ -217,14 +217,19 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
             std::fs::write(campaign.join(dir).join(name), laz).unwrap();
         }
     };
+    // The manifest naming the LAZ strips of `dir` instead, with its results in `output`; run.
+    let run_laz = |dir: &str, output: &str| {
+        let laz = manifest
+            .replace("\"lidar/", &format!("\"{dir}/"))
+            .replace(".copc.laz\"", ".laz\"")
+            .replace("format = \"copc\"", "format = \"laz\"")
+            .replace("output = \"results/\"", &format!("output = \"{output}/\""));
+        let path = campaign.join(format!("{output}.toml"));
+        std::fs::write(&path, laz).unwrap();
+        plumbline(&["run", "--quiet", path.to_str().unwrap()]).run().success();
+    };
     strips("lidar_laz", &|_| {}, Some(plumbline_runtime::crs::wkt_of_epsg(25832).unwrap()));
-    let laz = manifest
-        .replace("\"lidar/", "\"lidar_laz/")
-        .replace(".copc.laz\"", ".laz\"")
-        .replace("format = \"copc\"", "format = \"laz\"")
-        .replace("output = \"results/\"", "output = \"laz/\"");
-    std::fs::write(campaign.join("laz.toml"), laz).unwrap();
-    plumbline(&["run", "--quiet", campaign.join("laz.toml").to_str().unwrap()]).run().success();
+    run_laz("lidar_laz", "laz");
     let (n, after) = check_cloud_control(&campaign, &campaign.join("laz"), true);
     eprintln!("{n} pole updates from the same points as LAZ; 2D RMSE after {after:.3} m");
     assert_eq!(n, timed, "COPC read by node and LAZ read whole give the same updates");
@@ -249,13 +254,7 @@ fn a_laser_scanner_cloud_alone_gives_correct_pole_control() {
         }
     };
     strips("lidar33", &to_33, Some(plumbline_runtime::crs::wkt_of_epsg(25833).unwrap()));
-    let utm33 = manifest
-        .replace("\"lidar/", "\"lidar33/")
-        .replace(".copc.laz\"", ".laz\"")
-        .replace("format = \"copc\"", "format = \"laz\"")
-        .replace("output = \"results/\"", "output = \"utm33/\"");
-    std::fs::write(campaign.join("utm33.toml"), utm33).unwrap();
-    plumbline(&["run", "--quiet", campaign.join("utm33.toml").to_str().unwrap()]).run().success();
+    run_laz("lidar33", "utm33");
     let (n, after) = check_cloud_control(&campaign, &campaign.join("utm33"), true);
     eprintln!("{n} pole updates from clouds in EPSG:25833; 2D RMSE after {after:.3} m");
 }

@@ -521,12 +521,10 @@ mod tests {
 
     use super::*;
 
-    /// A LAZ on a real S3-compatible server is streamed by range requests of one window each, never fetched
-    /// whole, and gives the points a whole read gives.
-    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-    async fn a_cloud_on_s3_streams_by_range_requests() {
+    /// The S3 test server (stopped when dropped) with a bucket, and the options that reach it.
+    fn s3_with_bucket(bucket: &str) -> (MotoServer, S3Options) {
         let server = MotoServer::start();
-        server.create_bucket("clouds");
+        server.create_bucket(bucket);
         let s3 = S3Options {
             endpoint: Some(server.endpoint()),
             region: Some("eu-central-1".to_owned()),
@@ -535,6 +533,14 @@ mod tests {
             allow_http: false,
             virtual_hosted_style: false,
         };
+        (server, s3)
+    }
+
+    /// A LAZ on a real S3-compatible server is streamed by range requests of one window each, never fetched
+    /// whole, and gives the points a whole read gives.
+    #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+    async fn a_cloud_on_s3_streams_by_range_requests() {
+        let (_server, s3) = s3_with_bucket("clouds");
         let points: Vec<LasPoint> = (0..300_000)
             .map(|i| {
                 let f = f64::from(i);
@@ -576,16 +582,7 @@ mod tests {
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn a_copc_cloud_on_s3_is_read_by_the_nodes_a_tile_needs() {
         use plumbline_poles::encode_copc;
-        let server = MotoServer::start();
-        server.create_bucket("clouds");
-        let s3 = S3Options {
-            endpoint: Some(server.endpoint()),
-            region: Some("eu-central-1".to_owned()),
-            access_key_id: Some("plumbline-test".to_owned()),
-            secret_access_key: Some(Secret::new("plumbline-test-secret")),
-            allow_http: false,
-            virtual_hosted_style: false,
-        };
+        let (_server, s3) = s3_with_bucket("clouds");
         // A 1.5 km strip eastwards, ±10 m across, points 1 ms apart, on the millimetre grid.
         let points: Vec<LasPoint> = (0..1_500_000)
             .map(|i| {
