@@ -53,9 +53,13 @@ impl CopcNode {
     }
 
     fn name(&self) -> String {
-        let [l, x, y, z] = self.key;
-        format!("{l}-{x}-{y}-{z}")
+        key_name(self.key)
     }
+}
+
+/// A node key as errors name it: level-x-y-z.
+fn key_name([l, x, y, z]: [i32; 4]) -> String {
+    format!("{l}-{x}-{y}-{z}")
 }
 
 /// A COPC file's nodes, checked against the file (see the module).
@@ -111,7 +115,7 @@ impl CopcIndex {
         for entry in hierarchy.iter_entries() {
             let entry = entry.map_err(|e| invalid("copc_hierarchy", e.to_string()))?;
             let k = entry.key;
-            let name = format!("{}-{}-{}-{}", k.l, k.x, k.y, k.z);
+            let name = key_name([k.l, k.x, k.y, k.z]);
             let side = if (0..=MAX_LEVEL).contains(&k.l) { 1i64 << k.l } else { 0 };
             if ![k.x, k.y, k.z].iter().all(|&c| (0..side).contains(&i64::from(c))) {
                 return Err(invalid("copc_hierarchy", format!("node {name} lies outside the octree")));
@@ -179,10 +183,7 @@ impl CopcIndex {
         nodes: &[CopcNode],
         mut visit: impl FnMut(&[LasPoint]),
     ) -> Result<u64, LasError> {
-        if !self.header.point_format().has_gps_time {
-            let format = self.header.point_format().to_u8().unwrap_or(u8::MAX);
-            return Err(LasError::NoGpsTime { file: file.to_owned(), format });
-        }
+        crate::las::time_present(file, self.header.point_format(), true)?;
         let mut points = Vec::new();
         self.decode(file, source, nodes, true, |first, batch| {
             points.clear();
@@ -217,10 +218,7 @@ impl CopcIndex {
         mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
     ) -> Result<u64, LasError> {
         let record_len = usize::from(self.summary.point_record_length);
-        let mut selection = laz::DecompressionSelection::xy_returns_channel().decompress_z();
-        if need_time {
-            selection = selection.decompress_gps_time();
-        }
+        let selection = crate::las::decoded_fields(need_time);
         let mut done = 0u64;
         for node in nodes {
             let failed = |first: u64, last: u64, problem: String| LasError::Node {

@@ -223,9 +223,7 @@ fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
     let mut reader =
         unpanicked(|| Reader::new(source)).map_err(|source| LasError::Header { file: file.to_owned(), source })?;
     let format = *reader.header().point_format();
-    if need_time && !format.has_gps_time {
-        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
-    }
+    time_present(file, &format, need_time)?;
     let total = reader.header().number_of_points();
     let mut first = 0u64;
     while first < total {
@@ -242,6 +240,20 @@ fn stream_batches<R: Read + Seek + Send + Sync + 'static>(
     Ok((header, total))
 }
 
+/// An error when GPS time is needed and the point format has none.
+pub(crate) fn time_present(file: &str, format: &las::point::Format, need_time: bool) -> Result<(), LasError> {
+    if need_time && !format.has_gps_time {
+        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
+    }
+    Ok(())
+}
+
+/// The LAZ fields decoded: coordinates, and GPS time when `need_time`.
+pub(crate) fn decoded_fields(need_time: bool) -> laz::DecompressionSelection {
+    let coordinates = laz::DecompressionSelection::xy_returns_channel().decompress_z();
+    if need_time { coordinates.decompress_gps_time() } else { coordinates }
+}
+
 /// The LAZ side of [`stream_batches`], decoding only the fields used: coordinates, and GPS time when
 /// `need_time` (LAS 1.4 formats store the others in layers of their own, which are then skipped undecoded).
 fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
@@ -253,15 +265,10 @@ fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
 ) -> Result<(LasHeader, u64), LasError> {
     let header = las_header_of(file, &mut source)?;
     let format = *header.point_format();
-    if need_time && !format.has_gps_time {
-        return Err(LasError::NoGpsTime { file: file.to_owned(), format: format.to_u8().unwrap_or(u8::MAX) });
-    }
+    time_present(file, &format, need_time)?;
     let at_header = |source| LasError::Header { file: file.to_owned(), source };
     let vlr = header.laz_vlr().map_err(at_header)?;
-    let mut selection = laz::DecompressionSelection::xy_returns_channel().decompress_z();
-    if need_time {
-        selection = selection.decompress_gps_time();
-    }
+    let selection = decoded_fields(need_time);
     source.seek(SeekFrom::Start(u64::from(checked.offset_to_point_data))).map_err(|e| at_header(e.into()))?;
     let mut decompressor =
         unpanicked(|| Ok(laz::LasZipDecompressor::selective(source, vlr, selection)?)).map_err(at_header)?;
