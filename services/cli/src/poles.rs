@@ -7,7 +7,9 @@
 //! not in the cadastre, in the cadastre but not seen (within the covered cells).
 //!
 //! Each cloud is streamed three times by range reads of 8 MiB (ground, breast-height band, the surroundings
-//! of the band's circles), never held or decoded whole;
+//! of the band's circles), never held or decoded whole. The band and the surroundings go to temporary files
+//! by 64 m tile ([`TileSpill`]); circles are fitted and stems followed one tile at a time, so memory holds
+//! the ground and one tile's points, not what a large cloud keeps;
 //! all clouds given are one scene (tiles of a block). The CRS is `--epsg`, else the one the clouds record
 //! (GeoTIFF keys or WKT, all the same), else none — the layer then has no CRS and stderr says so.
 
@@ -19,11 +21,13 @@ use plumbline_campaign::manifest::{Cadastre, ClassAccuracy, PoleClass};
 use plumbline_campaign::{CadastreFeature, Epsg, Location};
 use plumbline_poles::las_header::LAS_PREFIX_BYTES;
 use plumbline_poles::{
-    LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, parse_las_header, stream_las_xyz_from,
+    Candidate, LasCrs, LasError, Stem, StemClass, StemConfig, StemDetector, Tiling, merge_stems, parse_las_header,
+    stream_las_xyz_from, surroundings_cells,
 };
 use plumbline_runtime::cadastre::{CadastreSource, inspect_cadastre, read_cadastre};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer, geopackage_in};
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
+use plumbline_runtime::spill::TileSpill;
 
 use crate::exit::invalid;
 use crate::io::{Context, file_name};
@@ -33,6 +37,14 @@ use crate::io::{Context, file_name};
 const COVERAGE_LAYER: &str = "covered_cells";
 /// Size of those cells, m.
 const COVERAGE_CELL_M: f64 = 10.0;
+/// Side of the tiles the band and the surroundings are bucketed in, m: a tile's points are what the
+/// detection holds at once.
+const TILE_M: f64 = 64.0;
+/// A tile holding more points than this (band or surroundings) is split into quarters before it is read,
+/// down to tiles of 8 m (see [`TileSpill::visit_tiles`]); a tile's surroundings are read only around its
+/// own candidates. What is held at once is then bounded by this budget, or by the surroundings of one 8 m
+/// tile's stems where a cloud is denser still (many overlapping strips).
+const TILE_POINTS: u64 = 8 << 20;
 
 /// Pole tools.
 #[derive(Debug, Subcommand)]
@@ -83,6 +95,10 @@ pub struct DetectArgs {
     /// A stem must reach at least this high above ground, metres.
     #[arg(long, value_name = "M", default_value_t = StemConfig::default().min_top_m)]
     pub min_height: f64,
+    /// Where the band and surroundings are kept by tile while the clouds are read (the system's temporary
+    /// directory by default; about 40 bytes per point kept).
+    #[arg(long, value_name = "DIR")]
+    pub temp_dir: Option<std::path::PathBuf>,
 }
 
 /// Run a `poles` command.
@@ -126,10 +142,10 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
             }
         );
         recorded.push((url.clone(), epsg));
-        let height_unit = match &header.crs {
-            LasCrs::Wkt(wkt) => plumbline_runtime::vertical_unit_of_wkt(wkt),
-            _ => None,
-        };
+        let height_unit = header
+            .crs
+            .height_unit(plumbline_runtime::vertical_unit_of_wkt)
+            .map_err(|e| invalid(format!("point cloud {}: {e}", file_name(url))))?;
         if let Some((name, m)) = &height_unit
             && *m != 1.0
         {
@@ -171,9 +187,17 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     if unit != 1.0 {
         eprintln!("coordinates in units of {unit} m: measured in metres, the layers written in the CRS's units");
     }
-    let mut detector = StemDetector::new(config);
+    let tiling = Tiling::new(TILE_M, &config);
+    let temp = args.temp_dir.as_deref();
+    let spill_error = |e: std::io::Error| anyhow::anyhow!("the detection's temporary tile files: {e}");
+    let mut state = Detection {
+        detector: StemDetector::new(config),
+        band: TileSpill::new(temp, tiling).map_err(spill_error)?,
+        kept: TileSpill::new(temp, tiling).map_err(spill_error)?,
+    };
     let mut total = 0u64;
-    for pass in 0..3 {
+    for (pass, what) in ["ground", "1.2–1.4 m band", "surroundings of the band's circles"].into_iter().enumerate() {
+        let started = std::time::Instant::now();
         for (url, &height_unit) in args.clouds.iter().zip(&height_units) {
             let reader = RangeReader::open(ctx.files(), url, DEFAULT_WINDOW).await?;
             let name = file_name(url).to_owned();
@@ -181,6 +205,7 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
             let (returned, read) = tokio::task::spawn_blocking(move || {
                 let len = reader.size();
                 let mut metric: Vec<[f64; 3]> = Vec::new();
+                let Detection { detector, band, kept } = &mut state;
                 let read = stream_las_xyz_from(&name, reader, len, |batch| {
                     let batch = if scale == [1.0; 3] {
                         batch
@@ -191,33 +216,57 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
                     };
                     match pass {
                         0 => detector.ground(batch),
-                        1 => detector.collect(batch),
-                        _ => detector.surroundings(batch),
+                        1 => detector.band_of(batch, |p| band.push(p)),
+                        _ => detector.surroundings_of(batch, |p| kept.push(p)),
                     }
                 });
-                (detector, read)
+                (state, read)
             })
             .await
             .context("the point-reading task failed")?;
-            detector = returned;
+            state = returned;
             let (_, points) = read.map_err(bad_cloud)?;
             if pass == 0 {
                 total += points;
             }
         }
+        state.band.check().map_err(spill_error)?;
+        state.kept.check().map_err(spill_error)?;
+        if pass == 1 {
+            state = tokio::task::spawn_blocking(move || tile_candidates(state))
+                .await
+                .context("the circle-fitting task failed")?
+                .map_err(spill_error)?;
+        }
+        eprintln!(
+            "pass {}/3 ({what}): {total} points in {:.0} s{}",
+            pass + 1,
+            started.elapsed().as_secs_f64(),
+            match pass {
+                0 => String::new(),
+                1 => format!(
+                    ", {} in the band, {} candidate circles",
+                    state.band.pushed(),
+                    state.detector.candidates().len()
+                ),
+                _ => format!(", {} kept around the circles", state.kept.pushed()),
+            }
+        );
     }
     if total == 0 {
         eprintln!("warning: the clouds hold no points: nothing to detect");
     }
-    let (band, kept) = (detector.band_points(), detector.kept());
-    let (stems, detector_cells) =
-        tokio::task::spawn_blocking(move || (detector.finish(), detector.covered_cells(COVERAGE_CELL_M)))
-            .await
-            .context("the detection task failed")?;
+    let (band, kept) = (state.band.pushed(), state.kept.pushed());
+    let spilled = state.band.written() + state.kept.written();
+    let (stems, detector_cells) = tokio::task::spawn_blocking(move || tile_stems(state))
+        .await
+        .context("the detection task failed")?
+        .map_err(spill_error)?;
     let count = |c: StemClass| stems.iter().filter(|s| s.class == c).count();
     eprintln!(
-        "{total} points read ({band} in the 1.2–1.4 m band, {kept} around its circles kept); {} stems: {} poles, {} \
-         trunks, {} unclassified",
+        "{total} points read ({band} in the 1.2–1.4 m band, {kept} around its circles kept, {:.0} MB of tile \
+         files); {} stems: {} poles, {} trunks, {} unclassified",
+        spilled as f64 / 1e6,
         stems.len(),
         count(StemClass::Pole),
         count(StemClass::Trunk),
@@ -245,6 +294,50 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     ctx.write(&args.out, bytes).await?;
     println!("{}", args.out);
     Ok(ExitCode::SUCCESS)
+}
+
+/// What `poles detect` carries through its passes: the detector (the ground, the candidates) and the band and
+/// surroundings bucketed by tile on disk.
+struct Detection {
+    detector: StemDetector,
+    band: TileSpill<2>,
+    kept: TileSpill<3>,
+}
+
+/// The candidates of every tile, fitted from its band points alone, each kept by the tile holding its
+/// centre. The band's files are then dropped.
+fn tile_candidates(mut state: Detection) -> std::io::Result<Detection> {
+    let mut found = Vec::new();
+    let detector = &state.detector;
+    state.band.visit_tiles(TILE_POINTS, &|_, _| true, &mut |tiling, tile, band| {
+        let band = band.read()?;
+        found.extend(detector.candidates_in(&band).into_iter().filter(|c| tiling.tile_of(c.centre()) == tile));
+        Ok(())
+    })?;
+    state.detector.add_candidates(found);
+    state.band.clear()?;
+    Ok(state)
+}
+
+/// The stems of every tile's candidates, followed in the surroundings of those candidates alone (a tile
+/// without candidates is not read), merged; and the covered cells.
+fn tile_stems(mut state: Detection) -> std::io::Result<(Vec<Stem>, Vec<[f64; 2]>)> {
+    let candidates = state.detector.candidates().to_vec();
+    let owned = |tiling: &Tiling, tile: (i64, i64)| -> Vec<Candidate> {
+        candidates.iter().copied().filter(|c| tiling.tile_of(c.centre()) == tile).collect()
+    };
+    let mut stems = Vec::new();
+    let detector = &state.detector;
+    let wanted = |tiling: &Tiling, tile: (i64, i64)| candidates.iter().any(|c| tiling.tile_of(c.centre()) == tile);
+    state.kept.visit_tiles(TILE_POINTS, &wanted, &mut |tiling, tile, kept| {
+        let mine = owned(tiling, tile);
+        let cells = surroundings_cells(&mine);
+        let kept = kept.read_where(|p| cells.contains(&(p[0].floor() as i64, p[1].floor() as i64)))?;
+        stems.extend(detector.stems_in(&mine, &kept));
+        Ok(())
+    })?;
+    let config = state.detector.config();
+    Ok((merge_stems(stems, &config), state.detector.covered_cells(COVERAGE_CELL_M)))
 }
 
 /// A layer's attribute columns from their names and types.

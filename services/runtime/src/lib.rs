@@ -29,6 +29,7 @@ pub mod logging;
 pub mod progress;
 pub mod range_reader;
 pub mod secret;
+pub mod spill;
 pub mod store;
 pub mod telemetry;
 pub mod trajectory;

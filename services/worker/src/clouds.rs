@@ -29,7 +29,7 @@ use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::{BBox, TileId};
 use plumbline_geo::trajectory::{PositionInterpolation, Trajectory};
 use plumbline_poles::cloud::frame_prefix;
-use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasCrs, LasHeader, parse_las_header};
+use plumbline_poles::las_header::{GPS_WEEK_S, LAS_PREFIX_BYTES, LasHeader, parse_las_header};
 use plumbline_poles::{
     CloudConfig, CloudCounts, CloudSlicer, CopcIndex, CopcNode, LasError, LasPoint, MatchInput, PassIndex, PoleConfig,
     StemConfig, StemDetector, match_inputs, stream_las_points_from, stream_las_xyz_from, untimed_inputs,
@@ -88,6 +88,13 @@ pub(crate) async fn process(
         if !reaches(&header, reproject, fetch) {
             continue;
         }
+        let z_unit = match height_unit(&header, &url) {
+            Ok(u) => u,
+            Err(detail) => {
+                out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+                continue;
+            }
+        };
         let reader = match RangeReader::open(files, &url, DEFAULT_WINDOW).await {
             Ok(r) => r,
             Err(e) => {
@@ -106,7 +113,7 @@ pub(crate) async fn process(
             spans: spans.clone(),
             reproject,
             copc: header.copc,
-            z_unit: height_unit(&header, &url),
+            z_unit,
             fetch: *fetch,
         };
         let (read, found, counts) = if cloud.time != CloudTime::None && header.has_gps_time() {
@@ -424,16 +431,17 @@ fn reaches(h: &LasHeader, reproject: Option<Reproject>, fetch: &BBox) -> bool {
     h.point_count > 0 && near(b, fetch)
 }
 
-/// Metres per unit of a cloud's heights: its WKT record's vertical unit (e.g. US survey feet in a compound
-/// CRS), 1 without one.
-fn height_unit(h: &LasHeader, url: &str) -> f64 {
-    let LasCrs::Wkt(wkt) = &h.crs else { return 1.0 };
-    match plumbline_runtime::vertical_unit_of_wkt(wkt) {
-        Some((name, m)) if m != 1.0 => {
+/// Metres per unit of a cloud's heights: the unit its CRS record names (a WKT's vertical CRS, e.g. US survey
+/// feet in a compound CRS, or the GeoKeys' VerticalUnitsGeoKey), 1 without one; an error naming an unknown
+/// unit code.
+fn height_unit(h: &LasHeader, url: &str) -> Result<f64, String> {
+    match h.crs.height_unit(plumbline_runtime::vertical_unit_of_wkt) {
+        Ok(Some((name, m))) if m != 1.0 => {
             tracing::info!(cloud = %url, unit = %name, metres = m, "heights converted to metres");
-            m
+            Ok(m)
         }
-        _ => 1.0,
+        Ok(_) => Ok(1.0),
+        Err(e) => Err(format!("{url}: {e}")),
     }
 }
 
@@ -674,7 +682,7 @@ mod tests {
         let header = parse_label(&bytes);
         assert_eq!(header.crs.epsg(plumbline_runtime::epsg_of_wkt), Some(2992));
         // Its heights are NAVD88 in US survey feet: the run takes them in metres.
-        assert!((height_unit(&header, "autzen.copc.laz") - 0.304_800_609_601_219).abs() < 1e-15);
+        assert!((height_unit(&header, "autzen.copc.laz").unwrap() - 0.304_800_609_601_219).abs() < 1e-15);
         for time in [CloudTime::Header, CloudTime::None] {
             let cloud = PointCloud {
                 url: "lidar/autzen.copc.laz".into(),

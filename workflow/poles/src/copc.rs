@@ -273,7 +273,7 @@ impl CopcIndex {
 }
 
 /// The number of layer sizes a chunk of these items carries; `None` for items that are not layered.
-fn layer_count(items: &[LazItem]) -> Option<u64> {
+pub(crate) fn layer_count(items: &[LazItem]) -> Option<u64> {
     items
         .iter()
         .map(|item| match item.item_type() {

@@ -269,10 +269,13 @@ fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
     let at_header = |source| LasError::Header { file: file.to_owned(), source };
     let vlr = header.laz_vlr().map_err(at_header)?;
     let selection = decoded_fields(need_time);
-    source.seek(SeekFrom::Start(u64::from(checked.offset_to_point_data))).map_err(|e| at_header(e.into()))?;
+    let start = u64::from(checked.offset_to_point_data);
+    let record_len = usize::from(format.len());
+    source.seek(SeekFrom::Start(start)).map_err(|e| at_header(e.into()))?;
+    let mut source = LayerGuard::new(source, &vlr, start, record_len as u64).map_err(at_header)?;
+    source.seek(SeekFrom::Start(start)).map_err(|e| at_header(e.into()))?;
     let mut decompressor =
         unpanicked(|| Ok(laz::LasZipDecompressor::selective(source, vlr, selection)?)).map_err(at_header)?;
-    let record_len = usize::from(format.len());
     let total = header.number_of_points();
     let mut first = 0u64;
     while first < total {
@@ -285,6 +288,89 @@ fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
         first += n;
     }
     Ok((checked, total))
+}
+
+/// A LAZ point section as the `laz` decoder reads it, refusing a layered chunk (LAS 1.4 formats 6–10) whose
+/// layers announce more bytes than the chunk holds: the decoder reads every layer's size at the chunk's
+/// start and then allocates each one it decodes, so the sizes are checked as they pass, before it can.
+/// Sections of other formats (no layers) pass through untouched.
+struct LayerGuard<R> {
+    inner: R,
+    pos: u64,
+    /// Per layered chunk: where its layer sizes start, how many bytes they take, the bytes the chunk holds
+    /// after them, and its index in the chunk table; sorted by start.
+    windows: Vec<(u64, u64, u64, usize)>,
+    /// The sizes of the window being read so far (a window may come in two reads).
+    seen: Vec<u8>,
+}
+
+impl<R: Read + Seek> LayerGuard<R> {
+    /// `source` positioned at the point data (`start`): the chunk table is read to find every chunk.
+    fn new(mut source: R, vlr: &laz::LazVlr, start: u64, record_len: u64) -> las::Result<Self> {
+        let layers = crate::copc::layer_count(vlr.items()).unwrap_or(0);
+        let mut windows = Vec::new();
+        if layers > 0 {
+            let table = laz::laszip::ChunkTable::read_from(&mut source, vlr)
+                .map_err(|e| las::Error::Io(std::io::Error::new(std::io::ErrorKind::InvalidData, e.to_string())))?;
+            // The first chunk follows the 8-byte offset of the chunk table.
+            let mut at = start + 8;
+            let head = record_len + 4 + 4 * layers;
+            for (k, entry) in table.as_ref().iter().enumerate() {
+                // An empty chunk (no points, fewer bytes than a head) is never read as one.
+                if entry.point_count > 0 && entry.byte_count >= head {
+                    windows.push((at + record_len + 4, 4 * layers, entry.byte_count - head, k));
+                }
+                at = at.saturating_add(entry.byte_count);
+            }
+        }
+        Ok(Self { inner: source, pos: 0, windows, seen: Vec::new() })
+    }
+
+    /// Check the bytes `bytes` read at `self.pos` against the window they fall in, if any.
+    fn check(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        let end = self.pos + bytes.len() as u64;
+        let first = self.windows.partition_point(|w| w.0 + w.1 <= self.pos);
+        for &(at, len, room, chunk) in self.windows[first..].iter().take_while(|w| w.0 < end) {
+            let from = at.max(self.pos);
+            let to = (at + len).min(end);
+            if from == at {
+                self.seen.clear();
+            }
+            let offset = usize::try_from(from - self.pos).unwrap_or(usize::MAX);
+            let take = usize::try_from(to - from).unwrap_or(0);
+            self.seen.extend_from_slice(bytes.get(offset..offset.saturating_add(take)).unwrap_or_default());
+            if to == at + len {
+                let announced: u64 =
+                    self.seen.chunks_exact(4).map(|b| u64::from(u32::from_le_bytes([b[0], b[1], b[2], b[3]]))).sum();
+                if announced > room {
+                    return Err(std::io::Error::new(
+                        std::io::ErrorKind::InvalidData,
+                        format!("LAZ chunk {chunk}: its layers announce {announced} bytes, the chunk holds {room}"),
+                    ));
+                }
+                self.seen.clear();
+            }
+        }
+        Ok(())
+    }
+}
+
+impl<R: Read + Seek> Read for LayerGuard<R> {
+    fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+        let n = self.inner.read(buf)?;
+        if !self.windows.is_empty() {
+            self.check(&buf[..n])?;
+        }
+        self.pos += n as u64;
+        Ok(n)
+    }
+}
+
+impl<R: Read + Seek> Seek for LayerGuard<R> {
+    fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+        self.pos = self.inner.seek(to)?;
+        Ok(self.pos)
+    }
 }
 
 /// `read`, with a panic inside (the `laz` decoder on corrupt data) turned into an error. The reader is not

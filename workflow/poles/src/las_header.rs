@@ -26,6 +26,8 @@ const GEOKEYS_RECORD: u16 = 34735;
 const PROJECTED_CS_KEY: u16 = 3072;
 /// GeographicTypeGeoKey.
 const GEOGRAPHIC_CS_KEY: u16 = 2048;
+/// VerticalUnitsGeoKey: the EPSG unit code of heights.
+const VERTICAL_UNITS_KEY: u16 = 4099;
 /// A GeoKey value meaning "user-defined" (no EPSG code).
 const USER_DEFINED: u16 = 32767;
 /// Seconds in a GPS week.
@@ -93,6 +95,9 @@ pub enum LasCrs {
     GeoKeys {
         /// The EPSG code.
         epsg: Option<u32>,
+        /// VerticalUnitsGeoKey (4099): the EPSG code of the heights' unit (9001 metre, 9002 foot, 9003 US
+        /// survey foot), when given.
+        height_unit: Option<u16>,
     },
     /// No coordinate-system VLR.
     Missing,
@@ -105,9 +110,38 @@ impl LasCrs {
     /// The EPSG code the record names; a WKT's through `of_wkt` (GDAL/PROJ, which this crate does not use).
     pub fn epsg(&self, of_wkt: impl FnOnce(&str) -> Option<u32>) -> Option<u32> {
         match self {
-            Self::GeoKeys { epsg } => *epsg,
+            Self::GeoKeys { epsg, .. } => *epsg,
             Self::Wkt(wkt) => of_wkt(wkt),
             Self::Missing | Self::NotRead => None,
+        }
+    }
+
+    /// The unit of heights the record names, as its name and metres per unit: a WKT's vertical CRS's
+    /// through `of_wkt`, the GeoKeys' VerticalUnitsGeoKey (an EPSG unit code this function knows, else an
+    /// error naming it). `None` when the record names none: heights are then taken to be metres.
+    pub fn height_unit(
+        &self,
+        of_wkt: impl FnOnce(&str) -> Option<(String, f64)>,
+    ) -> Result<Option<(String, f64)>, String> {
+        match self {
+            Self::Wkt(wkt) => Ok(of_wkt(wkt)),
+            Self::GeoKeys { height_unit: Some(code), .. } => {
+                let (name, metres) = match code {
+                    9001 => ("metre", 1.0),
+                    9002 => ("foot", 0.3048),
+                    9003 => ("US survey foot", 1200.0 / 3937.0),
+                    9036 => ("kilometre", 1000.0),
+                    9096 => ("yard", 0.9144),
+                    _ => {
+                        return Err(format!(
+                            "VerticalUnitsGeoKey (4099) = {code}: not a unit this reader knows (metre 9001, foot \
+                             9002, US survey foot 9003)"
+                        ));
+                    }
+                };
+                Ok(Some((name.to_owned(), metres)))
+            }
+            Self::GeoKeys { height_unit: None, .. } | Self::Missing | Self::NotRead => Ok(None),
         }
     }
 }
@@ -310,7 +344,7 @@ struct Gap {
 #[derive(Default)]
 struct FoundCrs {
     wkt: Option<String>,
-    geokeys: Option<Option<u32>>,
+    geokeys: Option<(Option<u32>, Option<u16>)>,
     /// The first VLR is COPC's info record.
     copc: bool,
     /// Every announced VLR was within the bytes given.
@@ -321,7 +355,7 @@ impl FoundCrs {
     /// The declared CRS: WKT first when global encoding says so (LAS 1.4), GeoKeys first otherwise.
     fn crs(self, wkt_flagged: bool, complete: bool) -> LasCrs {
         let wkt = self.wkt.map(LasCrs::Wkt);
-        let geokeys = self.geokeys.map(|epsg| LasCrs::GeoKeys { epsg });
+        let geokeys = self.geokeys.map(|(epsg, height_unit)| LasCrs::GeoKeys { epsg, height_unit });
         let (first, second) = if wkt_flagged { (wkt, geokeys) } else { (geokeys, wkt) };
         match (first, complete) {
             (Some(crs), _) => crs,
@@ -450,7 +484,7 @@ impl Fields<'_> {
                 if record_id == WKT_RECORD && found.wkt.is_none() {
                     found.wkt = wkt(data);
                 } else if record_id == GEOKEYS_RECORD && found.geokeys.is_none() {
-                    found.geokeys = Some(geokeys_epsg(data));
+                    found.geokeys = Some(geokeys_crs(data));
                 }
             }
             at = end;
@@ -477,13 +511,14 @@ fn wkt(data: &[u8]) -> Option<String> {
     (!text.is_empty()).then(|| text.to_owned())
 }
 
-/// The EPSG code of a GeoKeyDirectoryTag (u16 words: version, revision, minor revision, number of keys, then
-/// per key: id, TIFF tag location, count, value; location 0 holds the value inline). The projected key wins;
-/// the geographic key counts only without one (a user-defined projection's datum is not the CRS).
-fn geokeys_epsg(data: &[u8]) -> Option<u32> {
+/// The EPSG code and the heights' unit code of a GeoKeyDirectoryTag (u16 words: version, revision, minor
+/// revision, number of keys, then per key: id, TIFF tag location, count, value; location 0 holds the value
+/// inline). The projected key wins; the geographic key counts only without one (a user-defined projection's
+/// datum is not the CRS).
+fn geokeys_crs(data: &[u8]) -> (Option<u32>, Option<u16>) {
     let word = |i: usize| take::<2>(data, 2 * i as u64).map(u16::from_le_bytes);
-    let keys = word(3)?;
-    let (mut projected, mut geographic) = (None, None);
+    let Some(keys) = word(3) else { return (None, None) };
+    let (mut projected, mut geographic, mut height_unit) = (None, None, None);
     for k in 0..usize::from(keys) {
         let entry = 4 + 4 * k;
         let (Some(id), Some(location), Some(value)) = (word(entry), word(entry + 1), word(entry + 3)) else { break };
@@ -493,11 +528,12 @@ fn geokeys_epsg(data: &[u8]) -> Option<u32> {
         match id {
             PROJECTED_CS_KEY => projected = projected.or(Some(value)),
             GEOGRAPHIC_CS_KEY => geographic = geographic.or(Some(value)),
+            VERTICAL_UNITS_KEY => height_unit = height_unit.or(Some(value)),
             _ => {}
         }
     }
-    let code = projected.or(geographic)?;
-    (code != 0 && code != USER_DEFINED).then_some(u32::from(code))
+    let epsg = projected.or(geographic).filter(|&code| code != 0 && code != USER_DEFINED).map(u32::from);
+    (epsg, height_unit.filter(|&code| code != 0 && code != USER_DEFINED))
 }
 
 #[cfg(test)]
@@ -696,22 +732,44 @@ mod tests {
             let spec = Spec { vlrs: vec![("LASF_Projection", 34735, geokeys(keys))], ..Spec::default() };
             parse("g.las", &spec.file()).unwrap().crs
         };
-        assert_eq!(with(&[(1024, 1), (3072, 25832), (4096, 5783)]), LasCrs::GeoKeys { epsg: Some(25832) });
-        assert_eq!(with(&[(2048, 4326)]), LasCrs::GeoKeys { epsg: Some(4326) });
+        assert_eq!(
+            with(&[(1024, 1), (3072, 25832), (4096, 5783)]),
+            LasCrs::GeoKeys { epsg: Some(25832), height_unit: None }
+        );
+        assert_eq!(with(&[(2048, 4326)]), LasCrs::GeoKeys { epsg: Some(4326), height_unit: None });
         // A user-defined projection on a known datum is not that datum's geographic CRS.
-        assert_eq!(with(&[(2048, 4258), (3072, 32767)]), LasCrs::GeoKeys { epsg: None });
-        assert_eq!(with(&[]), LasCrs::GeoKeys { epsg: None });
+        assert_eq!(with(&[(2048, 4258), (3072, 32767)]), LasCrs::GeoKeys { epsg: None, height_unit: None });
+        assert_eq!(with(&[]), LasCrs::GeoKeys { epsg: None, height_unit: None });
         // A key count larger than the record stops at the record's end.
         let mut keys = geokeys(&[(3072, 25832)]);
         keys[6..8].copy_from_slice(&u16::MAX.to_le_bytes());
         let spec = Spec { vlrs: vec![("LASF_Projection", 34735, keys)], ..Spec::default() };
-        assert_eq!(parse("g.las", &spec.file()).unwrap().crs, LasCrs::GeoKeys { epsg: Some(25832) });
+        assert_eq!(parse("g.las", &spec.file()).unwrap().crs, LasCrs::GeoKeys { epsg: Some(25832), height_unit: None });
         // Global encoding's WKT bit decides which of both is the CRS.
         let both = vec![("LASF_Projection", 34735, geokeys(&[(3072, 25833)])), wkt_vlr(WKT_25832)];
         let spec = Spec { vlrs: both, ..Spec::default() };
-        assert_eq!(parse("g.las", &spec.file()).unwrap().crs, LasCrs::GeoKeys { epsg: Some(25833) });
+        assert_eq!(parse("g.las", &spec.file()).unwrap().crs, LasCrs::GeoKeys { epsg: Some(25833), height_unit: None });
         let spec = Spec { version: (1, 4), global_encoding: 0x10, ..spec };
         assert_eq!(parse("g.las", &spec.file()).unwrap().crs, LasCrs::Wkt(WKT_25832.to_owned()));
+    }
+
+    #[test]
+    fn geokeys_give_the_unit_of_heights() {
+        let with = |keys: &[(u16, u16)]| {
+            let spec = Spec { vlrs: vec![("LASF_Projection", 34735, geokeys(keys))], ..Spec::default() };
+            parse("g.las", &spec.file()).unwrap().crs
+        };
+        let feet = with(&[(3072, 2264), (4096, 6360), (4099, 9003)]);
+        assert_eq!(feet, LasCrs::GeoKeys { epsg: Some(2264), height_unit: Some(9003) });
+        let unit = feet.height_unit(|_| None).unwrap().unwrap();
+        assert_eq!(unit.0, "US survey foot");
+        assert!((unit.1 - 0.304_800_609_601_219).abs() < 1e-15);
+        assert_eq!(with(&[(3072, 25832)]).height_unit(|_| None), Ok(None));
+        let odd = with(&[(3072, 25832), (4099, 9999)]).height_unit(|_| None).unwrap_err();
+        assert!(odd.contains("4099") && odd.contains("9999"), "{odd}");
+        // A WKT's unit comes from the function given.
+        let wkt = LasCrs::Wkt("x".to_owned());
+        assert_eq!(wkt.height_unit(|_| Some(("foot".to_owned(), 0.3048))), Ok(Some(("foot".to_owned(), 0.3048))));
     }
 
     /// A file written by the `las` crate.

@@ -51,4 +51,6 @@ pub use pipeline::{
 };
 pub use points::{FramePoint, FramePoints};
 pub use report::{FrameReport, FrameReportV1, failed_frame, frame_reports};
-pub use stems::{Stem, StemClass, StemConfig, StemDetector, StemFit};
+pub use stems::{
+    Candidate, Stem, StemClass, StemConfig, StemDetector, StemFit, Tiling, merge_stems, surroundings_cells,
+};

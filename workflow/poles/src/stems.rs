@@ -16,8 +16,13 @@
 //!    scanner shows its near face only — become *front* candidates when they span at most `THIN_SPAN_M`:
 //!    their centre is the mean of the face's points, their diameter a guess (see [`StemFit::Front`]);
 //! 3. [`StemDetector::surroundings`]: the points within 3.5 m of a candidate, 0.2 m to `max_height_m` above
-//!    ground, are kept — what the stems are followed in. Memory grows with the band and the stems'
-//!    surroundings, not with the cloud.
+//!    ground, are kept — what the stems are followed in.
+//!
+//! Held whole ([`StemDetector::collect`], [`StemDetector::surroundings`]), memory grows with the band and the
+//! stems' surroundings. A caller that must bound it takes the band and the surroundings itself
+//! ([`StemDetector::band_of`], [`StemDetector::surroundings_of`]), bucketed by [`Tiling`] tile, and fits and
+//! follows one tile at a time ([`StemDetector::candidates_in`], [`StemDetector::stems_in`],
+//! [`merge_stems`]): only the ground (a few numbers per square metre) is held for the whole cloud.
 //!
 //! [`StemDetector::finish`] then
 //! - follows the stem slice by slice (`slice_m`) up and down from the band while the slice's points lie on
@@ -257,6 +262,11 @@ impl StemDetector {
         }
     }
 
+    /// Its parameters.
+    pub fn config(&self) -> StemConfig {
+        self.config
+    }
+
     fn cell(&self, x: f64, y: f64) -> (i64, i64) {
         let c = self.config.ground_cell_m;
         ((x / c).floor() as i64, (y / c).floor() as i64)
@@ -319,49 +329,72 @@ impl StemDetector {
 
     /// Second pass: the same points again; those of the breast-height band are kept.
     pub fn collect(&mut self, batch: &[[f64; 3]]) {
+        let mut band = std::mem::take(&mut self.band);
+        self.band_of(batch, |p| band.push(p));
+        self.band = band;
+    }
+
+    /// Second pass, for a caller that keeps the band itself (by tile, see [`Tiling`]): each point of `batch`
+    /// in the breast-height band goes to `sink` as (x, y).
+    pub fn band_of(&mut self, batch: &[[f64; 3]], mut sink: impl FnMut([f64; 2])) {
         self.settle_ground();
         let (centre, half) = (self.config.breast_height_m, self.config.band_half_m);
         for p in batch {
             if self.height(p).is_some_and(|h| (h - centre).abs() <= half) {
-                self.band.push([p[0], p[1]]);
+                sink([p[0], p[1]]);
             }
         }
     }
 
     /// The band's circles, fitted once after the second pass.
-    fn candidates(&mut self) -> &[Candidate] {
+    fn fit_candidates(&mut self) {
         if self.candidates.is_none() {
-            let c = self.config;
-            let found: Vec<Candidate> = clusters(&self.band, c.link_m)
-                .into_iter()
-                .filter(|cluster| {
-                    cluster.len() >= if c.thin_stems { THIN_MIN_POINTS.min(c.min_points) } else { c.min_points }
-                })
-                .filter_map(|cluster| {
-                    let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| self.band[i]).collect();
-                    let circle = if pts.len() >= c.min_points { candidate(&pts, &c) } else { None };
-                    circle.or_else(|| if c.thin_stems { thin_candidate(&pts) } else { None })
-                })
-                .collect();
-            for Candidate { fit, .. } in &found {
-                let reach = fit.r + CROWN_RADIUS_M + 0.5;
-                let (lo_i, hi_i) = (((fit.centre[0] - reach).floor()) as i64, ((fit.centre[0] + reach).floor()) as i64);
-                let (lo_j, hi_j) = (((fit.centre[1] - reach).floor()) as i64, ((fit.centre[1] + reach).floor()) as i64);
-                for i in lo_i..=hi_i {
-                    for j in lo_j..=hi_j {
-                        self.near.insert((i, j));
-                    }
-                }
-            }
-            self.candidates = Some(found);
+            let found = self.candidates_in(&self.band);
+            self.add_candidates(found);
         }
+    }
+
+    /// The candidates among the band points `band` (the whole band, or one tile's with its margin): each
+    /// cluster's circle that can be a stem's.
+    pub fn candidates_in(&self, band: &[[f64; 2]]) -> Vec<Candidate> {
+        let c = self.config;
+        clusters(band, c.link_m)
+            .into_iter()
+            .filter(|cluster| {
+                cluster.len() >= if c.thin_stems { THIN_MIN_POINTS.min(c.min_points) } else { c.min_points }
+            })
+            .filter_map(|cluster| {
+                let pts: Vec<[f64; 2]> = cluster.iter().map(|&i| band[i]).collect();
+                let circle = if pts.len() >= c.min_points { candidate(&pts, &c) } else { None };
+                circle.or_else(|| if c.thin_stems { thin_candidate(&pts) } else { None })
+            })
+            .collect()
+    }
+
+    /// Take `found` as candidates: the third pass keeps the points around them.
+    pub fn add_candidates(&mut self, found: Vec<Candidate>) {
+        self.near.extend(surroundings_cells(&found));
+        self.candidates.get_or_insert_with(Vec::new).extend(found);
+    }
+
+    /// The candidates taken so far.
+    pub fn candidates(&self) -> &[Candidate] {
         self.candidates.as_deref().unwrap_or_default()
     }
 
     /// Third pass: the same points again; those near a candidate, 0.2 m to `max_height_m` above ground,
     /// are kept.
     pub fn surroundings(&mut self, batch: &[[f64; 3]]) {
-        self.candidates();
+        self.fit_candidates();
+        let mut kept = std::mem::take(&mut self.kept);
+        self.surroundings_of(batch, |p| kept.push(p));
+        self.kept = kept;
+    }
+
+    /// Third pass, for a caller that keeps the points itself (by tile): each point of `batch` near a
+    /// candidate taken so far, 0.2 m to `max_height_m` above ground, goes to `sink` as (x, y, height above
+    /// ground).
+    pub fn surroundings_of(&self, batch: &[[f64; 3]], mut sink: impl FnMut([f64; 3])) {
         for p in batch {
             if !self.near.contains(&(p[0].floor() as i64, p[1].floor() as i64)) {
                 continue;
@@ -369,7 +402,7 @@ impl StemDetector {
             if let Some(h) = self.height(p)
                 && (0.2..=self.config.max_height_m).contains(&h)
             {
-                self.kept.push([p[0], p[1], h]);
+                sink([p[0], p[1], h]);
             }
         }
     }
@@ -402,28 +435,20 @@ impl StemDetector {
 
     /// The stems found.
     pub fn finish(&mut self) -> Vec<Stem> {
-        let c = self.config;
-        self.candidates();
-        let index = GridIndex::new(&self.kept, 1.0);
+        self.fit_candidates();
         let candidates = self.candidates.as_deref().unwrap_or_default();
-        let mut stems: Vec<Stem> = candidates.iter().filter_map(|k| self.stem_of(k, &index)).collect();
-        // Two clusters of one stem (a gap in the band): the one with more points stays.
-        stems.sort_by_key(|s| std::cmp::Reverse(s.points));
-        let mut out: Vec<Stem> = Vec::new();
-        for s in stems {
-            let overlaps = out.iter().any(|o| {
-                let d = (o.centre[0] - s.centre[0]).hypot(o.centre[1] - s.centre[1]);
-                d < 0.5 * (o.diameter_m.max(s.diameter_m)) + c.link_m
-            });
-            if !overlaps {
-                out.push(s);
-            }
-        }
-        out.sort_by(|a, b| a.centre[0].total_cmp(&b.centre[0]).then(a.centre[1].total_cmp(&b.centre[1])));
-        out
+        let stems = self.stems_in(candidates, &self.kept);
+        merge_stems(stems, &self.config)
     }
 
-    fn stem_of(&self, candidate: &Candidate, index: &GridIndex) -> Option<Stem> {
+    /// The stems of `candidates` followed in `kept` (points the third pass gave, holding all within
+    /// [`Tiling`]'s margin of them), before [`merge_stems`].
+    pub fn stems_in(&self, candidates: &[Candidate], kept: &[[f64; 3]]) -> Vec<Stem> {
+        let index = GridIndex::new(kept, 1.0);
+        candidates.iter().filter_map(|k| self.stem_of(k, &index, kept)).collect()
+    }
+
+    fn stem_of(&self, candidate: &Candidate, index: &GridIndex, kept: &[[f64; 3]]) -> Option<Stem> {
         let c = &self.config;
         let Candidate { fit, arc, points, thin } = candidate;
         let (arc, points, thin) = (*arc, *points, *thin);
@@ -436,7 +461,7 @@ impl StemDetector {
         let on_stem = |h0: f64, centre: [f64; 2]| -> Option<[f64; 2]> {
             let mut ring = Vec::new();
             let mut outside = 0usize;
-            for p in index.near(centre, fit.r + OUTSIDE_M, &self.kept) {
+            for p in index.near(centre, fit.r + OUTSIDE_M, kept) {
                 if p[2] < h0 || p[2] >= h0 + c.slice_m {
                     continue;
                 }
@@ -475,7 +500,7 @@ impl StemDetector {
             return None;
         }
         let (lean, lean_azimuth_deg) = lean_of(&centres);
-        let class = self.class_of(fit.centre, fit.r, top, index);
+        let class = class_of(fit.centre, fit.r, top, index, kept);
         let cov = fit.covariance;
         Some(Stem {
             centre: fit.centre,
@@ -493,27 +518,65 @@ impl StemDetector {
             fit: if thin { StemFit::Front } else { StemFit::Circle },
         })
     }
+}
 
-    /// A crown above the top makes a trunk; a thin stem with (almost) nothing around its top a pole.
-    fn class_of(&self, centre: [f64; 2], r: f64, top: f64, index: &GridIndex) -> StemClass {
-        let crown = index
-            .near(centre, CROWN_RADIUS_M, &self.kept)
-            .filter(|p| p[2] >= top && p[2] <= top + 5.0)
-            .filter(|p| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= CROWN_RADIUS_M)
-            .count();
-        if crown >= CROWN_POINTS && r >= 0.05 {
-            StemClass::Trunk
-        } else if crown < CROWN_POINTS && 2.0 * r <= 0.5 {
-            StemClass::Pole
-        } else {
-            StemClass::Unknown
+/// The 1 m cells (floor of x, floor of y) the third pass keeps the surroundings of `candidates` in: those
+/// within a candidate's radius, the crown's reach and half a metre of its centre. A kept point (x, y,
+/// height) lies in one of them when `cells.contains(&(x.floor() as i64, y.floor() as i64))`.
+pub fn surroundings_cells(candidates: &[Candidate]) -> std::collections::HashSet<(i64, i64)> {
+    let mut cells = std::collections::HashSet::new();
+    for Candidate { fit, .. } in candidates {
+        let reach = fit.r + CROWN_RADIUS_M + 0.5;
+        let (lo_i, hi_i) = (((fit.centre[0] - reach).floor()) as i64, ((fit.centre[0] + reach).floor()) as i64);
+        let (lo_j, hi_j) = (((fit.centre[1] - reach).floor()) as i64, ((fit.centre[1] + reach).floor()) as i64);
+        for i in lo_i..=hi_i {
+            for j in lo_j..=hi_j {
+                cells.insert((i, j));
+            }
         }
+    }
+    cells
+}
+
+/// Stems the tiles or clusters found twice (two clusters of one stem, a gap in the band): of overlapping
+/// ones the one with more band points stays (then the westernmost, southernmost); sorted by centre.
+pub fn merge_stems(mut stems: Vec<Stem>, config: &StemConfig) -> Vec<Stem> {
+    stems.sort_by(|a, b| {
+        b.points.cmp(&a.points).then(a.centre[0].total_cmp(&b.centre[0])).then(a.centre[1].total_cmp(&b.centre[1]))
+    });
+    let mut out: Vec<Stem> = Vec::new();
+    for s in stems {
+        let overlaps = out.iter().any(|o| {
+            let d = (o.centre[0] - s.centre[0]).hypot(o.centre[1] - s.centre[1]);
+            d < 0.5 * (o.diameter_m.max(s.diameter_m)) + config.link_m
+        });
+        if !overlaps {
+            out.push(s);
+        }
+    }
+    out.sort_by(|a, b| a.centre[0].total_cmp(&b.centre[0]).then(a.centre[1].total_cmp(&b.centre[1])));
+    out
+}
+
+/// A crown above the top makes a trunk; a thin stem with (almost) nothing around its top a pole.
+fn class_of(centre: [f64; 2], r: f64, top: f64, index: &GridIndex, kept: &[[f64; 3]]) -> StemClass {
+    let crown = index
+        .near(centre, CROWN_RADIUS_M, kept)
+        .filter(|p| p[2] >= top && p[2] <= top + 5.0)
+        .filter(|p| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= CROWN_RADIUS_M)
+        .count();
+    if crown >= CROWN_POINTS && r >= 0.05 {
+        StemClass::Trunk
+    } else if crown < CROWN_POINTS && 2.0 * r <= 0.5 {
+        StemClass::Pole
+    } else {
+        StemClass::Unknown
     }
 }
 
 /// A band cluster's circle that can be a stem's.
 #[derive(Clone, Copy, Debug)]
-struct Candidate {
+pub struct Candidate {
     fit: Circle,
     /// Arc of the circle its points cover, degrees.
     arc: f64,
@@ -521,6 +584,63 @@ struct Candidate {
     points: usize,
     /// A thin stem's near face, not a circle (see [`StemFit::Front`]); `fit.r` is then the face's half span.
     thin: bool,
+}
+
+impl Candidate {
+    /// Centre of its circle (x, y), m.
+    pub fn centre(&self) -> [f64; 2] {
+        self.fit.centre
+    }
+}
+
+/// Square tiles of the plane, each grown by a margin, for a detection that holds one tile's band and
+/// surroundings at a time instead of the whole cloud's: the band points go to every tile whose grown area
+/// holds them, each tile's candidates are fitted from its own band, and a tile keeps those whose centre lies
+/// in it; the surroundings likewise, and each tile follows its own candidates' stems. The margin
+/// ([`Tiling::margin_for`]) holds everything a candidate's cluster and stem reach, so a tiled detection
+/// finds exactly what a whole one does.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Tiling {
+    /// Side of a tile, m.
+    pub size_m: f64,
+    /// How far beyond its tile a tile's points reach, m (less than `size_m`).
+    pub margin_m: f64,
+}
+
+impl Tiling {
+    /// Tiles of `size_m` with the margin `config` needs (at most `size_m`: its caller picks a size that
+    /// holds it).
+    pub fn new(size_m: f64, config: &StemConfig) -> Self {
+        Self { size_m, margin_m: Self::margin_for(config).min(size_m) }
+    }
+
+    /// The margin a detection with `config` needs, m: a candidate's cluster spans at most
+    /// 2 × `max_diameter_m` + 2 × `link_m` (wider ones are refused before a fit) around a centre within a
+    /// radius of its points; the surroundings kept around a candidate reach its radius, the crown's 3 m and
+    /// 0.5 m, rounded out to 1 m cells (√2 m at most).
+    pub fn margin_for(config: &StemConfig) -> f64 {
+        let r = 0.5 * config.max_diameter_m;
+        let cluster = 2.0 * config.max_diameter_m + 2.0 * config.link_m + r;
+        let surroundings = r + CROWN_RADIUS_M + 0.5 + std::f64::consts::SQRT_2;
+        cluster.max(surroundings) + 0.5
+    }
+
+    /// The tile holding (x, y).
+    pub fn tile_of(&self, p: [f64; 2]) -> (i64, i64) {
+        ((p[0] / self.size_m).floor() as i64, (p[1] / self.size_m).floor() as i64)
+    }
+
+    /// The tiles whose area grown by the margin holds (x, y): its own and up to three neighbours.
+    pub fn tiles_holding(&self, p: [f64; 2]) -> impl Iterator<Item = (i64, i64)> + use<> {
+        let (s, m) = (self.size_m, self.margin_m);
+        let axis = |v: f64| {
+            let i = (v / s).floor() as i64;
+            let f = v - i as f64 * s;
+            [Some(i), (f < m).then_some(i - 1), (f >= s - m).then_some(i + 1)]
+        };
+        let (xs, ys) = (axis(p[0]), axis(p[1]));
+        xs.into_iter().flatten().flat_map(move |i| ys.into_iter().flatten().map(move |j| (i, j)))
+    }
 }
 
 /// A band cluster's circle, when it can be a stem's: not wider than any stem with its twigs, a circle
@@ -851,17 +971,7 @@ mod scene_tests {
     #[test]
     fn stems_of_a_scanned_street_are_found_with_centre_diameter_lean_and_class() {
         let (points, truth) = scan_scene(&ScanScene::default(), 5);
-        let mut d = StemDetector::new(StemConfig::default());
-        for batch in points.chunks(10_000) {
-            d.ground(batch);
-        }
-        for batch in points.chunks(10_000) {
-            d.collect(batch);
-        }
-        for batch in points.chunks(10_000) {
-            d.surroundings(batch);
-        }
-        let stems = d.finish();
+        let stems = whole(&points);
         for s in &stems {
             println!(
                 "{:?} centre ({:.3}, {:.3}) d {:.3}±{:.3} extent {:?} lean {:.3} → {:.0}° arc {:.0}° rms {:.4} pts {}",
@@ -898,6 +1008,74 @@ mod scene_tests {
             // The centre's σ covers the error it made (4σ).
             let sigma = s.covariance[0][0].max(s.covariance[1][1]).sqrt();
             assert!(off < 4.0 * sigma.max(0.002), "centre {off} m off with σ {sigma}: {s:?}");
+        }
+    }
+
+    /// The stems of `points` held whole, each pass fed in batches.
+    fn whole(points: &[[f64; 3]]) -> Vec<Stem> {
+        let mut d = StemDetector::new(StemConfig::default());
+        for batch in points.chunks(10_000) {
+            d.ground(batch);
+        }
+        for batch in points.chunks(10_000) {
+            d.collect(batch);
+        }
+        for batch in points.chunks(10_000) {
+            d.surroundings(batch);
+        }
+        d.finish()
+    }
+
+    #[test]
+    fn a_tiled_detection_finds_exactly_what_a_whole_one_does() {
+        let (points, _) = scan_scene(&ScanScene::default(), 5);
+        let whole = whole(&points);
+        assert!(whole.len() >= 4, "{whole:#?}");
+        let config = StemConfig::default();
+        // Tiles of about 10 m whose borders run through each stem's centre in turn, and larger ones.
+        let through: Vec<f64> = whole.iter().map(|s| s.centre[0] / (s.centre[0] / 10.0).round()).collect();
+        for size in through.into_iter().chain([16.0, 40.0]) {
+            let tiling = Tiling::new(size, &config);
+            let mut d = StemDetector::new(config);
+            let bucket = |p: [f64; 2]| tiling.tiles_holding(p).collect::<Vec<_>>();
+            for batch in points.chunks(10_000) {
+                d.ground(batch);
+            }
+            let mut band: std::collections::BTreeMap<(i64, i64), Vec<[f64; 2]>> = Default::default();
+            for batch in points.chunks(10_000) {
+                d.band_of(batch, |p| bucket(p).into_iter().for_each(|t| band.entry(t).or_default().push(p)));
+            }
+            let mut found = Vec::new();
+            for (tile, pts) in &band {
+                found.extend(d.candidates_in(pts).into_iter().filter(|c| tiling.tile_of(c.centre()) == *tile));
+            }
+            d.add_candidates(found);
+            let mut kept: HashMap<(i64, i64), Vec<[f64; 3]>> = HashMap::new();
+            for batch in points.chunks(10_000) {
+                d.surroundings_of(batch, |p| {
+                    bucket([p[0], p[1]]).into_iter().for_each(|t| kept.entry(t).or_default().push(p))
+                });
+            }
+            let mut owners: HashMap<(i64, i64), Vec<Candidate>> = HashMap::new();
+            for c in d.candidates() {
+                owners.entry(tiling.tile_of(c.centre())).or_default().push(*c);
+            }
+            assert!(owners.len() >= 3 || size > 12.0, "{size} m tiles: the stems should fall in several tiles");
+            let mut stems = Vec::new();
+            for (tile, candidates) in &owners {
+                // Only the points around the tile's own candidates, as `poles detect` reads them.
+                let cells = surroundings_cells(candidates);
+                let own: Vec<[f64; 3]> = kept
+                    .get(tile)
+                    .map_or(&[][..], Vec::as_slice)
+                    .iter()
+                    .copied()
+                    .filter(|p| cells.contains(&(p[0].floor() as i64, p[1].floor() as i64)))
+                    .collect();
+                stems.extend(d.stems_in(candidates, &own));
+            }
+            let tiled = merge_stems(stems, &config);
+            assert!(tiled == whole, "{size} m tiles: {} stems against {} whole", tiled.len(), whole.len());
         }
     }
 }

@@ -180,6 +180,27 @@ fn corrupt_counts_are_errors_not_allocations() {
     assert!(read_las("empty.laz", write(1, true, 0)).unwrap().points.is_empty());
 }
 
+/// A LAS 1.4 layered chunk (point format 6) announces its layers' sizes before their bytes, and the decoder
+/// allocates each size it decodes: a size beyond the chunk is refused as it is read, naming the chunk.
+#[test]
+fn a_layer_size_beyond_its_chunk_is_refused_before_the_decoder_allocates_it() {
+    let laz = write_1_4_with_evlr(true, 200);
+    let stream = |bytes: Vec<u8>| {
+        let len = bytes.len() as u64;
+        plumbline_poles::stream_las_xyz_from("layers.laz", Cursor::new(bytes), len, |_| {})
+    };
+    assert_eq!(stream(laz.clone()).unwrap().1, 200);
+    let data_start = u32::from_le_bytes(laz[96..100].try_into().unwrap()) as usize;
+    let record_len = usize::from(u16::from_le_bytes(laz[105..107].try_into().unwrap()));
+    // The first chunk: the table's offset (8 bytes), the first point raw, the point count, then the sizes.
+    let sizes = data_start + 8 + record_len + 4;
+    let mut bad = laz;
+    bad[sizes..sizes + 4].copy_from_slice(&0xFFFF_FF00u32.to_le_bytes());
+    let err = stream(bad).unwrap_err().to_string();
+    assert!(err.starts_with("point cloud layers.laz: "), "{err}");
+    assert!(err.contains("LAZ chunk 0: its layers announce 42949") && err.contains("the chunk holds"), "{err}");
+}
+
 /// One flipped bit in the compressed points (found by the property test below) trips an assertion in the
 /// `laz` decoder (debug builds; laz-rs issue #43 has a division by zero in release ones): an error naming the
 /// records, not a panic.

@@ -1,6 +1,7 @@
 //! Matching against the cadastre: a junction group with a common DG offset is matched pole by pole, a pole
 //! missing from the cadastre is left unmatched (never forced onto a neighbour), an ambiguous single pole is
-//! not matched, and one pole seen in consecutive frames keeps its track.
+//! not matched, one pole seen in consecutive frames keeps its track, and the gate widens with the cadastre
+//! object's accuracy.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
 use plumbline_campaign::manifest::PoleClass;
@@ -120,4 +121,16 @@ fn a_pole_keeps_its_track_over_consecutive_frames() {
     let tracks: Vec<Vec<usize>> = matched.iter().map(|m| m.matches.iter().map(|x| x.track).collect()).collect();
     assert!(tracks.iter().all(|t| t == &tracks[0]) && tracks[0].len() == 2, "{tracks:?}");
     assert_ne!(tracks[0][0], tracks[0][1]);
+}
+
+#[test]
+fn the_gate_widens_with_the_cadastre_objects_accuracy() {
+    // A lone pole 1 m from where a tight DG trajectory puts it: outside the DG gate for a pole surveyed to
+    // ±7 cm, inside it for one whose position the cadastre gives to ±0.5 m.
+    let frames = vec![frame(0, vec![detection([5.0, 1.0])], 0.1)];
+    let m = &match_frames(&frames, &[feature(1, 5.0, 0.0)], &MatchConfig::default())[0];
+    assert_eq!(m.unmatched[0].reason, UnmatchedReason::NoCandidate, "{m:?}");
+    let rough = CadastreFeature { accuracy_m: 0.5, ..feature(1, 5.0, 0.0) };
+    let m = &match_frames(&frames, &[rough], &MatchConfig::default())[0];
+    assert_eq!(m.matches.len(), 1, "{m:?}");
 }

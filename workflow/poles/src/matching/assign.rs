@@ -39,9 +39,21 @@ fn tolerance(d: &Detection, f: &CadastreFeature, lag: usize, c: &MatchConfig) ->
     c.inlier_sigmas * (d.sigma().powi(2) + f.accuracy_m.powi(2) + drift.powi(2)).sqrt()
 }
 
-fn gate(input: &MatchInput, d: &Detection, c: &MatchConfig) -> f64 {
+/// The cadastre poles a detection can be before any offset is known: within the DG gate (`gate_sigmas` DG
+/// σ, clamped) plus `inlier_sigmas` of the pair's own σ — the detection's and the cadastre object's
+/// accuracy together, so a pole surveyed to ±0.5 m is looked for that much farther — nearest first.
+fn gated(
+    grid: &Grid<'_>,
+    feats: &[CadastreFeature],
+    input: &MatchInput,
+    d: &Detection,
+    c: &MatchConfig,
+) -> Vec<(usize, f64)> {
     let dg = (c.gate_sigmas * input.dg_sigma_m).clamp(c.min_gate_m, c.max_gate_m);
-    dg + c.inlier_sigmas * d.sigma()
+    let gate = |accuracy: f64| dg + c.inlier_sigmas * d.sigma().hypot(accuracy);
+    let mut near = candidates(grid, feats, d, d.centre, gate(grid.max_accuracy_m), c);
+    near.retain(|&(i, dist)| dist <= gate(if feats[i].accuracy_m.is_finite() { feats[i].accuracy_m } else { 0.0 }));
+    near
 }
 
 /// Candidates of a (shifted) detection: compatible cadastre features within `radius`, nearest first.
@@ -105,7 +117,7 @@ pub(super) fn frame(
         .collect();
     let mut hypotheses: Vec<Hypothesis> = Vec::new();
     for d in dets.iter().filter(|d| d.reliable) {
-        for (i, _) in candidates(grid, feats, d, d.centre, gate(input, d, c), c) {
+        for (i, _) in gated(grid, feats, input, d, c) {
             let offset = [feats[i].easting - d.centre[0], feats[i].northing - d.centre[1]];
             let (support, cost) = score(offset, &voters, grid, feats, c);
             hypotheses.push(Hypothesis { offset, support, cost });
@@ -126,9 +138,7 @@ pub(super) fn frame(
     for (i, d) in dets.iter().enumerate() {
         let track = tracks[k][i];
         let reason = match offset {
-            None if candidates(grid, feats, d, d.centre, gate(input, d, c), c).is_empty() => {
-                Some(UnmatchedReason::NoCandidate)
-            }
+            None if gated(grid, feats, input, d, c).is_empty() => Some(UnmatchedReason::NoCandidate),
             None => Some(UnmatchedReason::AmbiguousOffset),
             Some(b) => match assign_one(d, b.offset, grid, feats, c) {
                 Ok((cadastre, residual)) => {

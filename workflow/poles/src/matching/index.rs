@@ -12,6 +12,8 @@ const CELL_M: f64 = 10.0;
 pub(super) struct Grid<'a> {
     features: &'a [CadastreFeature],
     cells: HashMap<(i64, i64), Vec<usize>>,
+    /// The largest accuracy (σ) among the indexed features, metres.
+    pub max_accuracy_m: f64,
 }
 
 fn cell(x: f64, y: f64) -> (i64, i64) {
@@ -22,10 +24,14 @@ impl<'a> Grid<'a> {
     /// Index the finite features.
     pub fn new(features: &'a [CadastreFeature]) -> Self {
         let mut cells: HashMap<(i64, i64), Vec<usize>> = HashMap::new();
+        let mut max_accuracy_m: f64 = 0.0;
         for (i, f) in features.iter().enumerate().filter(|(_, f)| f.easting.is_finite() && f.northing.is_finite()) {
             cells.entry(cell(f.easting, f.northing)).or_default().push(i);
+            if f.accuracy_m.is_finite() {
+                max_accuracy_m = max_accuracy_m.max(f.accuracy_m);
+            }
         }
-        Self { features, cells }
+        Self { features, cells, max_accuracy_m }
     }
 
     /// Features within `radius` of `p`, with their distances, nearest first.

@@ -35,11 +35,12 @@ pub struct MatchInput {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct MatchConfig {
-    /// The gate is this many DG sigmas (per axis, radially).
+    /// The gate is this many DG sigmas (per axis, radially), clamped to `min_gate_m`–`max_gate_m`, plus
+    /// `inlier_sigmas` of the pair's own σ (the detection's and the cadastre object's accuracy together).
     pub gate_sigmas: f64,
-    /// Smallest gate radius, metres.
+    /// Smallest DG part of the gate radius, metres.
     pub min_gate_m: f64,
-    /// Largest gate radius, metres.
+    /// Largest DG part of the gate radius, metres.
     pub max_gate_m: f64,
     /// Inlier tolerance in standard deviations of detection, cadastre and frame-to-frame DG change.
     pub inlier_sigmas: f64,
