@@ -217,8 +217,9 @@ impl CopcIndex {
         need_time: bool,
         mut visit: impl FnMut(u64, &las::PointData) -> Result<(), LasError>,
     ) -> Result<u64, LasError> {
-        let record_len = usize::from(self.summary.point_record_length);
         let selection = crate::las::decoded_fields(need_time);
+        // One batch buffer for every node: fields not selected keep stale bytes, never read.
+        let mut batch = las::PointDataBuilder::new().for_header(&self.header).build();
         let mut done = 0u64;
         for node in nodes {
             let failed = |first: u64, last: u64, problem: String| LasError::Node {
@@ -239,12 +240,8 @@ impl CopcIndex {
                 let n = BATCH.min(node.point_count - first);
                 let last = first + n - 1;
                 // At most BATCH records, whatever the node announces.
-                let mut bytes = vec![0; usize::try_from(n).unwrap_or(0) * record_len];
-                unpanicked(|| decompressor.decompress_many(&mut bytes).map_err(las::Error::Io))
-                    .map_err(|e| failed(first, last, e.to_string()))?;
-                let batch = las::PointDataBuilder::new()
-                    .for_header(&self.header)
-                    .build_from_bytes(bytes)
+                let bytes = batch.resize_for(usize::try_from(n).unwrap_or(0));
+                unpanicked(|| decompressor.decompress_many(bytes).map_err(las::Error::Io))
                     .map_err(|e| failed(first, last, e.to_string()))?;
                 visit(done + first, &batch)?;
                 first += n;

@@ -277,13 +277,14 @@ fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
     let mut decompressor =
         unpanicked(|| Ok(laz::LasZipDecompressor::selective(source, vlr, selection)?)).map_err(at_header)?;
     let total = header.number_of_points();
+    // One batch buffer, decoded into again and again: fields not selected keep stale bytes, never read.
+    let mut batch = las::PointDataBuilder::new().for_header(&header).build();
     let mut first = 0u64;
     while first < total {
         let n = BATCH.min(total - first);
         let records = |source| LasError::Records { file: file.to_owned(), first, last: first + n - 1, total, source };
-        let mut bytes = vec![0; usize::try_from(n).unwrap_or(0) * record_len];
-        unpanicked(|| Ok(laz::LazDecompressor::decompress_many(&mut decompressor, &mut bytes)?)).map_err(records)?;
-        let batch = las::PointDataBuilder::new().for_header(&header).build_from_bytes(bytes).map_err(records)?;
+        let bytes = batch.resize_for(usize::try_from(n).unwrap_or(0));
+        unpanicked(|| Ok(laz::LazDecompressor::decompress_many(&mut decompressor, bytes)?)).map_err(records)?;
         visit(first, &batch)?;
         first += n;
     }
@@ -502,14 +503,24 @@ pub(crate) fn xyz_of(file: &str, first: u64, batch: &las::PointData, out: &mut V
 }
 
 pub(crate) fn append(file: &str, first: u64, batch: &las::PointData, out: &mut Vec<LasPoint>) -> Result<(), LasError> {
-    let times: Vec<f64> = batch.gps_time().map(Iterator::collect).unwrap_or_default();
-    for (i, ((x, y), z)) in batch.x().zip(batch.y()).zip(batch.z()).enumerate() {
-        let record = first + i as u64;
-        let gps_time = times.get(i).copied().unwrap_or(f64::NAN);
-        for (field, v) in [("x", x), ("y", y), ("z", z), ("gps_time", gps_time)] {
-            if !v.is_finite() {
-                return Err(LasError::NotFinite { file: file.to_owned(), record, field });
-            }
+    // One pass over the records (the column iterators would walk them four times).
+    let format = batch.format();
+    let time_at = format.has_gps_time.then_some(if format.is_extended { 22 } else { 20 });
+    let t = batch.transforms();
+    let le_i32 = |r: &[u8], at: usize| i32::from_le_bytes([r[at], r[at + 1], r[at + 2], r[at + 3]]);
+    out.reserve(batch.len());
+    for (i, r) in batch.raw_bytes().chunks_exact(batch.record_len()).enumerate() {
+        let (x, y, z) = (t.x.direct(le_i32(r, 0)), t.y.direct(le_i32(r, 4)), t.z.direct(le_i32(r, 8)));
+        let gps_time = time_at.map_or(f64::NAN, |at| {
+            f64::from_le_bytes([r[at], r[at + 1], r[at + 2], r[at + 3], r[at + 4], r[at + 5], r[at + 6], r[at + 7]])
+        });
+        if !(x.is_finite() && y.is_finite() && z.is_finite() && gps_time.is_finite()) {
+            let record = first + i as u64;
+            let field = [("x", x), ("y", y), ("z", z), ("gps_time", gps_time)]
+                .into_iter()
+                .find(|(_, v)| !v.is_finite())
+                .map_or("gps_time", |(f, _)| f);
+            return Err(LasError::NotFinite { file: file.to_owned(), record, field });
         }
         out.push(LasPoint { position: [x, y, z], gps_time });
     }

@@ -10,7 +10,7 @@ use plumbline_poles::{LasError, read_las};
 use proptest::prelude::*;
 
 fn write(format: u8, compressed: bool, n: usize) -> Vec<u8> {
-    let mut builder = Builder::from((1, 2));
+    let mut builder = Builder::from(if format >= 6 { (1, 4) } else { (1, 2) });
     builder.point_format = Format::new(format).unwrap();
     builder.point_format.is_compressed = compressed;
     let t = |offset| Transform { scale: 0.001, offset };
@@ -24,6 +24,7 @@ fn write(format: u8, compressed: bool, n: usize) -> Vec<u8> {
             y: 5_933_000.0 - f * 0.02,
             z: 8.0 + f * 0.001,
             gps_time,
+            color: Format::new(format).unwrap().has_color.then_some(las::Color { red: 1, green: 2, blue: 3 }),
             ..Default::default()
         };
         writer.write_point(p).unwrap();
@@ -37,8 +38,9 @@ fn builder_time(format: u8, f: f64) -> Option<f64> {
 
 #[test]
 fn las_and_laz_round_trip_with_gps_time() {
-    for compressed in [false, true] {
-        let read = read_las("cloud", write(1, compressed, 70_000)).unwrap();
+    // Formats whose time sits at byte 20 (1, 3) and byte 22 (6, 7), with and without colour.
+    for (format, compressed) in [1, 3, 6, 7].into_iter().flat_map(|f| [(f, false), (f, true)]) {
+        let read = read_las("cloud", write(format, compressed, 70_000)).unwrap();
         assert_eq!(read.compressed, compressed);
         assert_eq!(read.points.len(), 70_000);
         for (i, p) in read.points.iter().enumerate().step_by(997) {
