@@ -24,6 +24,9 @@ pub struct Args {
     /// GNSS environment of the drive.
     #[arg(long, value_enum, default_value_t = Profile::Canyon)]
     pub profile: Profile,
+    /// What real cameras add to the images (see `simulate --realism`).
+    #[arg(long, value_enum, default_value_t = simulate::RealismArg::Ideal)]
+    pub realism: simulate::RealismArg,
     /// Folder for the simulated campaign; the results go to its `results/`.
     #[arg(long, value_name = "DIR", default_value = "demo")]
     pub out: String,
@@ -56,6 +59,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         aerial_format: simulate::FrameFormat::Jpeg,
         point_cloud: simulate::PointCloudOutput::None,
         no_depth: false,
+        realism: args.realism,
     };
     let manifest = simulate::write(ctx, sim).await?;
     progress.end("simulate");

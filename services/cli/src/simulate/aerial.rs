@@ -10,14 +10,12 @@ use plumbline_runtime::gdal_write::{Raster, RasterData, cloud_optimized_geotiff,
 use plumbline_synth::aerial;
 use plumbline_synth::map::footprint;
 use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
-use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, encode_jpeg, render_aerial};
+use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Radiometry, Scene, encode_jpeg, render_aerial_with};
 use plumbline_synth::world::World;
 
 use super::Sink;
 use crate::exit::invalid;
 
-/// JPEG quality of the frames.
-pub(crate) const JPEG_QUALITY: u8 = 90;
 /// Frame size, pixels (small format: keeps `tiny` quick; the GSD is what matters).
 pub(crate) const FRAME_PX: (u32, u32) = (1000, 750);
 /// Pixel size of the terrain model, metres.
@@ -37,12 +35,19 @@ pub(crate) struct FrameOptions {
     pub size: (u32, u32),
     /// File format.
     pub format: FrameFormat,
+    /// What the camera adds to the images (and the JPEG quality).
+    pub radiometry: Radiometry,
 }
 
 impl FrameOptions {
     /// The options `simulate` was given.
     pub(crate) fn of(args: &super::Args) -> Self {
-        Self { gsd: args.aerial_gsd, size: args.aerial_frame_px.unwrap_or(FRAME_PX), format: args.aerial_format }
+        Self {
+            gsd: args.aerial_gsd,
+            size: args.aerial_frame_px.unwrap_or(FRAME_PX),
+            format: args.aerial_format,
+            radiometry: args.realism.realism().aerial,
+        }
     }
 
     /// The camera: the default small-format camera with its radial distortion, or at any other size a
@@ -59,7 +64,7 @@ impl FrameOptions {
 /// File formats of the simulated frames.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum FrameFormat {
-    /// 8-bit RGB JPEG (quality 90).
+    /// 8-bit RGB JPEG (quality 90; `--realism harsh`: 75).
     Jpeg,
     /// 16-bit 4-band (R, G, B, NIR) tiled GeoTIFF, deflate-compressed, 12-bit data, as large-format cameras
     /// deliver (no georeferencing: the frame is placed by its orientation).
@@ -91,9 +96,9 @@ pub(crate) fn write(
     let extension = options.format.extension();
     for (i, frame) in frames.iter().enumerate() {
         let optics = AerialOptics::typical(seed.wrapping_mul(7_919).wrapping_add(i as u64));
-        let image = render_aerial(&scene, &cam, &frame.truth, &optics);
+        let image = render_aerial_with(&scene, &cam, &frame.truth, &optics, &options.radiometry);
         let bytes = match options.format {
-            FrameFormat::Jpeg => encode_jpeg(&image, JPEG_QUALITY)?,
+            FrameFormat::Jpeg => encode_jpeg(&image, options.radiometry.jpeg_quality)?,
             FrameFormat::Tiff16 => frame_tiff16(&image).with_context(|| format!("frame {} as GeoTIFF", frame.id))?,
         };
         drop(image);

@@ -21,9 +21,7 @@ use plumbline_synth::motion::dg::{DgConfig, DgSolution, DgStream};
 use plumbline_synth::motion::gnss::{GnssConfig, GnssStream};
 use plumbline_synth::motion::imu::ImuStream;
 use plumbline_synth::motion::{Drive, DriveConfig, files};
-use plumbline_synth::render::{
-    DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_depth, render_panorama,
-};
+use plumbline_synth::render::{DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_depth};
 use plumbline_synth::route::Route;
 use plumbline_synth::sensors::{self, Mount, Shot};
 use plumbline_synth::world::city::{City, PoleOwner};
@@ -70,7 +68,9 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
         imu: ImuStream::new(&imu_errors, seed).or_invalid("IMU")?,
     };
     let sizes = Sizes::of(args)?;
-    let mut aerial = (!args.navigation_only).then(|| CityAerial::new(&config, args.aerial_gsd)).transpose()?;
+    let mut aerial = (!args.navigation_only)
+        .then(|| CityAerial::new(&config, args.aerial_gsd, args.realism.realism().aerial))
+        .transpose()?;
     let mut progress = Progress::default();
     let mut maps = Maps::new(args.navigation_only);
     let mut start_time = DriveConfig::default().start_time;
@@ -241,8 +241,8 @@ fn write_imagery(
     let shots = sensors::shots(&format!("pano{:04}_", leg.index), &times, &drive.trajectory, &dg.trajectory)?;
     let (scene, mount, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
     imagery::for_each_in_flight(&shots, |k, shot| {
-        let pano = render_panorama(&scene, &cam, &mount, &shot.truth.pose(), &vehicle);
-        sink.put(format!("panoramas/{}.jpg", shot.id), encode_jpeg(&pano.image, imagery::JPEG_QUALITY)?)?;
+        let pano = imagery::render_shot(&scene, &cam, shot, &drive.trajectory, &sizes.realism, k);
+        sink.put(format!("panoramas/{}.jpg", shot.id), encode_jpeg(&pano.image, sizes.realism.street.jpeg_quality)?)?;
         imagery::pixel_truth(world, &cam, &mount, shot, &vehicle, sink)?;
         if first && k == 0 {
             sink.put("panoramas/vehicle_mask.png", imagery::vehicle_mask_png(&pano)?)?;

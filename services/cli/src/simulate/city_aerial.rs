@@ -17,12 +17,12 @@ use plumbline_synth::city_aerial::{CityBlock, FrameKey, TileKey, TileLattice, ke
 use plumbline_synth::map::footprint;
 use plumbline_synth::motion::Drive;
 use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
-use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, encode_jpeg, render_aerial};
+use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Radiometry, Scene, encode_jpeg, render_aerial_with};
 use plumbline_synth::world::WorldConfig;
 use plumbline_synth::world::city::City;
 
 use super::Sink;
-use super::aerial::{FRAME_PX, JPEG_QUALITY, TERRAIN_GSD_M, TERRAIN_NODATA, block_spec, flat_terrain, ortho_raster};
+use super::aerial::{FRAME_PX, TERRAIN_GSD_M, TERRAIN_NODATA, block_spec, flat_terrain, ortho_raster};
 
 /// Frames are made that see ground this close to the drive, metres: the registration's ortho patch (14 m
 /// half side, `MmConfig::default`) plus DG errors of metres and the search around them; the worker picks the
@@ -47,13 +47,14 @@ pub(crate) struct CityAerial {
     ground_height: f64,
     epsg: u32,
     seed: u64,
+    radiometry: Radiometry,
     frames_done: HashSet<FrameKey>,
     tiles_done: BTreeSet<TileKey>,
 }
 
 impl CityAerial {
-    /// The block of the city of `config` flown at `gsd` (`--aerial-gsd`).
-    pub(crate) fn new(config: &WorldConfig, gsd: f64) -> anyhow::Result<Self> {
+    /// The block of the city of `config` flown at `gsd` (`--aerial-gsd`), its frames through `radiometry`.
+    pub(crate) fn new(config: &WorldConfig, gsd: f64, radiometry: Radiometry) -> anyhow::Result<Self> {
         let spec = block_spec(gsd)?;
         let interior = aerial::small_format_distorted(FRAME_PX.0, FRAME_PX.1);
         let cam = Pinhole::from_metric(&interior).context("aerial camera")?;
@@ -68,6 +69,7 @@ impl CityAerial {
             ground_height: config.ground_height,
             epsg: config.epsg,
             seed: config.seed,
+            radiometry,
             frames_done: HashSet::new(),
             tiles_done: BTreeSet::new(),
         })
@@ -107,8 +109,9 @@ impl CityAerial {
         let frames: Vec<aerial::Frame> = keys.iter().map(|&k| self.block.frame(k, &errors, self.seed)).collect();
         for (key, frame) in keys.iter().zip(&frames) {
             let optics = AerialOptics::typical(key_seed(self.seed, key.strip, key.step, 0x0971_C5E5));
-            let image = render_aerial(scene, self.block.camera(), &frame.truth, &optics);
-            sink.put(format!("aerial/frames/{}.jpg", frame.id), encode_jpeg(&image, JPEG_QUALITY)?)?;
+            let image = render_aerial_with(scene, self.block.camera(), &frame.truth, &optics, &self.radiometry);
+            let jpeg = encode_jpeg(&image, self.radiometry.jpeg_quality)?;
+            sink.put(format!("aerial/frames/{}.jpg", frame.id), jpeg)?;
         }
         let first = self.frames_done.is_empty();
         let csv = |bytes: Vec<u8>| if first { bytes } else { without_header(bytes) };

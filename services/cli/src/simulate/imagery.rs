@@ -3,13 +3,15 @@
 
 use anyhow::Context as _;
 use image::GrayImage;
+use plumbline_geo::PositionInterpolation;
 use plumbline_geo::camera::{Equirectangular, Pinhole};
 use plumbline_synth::motion::dg::DgSolution;
 use plumbline_synth::motion::{Drive, DriveConfig};
 use plumbline_synth::render::{
-    DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray, encode_png_gray16, render_depth, render_panorama,
-    render_surfaces,
+    DepthNoise, Panorama, Realism, Scene, VehicleBody, encode_jpeg, encode_png_gray, encode_png_gray16, render_depth,
+    render_panorama_with, render_surfaces,
 };
+use plumbline_synth::sensors::Shot;
 use plumbline_synth::sensors::{self, Mount};
 use plumbline_synth::world::{Epoch, World};
 use rayon::prelude::*;
@@ -17,9 +19,6 @@ use rayon::prelude::*;
 use super::manifest::mount;
 use super::{Args, Preset, Sink};
 use crate::exit::invalid;
-
-/// JPEG quality of the panoramas.
-pub(crate) const JPEG_QUALITY: u8 = 90;
 
 /// Image sizes and rates of the street-level sensors.
 #[derive(Clone, Copy, Debug)]
@@ -32,6 +31,8 @@ pub(crate) struct Sizes {
     pub depth: (u32, u32),
     /// Depth frames per second while moving.
     pub depth_rate: f64,
+    /// What the street rig and the aerial camera add to the images.
+    pub realism: Realism,
 }
 
 impl Sizes {
@@ -53,7 +54,7 @@ impl Sizes {
         if !(depth_rate.is_finite() && depth_rate > 0.0 && depth_rate <= 60.0) {
             return Err(invalid(format!("--depth-rate {depth_rate}: expected 0–60 Hz")));
         }
-        Ok(Self { panorama_width, panorama_spacing, depth, depth_rate })
+        Ok(Self { panorama_width, panorama_spacing, depth, depth_rate, realism: args.realism.realism() })
     }
 }
 
@@ -73,8 +74,9 @@ pub(crate) fn panoramas(
     let shots = sensors::shots("pano", &times, &drive.trajectory, &dg.trajectory)?;
     let (scene, mount_, vehicle) = (Scene::mobile(world), Mount::PANORAMA.camera_mount(), VehicleBody::van());
     for_each_in_flight(&shots, |i, shot| {
-        let pano = render_panorama(&scene, &cam, &mount_, &shot.truth.pose(), &vehicle);
-        let jpeg = encode_jpeg(&pano.image, JPEG_QUALITY).with_context(|| format!("panorama {}", shot.id))?;
+        let pano = render_shot(&scene, &cam, shot, &drive.trajectory, &sizes.realism, i);
+        let quality = sizes.realism.street.jpeg_quality;
+        let jpeg = encode_jpeg(&pano.image, quality).with_context(|| format!("panorama {}", shot.id))?;
         sink.put(format!("panoramas/{}.jpg", shot.id), jpeg)?;
         pixel_truth(world, &cam, &mount_, shot, &vehicle, sink)?;
         if i == 0 {
@@ -85,6 +87,25 @@ pub(crate) fn panoramas(
     sink.put("panoramas/index.csv", sensors::index_csv(&shots, "jpg"))?;
     sink.put("truth/images.csv", sensors::truth_csv(&shots))?;
     Ok(panorama_section(sizes, drive_config.imu_height))
+}
+
+/// The panorama of `shot` (the `index`th) as the rig of `realism` sees it while the vehicle drives `truth`.
+pub(crate) fn render_shot(
+    scene: &Scene,
+    cam: &Equirectangular,
+    shot: &Shot,
+    truth: &plumbline_geo::Trajectory,
+    realism: &Realism,
+    index: usize,
+) -> Panorama {
+    let at = |t: f64| truth.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
+    let velocity = match (at(shot.time - 0.05), at(shot.time + 0.05)) {
+        (Some(a), Some(b)) => (b - a) / 0.1,
+        _ => shot.truth.position.p * 0.0,
+    };
+    let (mount, body) = (Mount::PANORAMA.camera_mount(), shot.truth.pose());
+    let seed = 0x9E37_79B9_u64.wrapping_mul(index as u64 + 1);
+    render_panorama_with(scene, cam, &mount, &body, &VehicleBody::van(), &velocity, realism, seed)
 }
 
 /// Run `f` on every item (with its index), as many items at once as rayon has threads: rendering is parallel
@@ -114,7 +135,7 @@ pub(crate) fn panorama_section(sizes: &Sizes, imu_height: f64) -> String {
 }
 
 /// The manifest's vehicle mask (non-zero = vehicle; the renderer's mask has 255 = scene) as PNG.
-pub(crate) fn vehicle_mask_png(pano: &plumbline_synth::render::Panorama) -> anyhow::Result<Vec<u8>> {
+pub(crate) fn vehicle_mask_png(pano: &Panorama) -> anyhow::Result<Vec<u8>> {
     let (w, h) = pano.mask.dimensions();
     let vehicle_mask = GrayImage::from_fn(w, h, |x, y| image::Luma([255 - pano.mask.get_pixel(x, y)[0]]));
     encode_png_gray(&vehicle_mask).context("vehicle mask")
@@ -126,7 +147,7 @@ pub(crate) fn pixel_truth(
     world: &World,
     cam: &Equirectangular,
     mount: &plumbline_geo::dg::CameraMount,
-    shot: &sensors::Shot,
+    shot: &Shot,
     vehicle: &VehicleBody,
     sink: &Sink,
 ) -> anyhow::Result<()> {

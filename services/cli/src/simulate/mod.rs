@@ -54,6 +54,7 @@ use plumbline_synth::motion::dg::{self, DgConfig, DgSolution};
 use plumbline_synth::motion::imu::{self, ImuErrors};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig, files, gnss, overview_png};
+use plumbline_synth::render::{Realism, RealismLevel};
 use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::world::{self, World, WorldConfig};
 use tokio::sync::mpsc;
@@ -124,6 +125,34 @@ pub struct Args {
     /// Write no depth images (e.g. to run pole control from the point cloud alone).
     #[arg(long)]
     pub no_depth: bool,
+    /// What real cameras add to the images: `ideal` nothing; `default` a survey rig of six global-shutter
+    /// sub-cameras (4 cm parallax, ±4 % exposure steps, 0.5 ms exposure) and mild white-balance, tone-curve,
+    /// vignetting, noise and JPEG 85; `harsh` a rolling-shutter consumer rig at speed (10 cm, ±15 %, 2 ms
+    /// exposure, 33 ms readout) and strong radiometric differences, JPEG 70/75.
+    #[arg(long, value_enum, default_value_t = RealismArg::Ideal)]
+    pub realism: RealismArg,
+}
+
+/// Levels of `--realism`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum RealismArg {
+    /// Ideal cameras.
+    Ideal,
+    /// A current survey rig and aerial camera.
+    Default,
+    /// A consumer rolling-shutter rig at speed, a flight in other light.
+    Harsh,
+}
+
+impl RealismArg {
+    /// The renderer's figures for this level.
+    pub(crate) fn realism(self) -> Realism {
+        Realism::of(match self {
+            Self::Ideal => RealismLevel::Ideal,
+            Self::Default => RealismLevel::Default,
+            Self::Harsh => RealismLevel::Harsh,
+        })
+    }
 }
 
 /// Point clouds `simulate` can write.

@@ -8,8 +8,8 @@ use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole, Pixel};
 use plumbline_geo::{Map, MapFromBody, MapFromCamera, Point3};
 use rayon::prelude::*;
 
+use super::realism::{Radiometry, Realism, gaussian};
 use super::shade::{FAR, Scene};
-use crate::texture::unit;
 use crate::world::{Epoch, Surface, World};
 
 /// The vehicle's own body as a box in the body frame (x forward, y right, z down), metres.
@@ -93,6 +93,125 @@ pub fn render_panorama(
     }
 }
 
+/// [`render_panorama`] as a rig of sub-cameras with a real sensor's radiometry sees it while the vehicle moves
+/// at `velocity` (map frame, m/s): each sub-camera looks from its own centre `radius_m` out along its axis
+/// (parallax at the seams) with its own exposure gain; rows are read out over `readout_s` while the rig moves
+/// (rolling shutter); a surface point smears along its image path over the exposure (motion blur, from its
+/// range); then white balance, vignetting per sub-camera, the S-curve and noise (`seed`). With
+/// [`Realism::of`]`(Ideal)` it is [`render_panorama`].
+#[allow(clippy::too_many_arguments)]
+pub fn render_panorama_with(
+    scene: &Scene,
+    cam: &Equirectangular,
+    mount: &plumbline_geo::dg::CameraMount,
+    body: &MapFromBody,
+    vehicle: &VehicleBody,
+    velocity: &Vector3<f64>,
+    realism: &Realism,
+    seed: u64,
+) -> Panorama {
+    let (rig, radio) = (&realism.rig, &realism.street);
+    if rig.is_ideal() && radio.is_ideal() {
+        return render_panorama(scene, cam, mount, body, vehicle);
+    }
+    let pose = mount.camera_pose(body);
+    let (w, h) = (cam.width, cam.height);
+    let pixel_angle = std::f64::consts::TAU / f64::from(w);
+    let to_body = body.inverse();
+    let o_body = to_body.transform_point(&pose.translation).p;
+    let centres: Vec<Vector3<f64>> = (0..rig.count())
+        .map(|k| {
+            let axis = cam.unproject(Pixel::new(rig.axis_column(k, w), f64::from(h) / 2.0));
+            let axis = axis.map_or(Vector3::zeros(), |a| pose.rotation.apply(&a).v);
+            pose.translation.p + axis * rig.radius_m
+        })
+        .collect();
+    let gains: Vec<f32> = (0..rig.count()).map(|k| rig.gain(k, seed)).collect();
+    let origin = |col: u32, row: u32| centres[rig.sector(col, w) as usize] + velocity * rig.row_time(row, h);
+    let (mut levels, mut range) = (vec![0f32; (w * h * 3) as usize], vec![f64::INFINITY; (w * h) as usize]);
+    let mut mask = vec![0u8; (w * h) as usize];
+    levels
+        .par_chunks_mut(w as usize * 3)
+        .zip(range.par_chunks_mut(w as usize))
+        .zip(mask.par_chunks_mut(w as usize))
+        .enumerate()
+        .for_each(|(row, ((line, ranges), m))| {
+            let row = row as u32;
+            for col in 0..w {
+                let Some(d) = ray(cam, &pose, col, row) else { continue };
+                let d_body = to_body.rotation.quaternion() * d;
+                let c = if vehicle.hit(&o_body, &d_body).is_some() {
+                    [40.0, 40.0, 44.0]
+                } else {
+                    m[col as usize] = 255;
+                    let (radiance, t) = scene.radiance_range(&origin(col, row), &d, pixel_angle);
+                    ranges[col as usize] = t;
+                    let gain = gains[rig.sector(col, w) as usize] * radio.vignette(rig.edge_share(col, row, w, h));
+                    scene.tone_levels(radio.balance(radiance, gain)).map(|v| radio.curve(v))
+                };
+                line[col as usize * 3..col as usize * 3 + 3].copy_from_slice(&c);
+            }
+        });
+    let smear = velocity * rig.exposure_s;
+    if smear.norm() > 0.0 {
+        let from_map = pose.inverse().rotation;
+        let pixel_of = |p: Vector3<f64>| cam.project(&from_map.apply(&plumbline_geo::Vec3::<Map>::from_vector(p)));
+        let sharp = levels.clone();
+        levels.par_chunks_mut(w as usize * 3).enumerate().for_each(|(row, line)| {
+            let row = row as u32;
+            for col in 0..w {
+                let i = (row * w + col) as usize;
+                let (t, Some(d)) = (range[i], ray(cam, &pose, col, row)) else { continue };
+                if !t.is_finite() || mask[i] == 0 {
+                    continue;
+                }
+                let o = origin(col, row);
+                let point = o + d * t;
+                let (Some(a), Some(b)) = (pixel_of(point - (o - smear / 2.0)), pixel_of(point - (o + smear / 2.0)))
+                else {
+                    continue;
+                };
+                let mut du = b.u - a.u;
+                if du.abs() > f64::from(w) / 2.0 {
+                    du -= du.signum() * f64::from(w);
+                }
+                let dv = b.v - a.v;
+                let steps = (du.hypot(dv).ceil() as u32).clamp(1, 32);
+                let (mut sum, mut n) = ([0f32; 3], 0f32);
+                for s in 0..=steps {
+                    let f = f64::from(s) / f64::from(steps);
+                    let u = (a.u + du * f).floor().rem_euclid(f64::from(w)) as u32;
+                    let v = (a.v + dv * f).floor().clamp(0.0, f64::from(h - 1)) as u32;
+                    let j = (v * w + u) as usize;
+                    if mask[j] == 255 {
+                        for c in 0..3 {
+                            sum[c] += sharp[j * 3 + c];
+                        }
+                        n += 1.0;
+                    }
+                }
+                if n > 0.0 {
+                    for c in 0..3 {
+                        line[col as usize * 3 + c] = sum[c] / n;
+                    }
+                }
+            }
+        });
+    }
+    let rgb: Vec<u8> = levels
+        .par_iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let v = if mask[i / 3] == 255 { radio.noisy(v, seed, i as i64) } else { v };
+            v.round().clamp(0.0, 255.0) as u8
+        })
+        .collect();
+    Panorama {
+        image: RgbImage::from_raw(w, h, rgb).unwrap_or_default(),
+        mask: GrayImage::from_raw(w, h, mask).unwrap_or_default(),
+    }
+}
+
 /// Depth-camera error model (paper 002 §3.1.2: about 8 % of the depth; range 0.4–10 m).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DepthNoise {
@@ -140,13 +259,6 @@ pub fn render_depth(
     ImageBuffer::from_raw(w, h, px).unwrap_or_default()
 }
 
-/// A standard normal deviate from a hash (Box–Muller), reproducible per pixel.
-fn gaussian(seed: u64, idx: i64) -> f64 {
-    let u1 = f64::from(unit(seed ^ 71, idx, 0)).max(1e-7);
-    let u2 = f64::from(unit(seed ^ 72, idx, 1));
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
-
 /// Sensor and lens effects of an aerial camera.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AerialOptics {
@@ -169,16 +281,35 @@ impl AerialOptics {
 /// with sensor noise as `optics` says. Any pinhole colour camera renders this way (e.g. the colour stream of
 /// a depth camera: `Scene::mobile` and no blur).
 pub fn render_aerial(scene: &Scene, cam: &Pinhole, pose: &MapFromCamera, optics: &AerialOptics) -> RgbImage {
+    render_aerial_with(scene, cam, pose, optics, &Radiometry::IDEAL)
+}
+
+/// [`render_aerial`] through a sensor's radiometry: white balance, S-curve, vignetting (radial, the image
+/// corners at the field's edge) and its noise on top of the optics'.
+pub fn render_aerial_with(
+    scene: &Scene,
+    cam: &Pinhole,
+    pose: &MapFromCamera,
+    optics: &AerialOptics,
+    radiometry: &Radiometry,
+) -> RgbImage {
     let (w, h) = (cam.width, cam.height);
     let pixel_angle = 1.0 / cam.fx;
+    let corner = (f64::from(w) / 2.0).hypot(f64::from(h) / 2.0);
     let mut lin = vec![0f32; (w * h * 3) as usize];
     lin.par_chunks_mut(w as usize * 3).enumerate().for_each(|(row, line)| {
         for col in 0..w {
             let Some(d) = ray(cam, pose, col, row as u32) else { continue };
-            let c = scene.tone(scene.radiance(&pose.translation.p, &d, pixel_angle));
-            for k in 0..3 {
-                line[col as usize * 3 + k] = f32::from(c[k]);
-            }
+            let radiance = scene.radiance(&pose.translation.p, &d, pixel_angle);
+            let c = if radiometry.is_ideal() {
+                scene.tone(radiance).map(f32::from)
+            } else {
+                let r =
+                    (f64::from(col) + 0.5 - f64::from(w) / 2.0).hypot(f64::from(row as u32) + 0.5 - f64::from(h) / 2.0);
+                let balanced = radiometry.balance(radiance, radiometry.vignette(r / corner));
+                scene.tone_levels(balanced).map(|v| radiometry.curve(v))
+            };
+            line[col as usize * 3..col as usize * 3 + 3].copy_from_slice(&c);
         }
     });
     let lin = super::blur::gaussian_rgb(&lin, w as usize, h as usize, optics.blur_px);
@@ -187,7 +318,8 @@ pub fn render_aerial(scene: &Scene, cam: &Pinhole, pose: &MapFromCamera, optics:
         for (i, v) in line.iter_mut().enumerate() {
             let idx = row as i64 * i64::from(w) * 3 + i as i64;
             let n = gaussian(optics.seed, idx) as f32 * optics.noise;
-            *v = (lin[idx as usize] + n).round().clamp(0.0, 255.0) as u8;
+            let sensed = radiometry.noisy(lin[idx as usize], optics.seed ^ 0xA5A5, idx);
+            *v = (sensed + n).round().clamp(0.0, 255.0) as u8;
         }
     });
     RgbImage::from_raw(w, h, rgb).unwrap_or_default()

@@ -84,7 +84,12 @@ impl<'w> Scene<'w> {
 
     /// Linear radiance along a ray; `pixel_angle` (radians) sizes the texture footprint.
     pub fn radiance(&self, origin: &Vector3<f64>, dir: &Vector3<f64>, pixel_angle: f64) -> Rgb {
-        let Some(hit) = self.world.trace(origin, dir, FAR, self.epoch) else { return sky(dir) };
+        self.radiance_range(origin, dir, pixel_angle).0
+    }
+
+    /// [`Scene::radiance`] and the distance to the surface hit (infinite for the sky).
+    pub fn radiance_range(&self, origin: &Vector3<f64>, dir: &Vector3<f64>, pixel_angle: f64) -> (Rgb, f64) {
+        let Some(hit) = self.world.trace(origin, dir, FAR, self.epoch) else { return (sky(dir), f64::INFINITY) };
         let cos = hit.normal.dot(dir).abs().max(0.15);
         let footprint = hit.t * pixel_angle / cos;
         let albedo = self.albedo(&hit, footprint);
@@ -98,14 +103,19 @@ impl<'w> Scene<'w> {
         };
         let a = self.light.ambient;
         let l = a + (1.0 - a) * lit;
-        [albedo[0] * l, albedo[1] * l, albedo[2] * l]
+        ([albedo[0] * l, albedo[1] * l, albedo[2] * l], hit.t)
     }
 
     /// The camera's tone curve: exposure, contrast about mid-grey, gamma; to 8 bits.
     pub fn tone(&self, c: Rgb) -> [u8; 3] {
+        self.tone_levels(c).map(|v| (v + 0.5) as u8)
+    }
+
+    /// [`Scene::tone`] before rounding: levels in 0–255.
+    pub fn tone_levels(&self, c: Rgb) -> [f32; 3] {
         let f = |v: f32| {
             let x = ((v * self.light.exposure - 0.5) * self.light.contrast + 0.5).clamp(0.0, 1.0);
-            (x.powf(1.0 / self.light.gamma) * 255.0 + 0.5) as u8
+            x.powf(1.0 / self.light.gamma) * 255.0
         };
         [f(c[0]), f(c[1]), f(c[2])]
     }
