@@ -14,6 +14,9 @@
 //! `MM_BENCH_INITIAL_CANDIDATES`, `MM_BENCH_MIN_INITIAL_INLIERS` and `MM_BENCH_POOL_WINDOWS` (§3.7) and
 //! `MM_BENCH_MIN_MM_POINTS` override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama
 //! check off, `MM_BENCH_OFFSETS` (set) lists every checked panorama's aerial offset against the truth.
+//! `MM_BENCH_REALISM` (`ideal` | `default` | `harsh`, default `ideal`) renders the campaign through the
+//! simulator's sensor realism; `MM_BENCH_NUISANCES` (set) then also runs it with each nuisance switched off
+//! in turn and prints one summary row per variant, so the cost of each is visible.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -36,6 +39,7 @@ use plumbline_geo::tiling::TileId;
 use plumbline_registration::mm::TransformSource;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
+use plumbline_synth::render::{Radiometry, Realism, RealismLevel, Rig};
 use plumbline_synth::world;
 use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
@@ -357,6 +361,73 @@ fn print_causes(rows: &[Row]) {
     }
 }
 
+/// The realism of `MM_BENCH_REALISM`.
+fn realism() -> Realism {
+    Realism::of(match std::env::var("MM_BENCH_REALISM").as_deref() {
+        Ok("default") => RealismLevel::Default,
+        Ok("harsh") => RealismLevel::Harsh,
+        _ => RealismLevel::Ideal,
+    })
+}
+
+/// `base` with one nuisance switched off, by name.
+fn nuisances(base: Realism) -> Vec<(&'static str, Realism)> {
+    let street = |r: Radiometry| Realism { street: r, ..base };
+    let rig = |r: Rig| Realism { rig: r, ..base };
+    let ideal = Radiometry::IDEAL;
+    vec![
+        ("all", base),
+        ("no seams (one centre, one exposure)", rig(Rig { radius_m: 0.0, exposure_step: 0.0, ..base.rig })),
+        ("no rolling shutter", rig(Rig { readout_s: 0.0, ..base.rig })),
+        ("no motion blur", rig(Rig { exposure_s: 0.0, ..base.rig })),
+        ("street: no white balance error", street(Radiometry { white_balance: [1.0; 3], ..base.street })),
+        ("street: no S-curve", street(Radiometry { s_curve: 0.0, ..base.street })),
+        ("street: no vignetting", street(Radiometry { vignetting: 0.0, ..base.street })),
+        ("street: no noise", street(Radiometry { noise: 0.0, ..base.street })),
+        (
+            "aerial: ideal radiometry",
+            Realism { aerial: Radiometry { jpeg_quality: base.aerial.jpeg_quality, ..ideal }, ..base },
+        ),
+        (
+            "JPEG quality 90 both",
+            Realism {
+                street: Radiometry { jpeg_quality: 90, ..base.street },
+                aerial: Radiometry { jpeg_quality: 90, ..base.aerial },
+                ..base
+            },
+        ),
+    ]
+}
+
+/// One row per nuisance switched off: images with markings matched and their correct share, all images.
+fn print_nuisances(variants: &[(&str, Vec<Row>)]) {
+    println!(
+        "
+Each nuisance switched off in turn (`MM_BENCH_NUISANCES`)
+"
+    );
+    println!("| switched off | profile | with markings matched | their correct share | all matched | correct share |");
+    println!("|---|---|---|---|---|---|");
+    let share = |c: usize, n: usize| if n > 0 { format!("{:.1} %", 100.0 * c as f64 / n as f64) } else { "–".into() };
+    for (name, rows) in variants {
+        for r in rows {
+            let (n, ok) = r.marked_correspondences;
+            let w = &r.split.with;
+            println!(
+                "| {name} | {} | {} of {} ({}) | {} | {} of {} | {} |",
+                r.name,
+                w.matched,
+                w.images,
+                share(w.matched, w.images),
+                share(ok, n),
+                r.matched,
+                r.images,
+                share(r.correct, r.correspondences)
+            );
+        }
+    }
+}
+
 fn main() {
     let preset = match std::env::var("MM_BENCH_PRESET").as_deref() {
         Ok("district") => world::Preset::District,
@@ -371,10 +442,11 @@ fn main() {
         spacing: env("MM_BENCH_SPACING", 5.0),
         width: env("MM_BENCH_WIDTH", 1024),
         window: None,
+        realism: realism(),
     };
     println!(
-        "registration bench: preset {preset:?}, seed {}, route {} m, panoramas every {} m at {} px",
-        base.seed, base.length, base.spacing, base.width
+        "registration bench: preset {preset:?}, seed {}, route {} m, panoramas every {} m at {} px, realism {:?}",
+        base.seed, base.length, base.spacing, base.width, base.realism.level
     );
     let rows: Vec<Row> = profiles
         .split(',')
@@ -386,4 +458,16 @@ fn main() {
         })
         .collect();
     print_tables(&rows);
+    if std::env::var("MM_BENCH_NUISANCES").is_ok() {
+        let mut variants = Vec::new();
+        for (name, realism) in nuisances(base.realism) {
+            let rows: Vec<Row> = profiles
+                .split(',')
+                .filter_map(|p| profile(p.trim()).map(|profile| run(p.trim(), &Spec { profile, realism, ..base })))
+                .collect();
+            eprintln!("{name}: done");
+            variants.push((name, rows));
+        }
+        print_nuisances(&variants);
+    }
 }

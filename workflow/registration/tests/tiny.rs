@@ -24,6 +24,7 @@ fn spec(seed: u64) -> Spec {
         spacing: 5.0,
         width: 1024,
         window: Some(7),
+        realism: plumbline_synth::render::Realism::of(plumbline_synth::render::RealismLevel::Ideal),
     }
 }
 

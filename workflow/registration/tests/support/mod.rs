@@ -1,14 +1,18 @@
 //! A synthetic campaign for the registration tests and the benchmark: a `plumbline_synth` world, a drive
 //! with DG errors, panoramas rendered with the TRUE poses (DG poses for processing), the aerial frames
-//! covering them (AT-reported orientations for processing), and the truth to score tie points against.
+//! covering them (AT-reported orientations for processing), and the truth to score tie points against. With a
+//! `realism` other than ideal, the images are rendered through its rig and radiometry and pass through JPEG at
+//! its quality and the pipeline's decoder.
 
 #![allow(dead_code, clippy::unwrap_used, clippy::expect_used)]
 
 pub mod markings;
 
+use plumbline_geo::PositionInterpolation;
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
+use plumbline_imaging::decode::{Bounds, decode_gray};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::aerial::{AerialFrame, AerialReference};
@@ -17,7 +21,10 @@ use plumbline_synth::aerial::{block, small_format};
 use plumbline_synth::motion::dg::{self, DgConfig};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig};
-use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Scene, VehicleBody, render_aerial, render_panorama};
+use plumbline_synth::render::{
+    AerialOptics, AtErrors, BlockSpec, Radiometry, Realism, RealismLevel, RgbImage, Scene, VehicleBody, encode_jpeg,
+    render_aerial_with, render_panorama, render_panorama_with,
+};
 use plumbline_synth::route::{Canyon, Route};
 use plumbline_synth::sensors::{self, Mount, Shot};
 use plumbline_synth::world::{self, Epoch, World, WorldConfig};
@@ -50,6 +57,14 @@ pub struct Spec {
     pub width: u32,
     /// Keep only this many consecutive panoramas centred on a junction (None = all).
     pub window: Option<usize>,
+    /// What the cameras add to the images.
+    pub realism: Realism,
+}
+
+/// An image through JPEG at `quality` and the pipeline's decoder, as luma.
+fn through_jpeg(id: &str, rgb: &RgbImage, quality: u8) -> GrayImage {
+    let bytes = encode_jpeg(rgb, quality).expect("JPEG");
+    decode_gray(id, &bytes, &Bounds::budget(u64::MAX)).expect("decoded JPEG")
 }
 
 /// A campaign ready for `register_tile`, with its truth.
@@ -111,9 +126,22 @@ impl Campaign {
         // Calibration: the IMU rides imu_height above the road, the camera 1.85 m above the IMU.
         let camera_height = drive_config.imu_height - Mount::PANORAMA.lever_arm_m[2];
         let scene = Scene::mobile(&world);
+        let ideal = spec.realism.level == RealismLevel::Ideal;
+        let at = |t: f64| drive.trajectory.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
         let rendered: Vec<_> = shots
             .iter()
-            .map(|s| render_panorama(&scene, &camera, &mount, &s.truth.pose(), &VehicleBody::van()))
+            .enumerate()
+            .map(|(i, s)| {
+                if ideal {
+                    return render_panorama(&scene, &camera, &mount, &s.truth.pose(), &VehicleBody::van());
+                }
+                let velocity = match (at(s.time - 0.05), at(s.time + 0.05)) {
+                    (Some(a), Some(b)) => (b - a) / 0.1,
+                    _ => s.truth.position.p * 0.0,
+                };
+                let (body, van) = (s.truth.pose(), VehicleBody::van());
+                render_panorama_with(&scene, &camera, &mount, &body, &van, &velocity, &spec.realism, i as u64 + 1)
+            })
             .collect();
         let (w, h) = (camera.width as usize, camera.height as usize);
         let vehicle_mask = rendered.first().map(|p| Mask::from_fn(w, h, |c, r| p.mask.as_raw()[r * w + c] == 0));
@@ -122,7 +150,11 @@ impl Campaign {
             .zip(&rendered)
             .map(|(s, p)| {
                 let raw = p.image.as_raw();
-                let image = GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]));
+                let image = if ideal {
+                    GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]))
+                } else {
+                    through_jpeg(&s.id, &p.image, spec.realism.street.jpeg_quality)
+                };
                 let std = s.dg.std.expect("DG σ");
                 Panorama {
                     id: s.id.clone(),
@@ -135,7 +167,7 @@ impl Campaign {
             })
             .collect();
         let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height };
-        let reference = aerial_frames(&world, spec.seed, &shots);
+        let reference = aerial_frames(&world, spec.seed, &shots, &spec.realism.aerial, ideal);
         let truth = shots.iter().map(|s| (s.id.clone(), s.truth.pose())).collect();
         let dg_error = shots
             .iter()
@@ -260,7 +292,7 @@ impl Campaign {
 
 /// The frames of the standard block whose image contains a panorama's ground point, rendered with their
 /// true orientation; the reference carries the AT-reported one.
-fn aerial_frames(world: &World, seed: u64, shots: &[Shot]) -> AerialReference {
+fn aerial_frames(world: &World, seed: u64, shots: &[Shot], radiometry: &Radiometry, ideal: bool) -> AerialReference {
     let spec = BlockSpec { gsd: AERIAL_GSD, ..BlockSpec::standard() };
     let interior = small_format(FRAME_PX.0, FRAME_PX.1);
     let (cam, frames) = block(world, &interior, &spec, &AtErrors::typical(), seed).expect("aerial block");
@@ -278,10 +310,14 @@ fn aerial_frames(world: &World, seed: u64, shots: &[Shot]) -> AerialReference {
         .par_iter()
         .map(|(i, f)| {
             let optics = AerialOptics::typical(seed.wrapping_mul(7_919).wrapping_add(*i as u64));
-            let rgb = render_aerial(&scene, &cam, &f.truth, &optics);
+            let rgb = render_aerial_with(&scene, &cam, &f.truth, &optics, radiometry);
             let (w, h) = (FRAME_PX.0 as usize, FRAME_PX.1 as usize);
             let raw = rgb.as_raw();
-            let image = GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]));
+            let image = if ideal {
+                GrayImage::from_fn(w, h, |c, r| luma(&raw[(r * w + c) * 3..(r * w + c) * 3 + 3]))
+            } else {
+                through_jpeg(&f.id, &rgb, radiometry.jpeg_quality)
+            };
             AerialFrame { id: f.id.clone(), image, origin: [0, 0], camera: cam, pose: f.reported }
         })
         .collect();

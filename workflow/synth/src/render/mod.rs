@@ -16,6 +16,8 @@ pub use frame::{
     AerialOptics, DepthNoise, Panorama, VehicleBody, ground_truth, render_aerial, render_aerial_with, render_depth,
     render_panorama, render_panorama_with,
 };
+/// The colour images the renderer returns.
+pub use image::RgbImage;
 pub use realism::{Radiometry, Realism, RealismLevel, Rig};
 pub use shade::{Illumination, Scene};
 pub use surface::{MAX_RANGE_M, SurfaceClass, SurfaceImage, render_surfaces, surface_point};
