@@ -189,6 +189,9 @@ async fn detect(ctx: &Context, args: DetectArgs) -> anyhow::Result<ExitCode> {
     }
     let tiling = Tiling::new(TILE_M, &config);
     let temp = args.temp_dir.as_deref();
+    if let Some(dir) = temp.filter(|d| !d.is_dir()) {
+        return Err(invalid(format!("--temp-dir {}: not a directory", dir.display())));
+    }
     let spill_error = |e: std::io::Error| anyhow::anyhow!("the detection's temporary tile files: {e}");
     let mut state = Detection {
         detector: StemDetector::new(config),
