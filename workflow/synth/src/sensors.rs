@@ -58,6 +58,16 @@ pub enum SensorError {
     },
 }
 
+/// The vehicle's velocity (map frame, m/s) at `time` on `truth`, from the positions 50 ms either side; zero
+/// where the trajectory does not reach that far.
+pub fn velocity(truth: &Trajectory, time: f64) -> nalgebra::Vector3<f64> {
+    let at = |t: f64| truth.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
+    match (at(time - 0.05), at(time + 0.05)) {
+        (Some(a), Some(b)) => (b - a) / 0.1,
+        _ => nalgebra::Vector3::zeros(),
+    }
+}
+
 /// Times at which the vehicle has driven another `spacing` metres (the first one at the start).
 pub fn spaced_times(drive: &Drive, spacing: f64) -> Result<Vec<f64>, SensorError> {
     if !(spacing.is_finite() && spacing > 0.0) {

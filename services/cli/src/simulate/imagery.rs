@@ -3,7 +3,6 @@
 
 use anyhow::Context as _;
 use image::GrayImage;
-use plumbline_geo::PositionInterpolation;
 use plumbline_geo::camera::{Equirectangular, Pinhole};
 use plumbline_synth::motion::dg::DgSolution;
 use plumbline_synth::motion::{Drive, DriveConfig};
@@ -98,11 +97,7 @@ pub(crate) fn render_shot(
     realism: &Realism,
     index: usize,
 ) -> Panorama {
-    let at = |t: f64| truth.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
-    let velocity = match (at(shot.time - 0.05), at(shot.time + 0.05)) {
-        (Some(a), Some(b)) => (b - a) / 0.1,
-        _ => shot.truth.position.p * 0.0,
-    };
+    let velocity = sensors::velocity(truth, shot.time);
     let (mount, body) = (Mount::PANORAMA.camera_mount(), shot.truth.pose());
     let seed = 0x9E37_79B9_u64.wrapping_mul(index as u64 + 1);
     render_panorama_with(scene, cam, &mount, &body, &VehicleBody::van(), &velocity, realism, seed)

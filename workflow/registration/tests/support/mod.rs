@@ -8,7 +8,6 @@
 
 pub mod markings;
 
-use plumbline_geo::PositionInterpolation;
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
@@ -127,7 +126,6 @@ impl Campaign {
         let camera_height = drive_config.imu_height - Mount::PANORAMA.lever_arm_m[2];
         let scene = Scene::mobile(&world);
         let ideal = spec.realism.level == RealismLevel::Ideal;
-        let at = |t: f64| drive.trajectory.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
         let rendered: Vec<_> = shots
             .iter()
             .enumerate()
@@ -135,10 +133,7 @@ impl Campaign {
                 if ideal {
                     return render_panorama(&scene, &camera, &mount, &s.truth.pose(), &VehicleBody::van());
                 }
-                let velocity = match (at(s.time - 0.05), at(s.time + 0.05)) {
-                    (Some(a), Some(b)) => (b - a) / 0.1,
-                    _ => s.truth.position.p * 0.0,
-                };
+                let velocity = sensors::velocity(&drive.trajectory, s.time);
                 let (body, van) = (s.truth.pose(), VehicleBody::van());
                 render_panorama_with(&scene, &camera, &mount, &body, &van, &velocity, &spec.realism, i as u64 + 1)
             })
