@@ -39,11 +39,18 @@ pub struct CrossCheckConfig {
     /// its few points' spread says little: half a 12 cm aerial pixel, what NCC + LSM on road markings
     /// achieves (a point within 2 pixels counts as correct).
     pub point_std_m: f64,
+    /// Metres the DG displacement between two consecutive panoramas may be off without a jump (its drift
+    /// over a few seconds). A link whose image motion agrees with the DG displacement within z σ plus this
+    /// is corroborated by the DG and is never blamed: for it to be wrong, the DG would have to have jumped
+    /// by exactly the motion's error (the KAZE matches are searched within `MmConfig::guide_radius` of the
+    /// DG prediction, so that takes a periodic pattern whose period equals the jump). Comparisons that
+    /// disagree across a corroborated link blame panoramas.
+    pub dg_motion_m: f64,
 }
 
 impl Default for CrossCheckConfig {
     fn default() -> Self {
-        Self { enabled: true, max_links: 12, z: 3.0, floor_m: 0.12, point_std_m: 0.06 }
+        Self { enabled: true, max_links: 12, z: 3.0, floor_m: 0.12, point_std_m: 0.06, dg_motion_m: 0.10 }
     }
 }
 
@@ -73,6 +80,12 @@ impl Link {
         // paper 001 §4.1: Δe = (DG displacement) − (image displacement); the offset is −e.
         let change = [0, 1].map(|c| motion.displacement[c] - (dg_later[c] - dg_earlier[c]));
         Self { change, std: [motion.std[0], motion.std[1]] }
+    }
+
+    /// True when the image motion agrees with the DG displacement (`change` ≈ 0 within z σ +
+    /// [`CrossCheckConfig::dg_motion_m`]): two sensors measured the same motion.
+    pub fn corroborated(&self, config: &CrossCheckConfig) -> bool {
+        self.change[0].hypot(self.change[1]) <= config.z * horizontal(self.std).sqrt() + config.dg_motion_m
     }
 }
 
@@ -125,7 +138,9 @@ pub struct Checked {
 /// Two partners that disagree with nobody else to ask are both flagged. A wrong image motion makes every
 /// comparison across it disagree by the same residual: such a link (between groups of at least
 /// three panoramas (`MIN_GROUP`)) is dropped instead, like a missing motion, when that explains more
-/// disagreements than flagging the worst panorama would, net of its agreements.
+/// disagreements than flagging the worst panorama would, net of its agreements — unless the DG displacement
+/// corroborates the motion ([`Link::corroborated`]): then the panoramas on one side are wrong alike (a run of
+/// consecutive panoramas registered on the same wrong dash), and the majority decides which.
 pub fn check(offsets: &[Option<Offset>], links: &[Option<Link>], config: &CrossCheckConfig) -> Checked {
     let mut links = links.to_vec();
     let mut active: Vec<bool> = offsets.iter().map(Option::is_some).collect();
@@ -134,7 +149,7 @@ pub fn check(offsets: &[Option<Offset>], links: &[Option<Link>], config: &CrossC
     loop {
         let pairs = comparisons(offsets, &links, config);
         let panorama = worst(&pairs, &active);
-        match (panorama, worst_link(&pairs, &active, &links)) {
+        match (panorama, worst_link(&pairs, &active, &links, config)) {
             (_, Some((k, score))) if panorama.is_none_or(|(_, p)| score > p.0) => {
                 broken_links.extend(drop_stretch(&mut links, &active, k));
             }
@@ -262,9 +277,15 @@ const MIN_GROUP: usize = 3;
 /// least [`MIN_GROUP`] panoramas compared on each side, the one with most. Most, not every: a motion off by
 /// about the bound leaves some comparisons just inside it (a tiled tiny canyon run flagged seven right
 /// panoramas beside a DG jump whose motion was 0.35 m off against bounds of 0.31–0.34 m).
-fn worst_link(pairs: &[Pair], active: &[bool], links: &[Option<Link>]) -> Option<(usize, i64)> {
+fn worst_link(
+    pairs: &[Pair],
+    active: &[bool],
+    links: &[Option<Link>],
+    config: &CrossCheckConfig,
+) -> Option<(usize, i64)> {
     let mut best: Option<(usize, i64)> = None;
-    for k in (0..links.len()).filter(|&k| links[k].is_some()) {
+    let blamable = |k: &usize| links[*k].is_some_and(|l| !l.corroborated(config));
+    for k in (0..links.len()).filter(blamable) {
         let across: Vec<&Pair> = pairs.iter().filter(|q| active[q.a] && active[q.b] && q.a <= k && k < q.b).collect();
         let n = across.len() as i64;
         let side = |end: fn(&Pair) -> usize| {

@@ -141,6 +141,30 @@ fn a_wrong_image_motion_between_consistent_groups_is_dropped_and_no_panorama_fla
 }
 
 #[test]
+fn a_run_registered_on_the_wrong_dash_is_flagged_when_the_dg_corroborates_the_motion_across() {
+    // Four right panoramas, then three consecutive ones registered 1.9 m south alike (a repeated marking);
+    // the image motion across (link 3) agrees with the DG displacement: the DG did not jump, so the motion
+    // is not to blame and the smaller group is flagged.
+    let errors = vec![[0.23, 0.05]; 7];
+    let blunder = [0.0, -1.9];
+    let (offsets, links) = street(&errors, &(0..7).collect::<Vec<_>>(), &[(4, blunder), (5, blunder), (6, blunder)]);
+    assert!(links[3].is_some_and(|l| l.corroborated(&CrossCheckConfig::default())));
+    let checked = check(&offsets, &links, &CrossCheckConfig::default());
+    assert_eq!((flagged(&checked.verdicts), checked.broken_links), (vec![4, 5, 6], vec![]));
+    // The same offsets where the DG did jump 1.9 m north at link 3 and the motion measured the true
+    // displacement: the offsets follow the DG, every comparison agrees and nothing is flagged.
+    let mut jumped = errors.clone();
+    jumped.iter_mut().skip(4).for_each(|e| e[1] += 1.9);
+    let (same, links) = street(&jumped, &(0..7).collect::<Vec<_>>(), &[]);
+    assert!(
+        same.iter().zip(&offsets).all(|(a, b)| a.zip(*b).is_some_and(|(a, b)| (a.value[1] - b.value[1]).abs() < 1e-9))
+    );
+    assert!(!links[3].is_some_and(|l| l.corroborated(&CrossCheckConfig::default())));
+    let checked = check(&same, &links, &CrossCheckConfig::default());
+    assert!(flagged(&checked.verdicts).is_empty() && checked.broken_links.is_empty(), "{checked:?}");
+}
+
+#[test]
 fn a_wrong_motion_about_the_size_of_the_bound_is_dropped_although_long_chains_across_it_agree() {
     // Link 6 measured 0.30 m wrong between seven and eleven matched panoramas: chains across it of up to 9
     // links disagree, longer ones (wider bounds) agree. Most comparisons across disagree by one residual,
