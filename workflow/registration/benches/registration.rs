@@ -15,8 +15,9 @@
 //! `MM_BENCH_MIN_MM_POINTS` override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama
 //! check off, `MM_BENCH_OFFSETS` (set) lists every checked panorama's aerial offset against the truth.
 //! `MM_BENCH_REALISM` (`ideal` | `default` | `harsh`, default `ideal`) renders the campaign through the
-//! simulator's sensor realism; `MM_BENCH_NUISANCES` (set) then also runs it with each nuisance switched off
-//! in turn and prints one summary row per variant, so the cost of each is visible.
+//! simulator's sensor realism; `MM_BENCH_NUISANCES=1` then also runs it with each nuisance switched off
+//! in turn and prints one summary row per variant, so the cost of each is visible (`=seams,JPEG`: only the
+//! rows whose names contain one of the words).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -40,7 +41,7 @@ use plumbline_registration::mm::TransformSource;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
 use plumbline_synth::render::{Radiometry, Realism, RealismLevel, Rig};
-use plumbline_synth::world;
+use plumbline_synth::world::{self, EpochChanges};
 use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
@@ -378,8 +379,15 @@ fn nuisances(base: Realism) -> Vec<(&'static str, Realism)> {
     vec![
         ("all", base),
         ("no seams (one centre, one exposure)", rig(Rig { radius_m: 0.0, exposure_step: 0.0, ..base.rig })),
+        ("no parallax at the seams (one centre)", rig(Rig { radius_m: 0.0, ..base.rig })),
+        ("no exposure steps (one exposure)", rig(Rig { exposure_step: 0.0, ..base.rig })),
         ("no rolling shutter", rig(Rig { readout_s: 0.0, ..base.rig })),
         ("no motion blur", rig(Rig { exposure_s: 0.0, ..base.rig })),
+        (
+            "aerial: crowns not spread over the road",
+            Realism { world: EpochChanges { crown_spread: 1.0, ..base.world }, ..base },
+        ),
+        ("no pedestrians", Realism { world: EpochChanges { pedestrians_per_100m: 0.0, ..base.world }, ..base }),
         ("street: no white balance error", street(Radiometry { white_balance: [1.0; 3], ..base.street })),
         ("street: no S-curve", street(Radiometry { s_curve: 0.0, ..base.street })),
         ("street: no vignetting", street(Radiometry { vignetting: 0.0, ..base.street })),
@@ -458,9 +466,13 @@ fn main() {
         })
         .collect();
     print_tables(&rows);
-    if std::env::var("MM_BENCH_NUISANCES").is_ok() {
+    if let Ok(only) = std::env::var("MM_BENCH_NUISANCES") {
+        // `1` (or empty): every nuisance; otherwise comma-separated words, a row runs when its name has one.
+        let wanted = |name: &str| {
+            only.is_empty() || only == "1" || only.split(',').any(|w| name.contains(w.trim())) || name == "all"
+        };
         let mut variants = Vec::new();
-        for (name, realism) in nuisances(base.realism) {
+        for (name, realism) in nuisances(base.realism).into_iter().filter(|(name, _)| wanted(name)) {
             let rows: Vec<Row> = profiles
                 .split(',')
                 .filter_map(|p| profile(p.trim()).map(|profile| run(p.trim(), &Spec { profile, realism, ..base })))

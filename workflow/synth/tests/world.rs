@@ -1,9 +1,13 @@
 //! The generated world: deterministic, with the street classes, objects and sizes the issue asks for, and
-//! geometrically sane (nothing stands on the carriageway, no building in a street), checked by brute force.
+//! geometrically sane (nothing stands on the carriageway, no building in a street), checked by brute force;
+//! the changes between the epochs (crowns spreading over the road in the aerial flight, pedestrians).
 #![allow(clippy::unwrap_used)]
 
+use nalgebra::Vector3;
 use plumbline_synth::world::polyline::{self, P2};
-use plumbline_synth::world::{PoleClass, Preset, Street, StreetClass, World, WorldConfig};
+use plumbline_synth::world::{
+    Epoch, EpochChanges, PoleClass, Preset, Street, StreetClass, Surface, World, WorldConfig,
+};
 
 fn world(preset: Preset, seed: u64) -> World {
     World::generate(&WorldConfig::new(preset, seed)).unwrap()
@@ -153,4 +157,86 @@ fn bad_config_is_rejected_naming_the_field() {
     c.origin_north = f64::NAN;
     let e = World::generate(&c).unwrap_err().to_string();
     assert!(e.contains("origin_north"), "{e}");
+}
+
+/// A world of `preset` and `seed` with `changes`.
+fn changed(preset: Preset, seed: u64, changes: EpochChanges) -> World {
+    World::generate(&WorldConfig { changes, ..WorldConfig::new(preset, seed) }).unwrap()
+}
+
+/// Share of the carriageway (sampled every 0.5 m along and across every street, junction areas aside) that a
+/// vertical ray from 500 m finds under a tree crown at `epoch`.
+fn carriageway_under_crowns(w: &World, epoch: Epoch) -> f64 {
+    let (mut crown, mut all) = (0usize, 0usize);
+    for st in &w.streets {
+        let half = st.carriageway() / 2.0;
+        let mut s = 12.0;
+        while s < st.length() - 12.0 {
+            let (p, tan) = polyline::point_at(&st.points, &st.cum, s);
+            let mut t = -half + 0.25;
+            while t < half {
+                let (e, n) = (p[0] - tan[1] * t, p[1] + tan[0] * t);
+                let top = Vector3::new(e, n, w.config.ground_height + 500.0);
+                let hit = w.trace(&top, &-Vector3::z(), 1000.0, epoch).unwrap();
+                crown += usize::from(matches!(hit.surface, Surface::Crown(_)));
+                all += 1;
+                t += 0.5;
+            }
+            s += 0.5;
+        }
+    }
+    crown as f64 / all as f64
+}
+
+#[test]
+fn crowns_spread_over_the_road_in_the_aerial_flight_only() {
+    let spread = EpochChanges { crown_spread: 1.6, ..EpochChanges::NONE };
+    let (plain, wide) = (world(Preset::Tiny, 2), changed(Preset::Tiny, 2, spread));
+    assert_eq!((&plain.poles, &plain.cars, &plain.buildings), (&wide.poles, &wide.cars, &wide.buildings));
+    let before = carriageway_under_crowns(&plain, Epoch::Aerial);
+    let after = carriageway_under_crowns(&wide, Epoch::Aerial);
+    // The drive sees the same crowns as before.
+    assert_eq!(carriageway_under_crowns(&wide, Epoch::Mobile), carriageway_under_crowns(&plain, Epoch::Mobile));
+    assert!(after > 2.0 * before && after > 0.02, "carriageway under crowns: {before:.4} → {after:.4}");
+    // One tree exactly: the crown's edge moves out by (spread − 1) × r at the crown's widest height.
+    let tree = wide.poles.iter().find(|p| p.crown > 0.0).unwrap();
+    let centre = tree.crown_center(wide.config.ground_height);
+    let at = |w: &World, reach: f64| {
+        let from = Vector3::new(centre.x + reach, centre.y, centre.z + 100.0);
+        let hit = w.trace(&from, &-Vector3::z(), 1000.0, Epoch::Aerial).map(|h| h.surface);
+        hit == Some(Surface::Crown(tree.id))
+    };
+    let r = tree.crown;
+    assert!(at(&plain, 0.95 * r) && !at(&plain, 1.05 * r), "sphere of r = {r}");
+    assert!(at(&wide, 1.55 * r) && !at(&wide, 1.65 * r), "ellipsoid 1.6 r wide");
+}
+
+#[test]
+fn pedestrians_are_there_at_one_epoch_at_their_rate_and_on_crossings() {
+    let rate = 12.0;
+    let w = changed(Preset::District, 3, EpochChanges { pedestrians_per_100m: rate, ..EpochChanges::NONE });
+    assert_eq!(w.poles, world(Preset::District, 3).poles, "the rest of the world does not move");
+    assert!(world(Preset::District, 3).pedestrians.is_empty());
+    let per_100m = |epoch| w.pedestrians.iter().filter(|p| p.epoch == epoch).count() as f64 / w.street_length() * 100.0;
+    for epoch in [Epoch::Mobile, Epoch::Aerial] {
+        // Junction areas take part of each street's length.
+        assert!((0.6 * rate..1.1 * rate).contains(&per_100m(epoch)), "{epoch:?}: {:.1} per 100 m", per_100m(epoch));
+    }
+    let on_carriageway = w
+        .pedestrians
+        .iter()
+        .filter(|p| offsets(&w, p.shape.center).iter().any(|(s, t)| *t < s.carriageway() / 2.0))
+        .count() as f64;
+    let share = on_carriageway / w.pedestrians.len() as f64;
+    // A third on crossings, and every one in streets without sidewalks (alleys).
+    assert!((0.25..0.6).contains(&share), "on the carriageway (crossings): {share:.2}");
+    // A ray at a person hits them at their epoch only.
+    for p in w.pedestrians.iter().take(20) {
+        let c = p.shape.center;
+        let from = Vector3::new(c[0], c[1], w.config.ground_height + 50.0);
+        let surface = |epoch| w.trace(&from, &-Vector3::z(), 100.0, epoch).map(|h| h.surface);
+        let other = if p.epoch == Epoch::Mobile { Epoch::Aerial } else { Epoch::Mobile };
+        assert!(matches!(surface(p.epoch), Some(Surface::Pedestrian(_))), "{p:?}");
+        assert!(!matches!(surface(other), Some(Surface::Pedestrian(_))), "{p:?}");
+    }
 }

@@ -10,7 +10,7 @@ use plumbline_geo::dg::CameraMount;
 use plumbline_geo::{Attitude, MapFromBody, MapFromCamera, Point3};
 
 /// Surface classes of `_class.png` (`plumbline_synth::render::SurfaceClass`).
-pub const CLASSES: [&str; 8] = ["none", "ground", "facade", "roof", "pole", "crown", "car", "vehicle"];
+pub const CLASSES: [&str; 9] = ["none", "ground", "facade", "roof", "pole", "crown", "car", "vehicle", "pedestrian"];
 
 /// One panorama's true pose.
 pub struct TrueImage {

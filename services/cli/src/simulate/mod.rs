@@ -13,10 +13,11 @@
 //! - `truth/pixels/{image_id}_range.png` and `_class.png`: the ground truth under every panorama pixel — the
 //!   distance from the camera centre along the pixel-centre ray to the first surface (16-bit PNG, millimetres,
 //!   0 = sky, the vehicle, or farther than 65.534 m) and what it is (8-bit PNG: 0 none, 1 ground, 2 facade,
-//!   3 roof, 4 pole/trunk, 5 tree crown, 6 parked car, 7 own vehicle). The mapping-frame point of pixel
-//!   (col, row) is C + range · R·d, with C, R the TRUE camera pose (body pose of `truth/images.csv` through
-//!   the manifest's `[panoramas.mount]`) and d the equirectangular ray through (col + 0.5, row + 0.5)
-//!   (`plumbline_synth::render::surface_point`); a correspondence is scored against the point of its pixel;
+//!   3 roof, 4 pole/trunk, 5 tree crown, 6 parked car, 7 own vehicle, 8 pedestrian). The mapping-frame point
+//!   of pixel (col, row) is C + range · R·d, with C, R the TRUE camera pose (body pose of
+//!   `truth/images.csv` through the manifest's `[panoramas.mount]`) and d the equirectangular ray through
+//!   (col + 0.5, row + 0.5) (`plumbline_synth::render::surface_point`); a correspondence is scored against
+//!   the point of its pixel;
 //! - `depth/right/`: 16-bit PNG depth images (millimetres) of the side-looking camera, `index.csv`;
 //!   `truth/depth_images.csv`;
 //! - `lidar/strip_NNN.laz` with `--point-cloud laz`: a roof profile scanner's points (LAS 1.4 format 6, GPS
@@ -125,10 +126,11 @@ pub struct Args {
     /// Write no depth images (e.g. to run pole control from the point cloud alone).
     #[arg(long)]
     pub no_depth: bool,
-    /// What real cameras add to the images: `ideal` nothing; `default` a survey rig of six global-shutter
-    /// sub-cameras (4 cm parallax, ±4 % exposure steps, 0.5 ms exposure) and mild white-balance, tone-curve,
-    /// vignetting, noise and JPEG 85; `harsh` a rolling-shutter consumer rig at speed (10 cm, ±15 %, 2 ms
-    /// exposure, 33 ms readout) and strong radiometric differences, JPEG 70/75.
+    /// What real cameras and a real street add to the images: `ideal` nothing; `default` a survey rig of six
+    /// global-shutter sub-cameras (4 cm parallax, ±4 % exposure steps, 0.5 ms exposure), mild white-balance,
+    /// tone-curve, vignetting, noise and JPEG 85, tree crowns 1.2× wider in the aerial flight and 4 pedestrians
+    /// per 100 m at each epoch; `harsh` a rolling-shutter consumer rig at speed (10 cm, ±15 %, 2 ms exposure,
+    /// 33 ms readout), strong radiometric differences, JPEG 70/75, crowns 1.6× wider, 12 pedestrians.
     #[arg(long, value_enum, default_value_t = RealismArg::Ideal)]
     pub realism: RealismArg,
 }
@@ -288,7 +290,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         }
         return city::generate(args, length, sink);
     }
-    let world_config = WorldConfig::new(world_preset, seed);
+    let world_config = WorldConfig { changes: args.realism.realism().world, ..WorldConfig::new(world_preset, seed) };
     let crs = world_config.epsg;
     let world = World::generate(&world_config).context("synthetic world")?;
     let route = with_profile(world.route(seed, length), args.profile);

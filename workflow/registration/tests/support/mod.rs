@@ -110,7 +110,8 @@ fn around_junction(shots: Vec<Shot>, route: &Route, window: usize) -> Vec<Shot> 
 impl Campaign {
     /// Simulate and render.
     pub fn build(spec: &Spec) -> Campaign {
-        let world = World::generate(&WorldConfig::new(spec.preset, spec.seed)).expect("world");
+        let config = WorldConfig { changes: spec.realism.world, ..WorldConfig::new(spec.preset, spec.seed) };
+        let world = World::generate(&config).expect("world");
         let route = with_profile(world.route(spec.seed, spec.length), spec.profile);
         let drive_config = DriveConfig::default();
         let drive = Drive::simulate(&route, &drive_config, spec.seed).expect("drive");

@@ -2,7 +2,8 @@
 //! camera): white balance, a filmic tone curve over the camera's own, vignetting, signal-dependent noise and
 //! the JPEG quality the images are written at. For a panorama stitched from a rig of sub-cameras: parallax at
 //! the seams (each sub-camera looks from its own centre), exposure steps between sub-cameras, rolling-shutter
-//! skew and motion blur at driving speed.
+//! skew and motion blur at driving speed. Each level also names the world's changes between the epochs that
+//! hide ground from one of them (crowns over the road in the aerial flight, pedestrians: [`EpochChanges`]).
 //!
 //! Three levels. `Ideal` adds nothing: the world the method's figures were first measured on. `Default` is a
 //! current survey rig (six global-shutter sub-cameras 4 cm from the rig's centre, matched exposures) and a
@@ -11,6 +12,7 @@
 //! stronger curve; the figures of each are in [`Realism::of`].
 
 use crate::texture::{Rgb, unit};
+use crate::world::EpochChanges;
 
 /// How much of real sensors' imperfection a simulation adds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -147,6 +149,9 @@ pub struct Realism {
     pub aerial: Radiometry,
     /// The panorama rig.
     pub rig: Rig,
+    /// What the world changes between the epochs (crowns over the road, pedestrians); the world is made
+    /// with it (`WorldConfig::changes`).
+    pub world: EpochChanges,
 }
 
 impl Realism {
@@ -160,6 +165,7 @@ impl Realism {
     /// | aerial S-curve / vignetting / noise / JPEG | 0.15 / 8 % / 1 / 90 | 0.4 / 25 % / 3 / 75 |
     /// | rig: sub-cameras, radius | 6, 4 cm | 6, 10 cm |
     /// | rig: exposure step, exposure, readout | ±4 %, 0.5 ms, global | ±15 %, 2 ms, 33 ms |
+    /// | aerial crowns spread / pedestrians per 100 m | 1.2 / 4 | 1.6 / 12 |
     pub fn of(level: RealismLevel) -> Self {
         let radiometry = |white_balance, s_curve, vignetting, noise, jpeg_quality| Radiometry {
             white_balance,
@@ -170,19 +176,22 @@ impl Realism {
         };
         match level {
             RealismLevel::Ideal => {
-                Self { level, street: Radiometry::IDEAL, aerial: Radiometry::IDEAL, rig: Rig::IDEAL }
+                let (street, aerial) = (Radiometry::IDEAL, Radiometry::IDEAL);
+                Self { level, street, aerial, rig: Rig::IDEAL, world: EpochChanges::NONE }
             }
             RealismLevel::Default => Self {
                 level,
                 street: radiometry([1.05, 1.0, 0.94], 0.25, 0.12, 1.5, 85),
                 aerial: radiometry([0.96, 1.0, 1.04], 0.15, 0.08, 1.0, 90),
                 rig: Rig { sub_cameras: 6, radius_m: 0.04, exposure_step: 0.04, exposure_s: 0.0005, readout_s: 0.0 },
+                world: EpochChanges { crown_spread: 1.2, pedestrians_per_100m: 4.0 },
             },
             RealismLevel::Harsh => Self {
                 level,
                 street: radiometry([1.15, 1.0, 0.82], 0.6, 0.35, 4.0, 70),
                 aerial: radiometry([0.9, 1.0, 1.12], 0.4, 0.25, 3.0, 75),
                 rig: Rig { sub_cameras: 6, radius_m: 0.10, exposure_step: 0.15, exposure_s: 0.002, readout_s: 0.033 },
+                world: EpochChanges { crown_spread: 1.6, pedestrians_per_100m: 12.0 },
             },
         }
     }

@@ -132,6 +132,7 @@ impl<'w> Scene<'w> {
             Surface::Pole(i) => pole_colour(w.poles[i as usize].class),
             Surface::Crown(_) => [0.1, 0.22, 0.07],
             Surface::Car(i) => w.cars[i as usize].colour,
+            Surface::Pedestrian(i) => w.pedestrians[i as usize].colour,
         }
     }
 }

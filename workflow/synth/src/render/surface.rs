@@ -36,6 +36,8 @@ pub enum SurfaceClass {
     Car = 6,
     /// The vehicle's own body (masked in the panorama); range 0.
     Vehicle = 7,
+    /// A pedestrian.
+    Pedestrian = 8,
 }
 
 impl SurfaceClass {
@@ -48,14 +50,25 @@ impl SurfaceClass {
             Surface::Pole(_) => SurfaceClass::Pole,
             Surface::Crown(_) => SurfaceClass::Crown,
             Surface::Car(_) => SurfaceClass::Car,
+            Surface::Pedestrian(_) => SurfaceClass::Pedestrian,
         }
     }
 
     /// The class of a stored code (`None` for codes no class has).
     pub fn from_code(code: u8) -> Option<Self> {
-        [Self::None, Self::Ground, Self::Facade, Self::Roof, Self::Pole, Self::Crown, Self::Car, Self::Vehicle]
-            .get(usize::from(code))
-            .copied()
+        [
+            Self::None,
+            Self::Ground,
+            Self::Facade,
+            Self::Roof,
+            Self::Pole,
+            Self::Crown,
+            Self::Car,
+            Self::Vehicle,
+            Self::Pedestrian,
+        ]
+        .get(usize::from(code))
+        .copied()
     }
 }
 

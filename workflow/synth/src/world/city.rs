@@ -13,10 +13,13 @@ use std::collections::{BTreeMap, BTreeSet};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-use super::placement::{junction_poles, street_buildings, street_cars, street_poles};
+use super::placement::{junction_poles, street_buildings, street_cars, street_pedestrians, street_poles};
 use super::polyline::P2;
 use super::streets::{Junction, Street, StreetClass, finish_junctions, make_street};
-use super::{Car, Content, Pole, World, WorldConfig};
+use super::{Building, Car, Content, Pedestrian, Pole, World, WorldConfig};
+
+/// What one street carries: its poles, parked cars, buildings and pedestrians.
+type StreetObjects = (Vec<Pole>, Vec<Car>, Vec<Building>, Vec<Pedestrian>);
 
 /// Distance between neighbouring junctions, metres.
 const SPACING: f64 = 100.0;
@@ -261,8 +264,8 @@ impl City {
         out
     }
 
-    /// Poles, cars and buildings of one street.
-    fn street_objects(&self, e: EdgeKey) -> (Vec<Pole>, Vec<Car>, Vec<super::Building>) {
+    /// Poles, cars, buildings and pedestrians of one street.
+    fn street_objects(&self, e: EdgeKey) -> StreetObjects {
         let (a, b) = e.ends();
         let edges = self.around(&[a, b]);
         let (junctions, streets, _) = self.local(&edges);
@@ -278,7 +281,9 @@ impl City {
         let mut buildings = Vec::new();
         let context = (&streets[..], &junctions[..], &keep_off[..]);
         street_buildings(&mut self.rng(e, 0x5757_0004), &mut buildings, st, context, self.config.ground_height);
-        (poles, cars, buildings)
+        let mut pedestrians = Vec::new();
+        street_pedestrians(&mut self.rng(e, 0x5757_0007), &mut pedestrians, st, &junctions, &self.config);
+        (poles, cars, buildings, pedestrians)
     }
 
     /// The lattice nodes whose cells cover the box `[lo, hi]`.
@@ -311,13 +316,14 @@ impl City {
             }
         }
         for &e in &edges {
-            let (poles, cars, buildings) = self.street_objects(e);
+            let (poles, cars, buildings, pedestrians) = self.street_objects(e);
             for (k, p) in poles.into_iter().enumerate() {
                 owners.push(PoleOwner::Street(e, k as u32));
                 content.poles.push(p);
             }
             content.cars.extend(cars);
             content.buildings.extend(buildings);
+            content.pedestrians.extend(pedestrians);
         }
         for (k, p) in content.poles.iter_mut().enumerate() {
             p.id = k as u32;

@@ -4,7 +4,8 @@
 //! Streets form a rotated, jittered grid with arterials (20–30 m between facades), residential streets (some
 //! curved, some without markings) and alleys (4–6 m), plus diagonals that make acute junctions. Buildings
 //! (10–40 m) line the streets; street lights, sign posts and trees stand on the sidewalks, traffic lights and
-//! tree groups at junctions; cars park in the parking strips, differently at the two epochs. The ground is flat
+//! tree groups at junctions; cars park in the parking strips, differently at the two epochs; pedestrians and
+//! crowns spreading over the road in the aerial flight are [`EpochChanges`] (none by default). The ground is flat
 //! at `ground_height`. Everything is held in memory with uniform grids for the texture and the ray caster.
 //!
 //! Sizes: `tiny` (about 700 m of streets, for tests) and `district` (about 2.6 km). The `city` ([`city`]) is
@@ -22,7 +23,7 @@ pub mod streets;
 mod trace;
 
 pub use index::Grid;
-pub use objects::{BoxShape, Building, Car, Pole, PoleClass};
+pub use objects::{BoxShape, Building, Car, Pedestrian, Pole, PoleClass};
 pub use streets::{Junction, Street, StreetClass};
 pub use trace::{Hit, Surface};
 
@@ -54,13 +55,42 @@ pub struct WorldConfig {
     pub origin_north: f64,
     /// Height of the (flat) ground, metres.
     pub ground_height: f64,
+    /// What differs between the epochs beyond parked cars, paint and light.
+    pub changes: EpochChanges,
 }
 
 impl WorldConfig {
-    /// Defaults: EPSG 25832 around E 565 000, N 5 933 000, ground at 8 m.
+    /// Defaults: EPSG 25832 around E 565 000, N 5 933 000, ground at 8 m, no further epoch changes.
     pub fn new(preset: Preset, seed: u64) -> Self {
-        Self { preset, seed, epsg: 25832, origin_east: 565_000.0, origin_north: 5_933_000.0, ground_height: 8.0 }
+        Self {
+            preset,
+            seed,
+            epsg: 25832,
+            origin_east: 565_000.0,
+            origin_north: 5_933_000.0,
+            ground_height: 8.0,
+            changes: EpochChanges::NONE,
+        }
     }
+}
+
+/// Changes between the epochs that hide the ground from one of them: tree crowns spreading over the road in
+/// the aerial flight (flown in full leaf, the drive after pruning or in spring), and pedestrians on the
+/// sidewalks and zebra crossings, different people at each epoch. Parked cars, repainted or worn markings
+/// and the sun differ at every level.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EpochChanges {
+    /// Horizontal growth of every tree crown in the aerial epoch (1: as in the drive). A crown of radius r
+    /// becomes an ellipsoid r × spread wide and r tall, over the road beside its tree.
+    pub crown_spread: f64,
+    /// Pedestrians per 100 m of street at each epoch (on the sidewalks, and a third of them on the zebra
+    /// crossings at the street's ends).
+    pub pedestrians_per_100m: f64,
+}
+
+impl EpochChanges {
+    /// Nothing beyond cars, paint and light.
+    pub const NONE: Self = Self { crown_spread: 1.0, pedestrians_per_100m: 0.0 };
 }
 
 /// The two acquisition times a campaign mixes: the mobile-mapping drive and the (older) aerial flight.
@@ -89,6 +119,8 @@ pub enum Item {
     Pole(u32),
     /// Index into `cars`.
     Car(u32),
+    /// Index into `pedestrians`.
+    Pedestrian(u32),
 }
 
 /// What a world holds before it is indexed.
@@ -99,6 +131,7 @@ pub(crate) struct Content {
     pub buildings: Vec<Building>,
     pub poles: Vec<Pole>,
     pub cars: Vec<Car>,
+    pub pedestrians: Vec<Pedestrian>,
 }
 
 /// The generated world.
@@ -116,6 +149,8 @@ pub struct World {
     pub poles: Vec<Pole>,
     /// Parked cars of both epochs.
     pub cars: Vec<Car>,
+    /// Pedestrians of both epochs.
+    pub pedestrians: Vec<Pedestrian>,
     /// Street segments (street, segment) near each cell, for texture queries.
     pub(crate) street_grid: Grid<(u32, u32)>,
     /// Junctions near each cell.
@@ -137,10 +172,21 @@ impl World {
             ("origin_east", config.origin_east),
             ("origin_north", config.origin_north),
             ("ground_height", config.ground_height),
+            ("changes.crown_spread", config.changes.crown_spread),
+            ("changes.pedestrians_per_100m", config.changes.pedestrians_per_100m),
         ] {
             if !value.is_finite() {
                 return Err(WorldError::InvalidConfig { field, value, reason: "must be finite" });
             }
+        }
+        let c = config.changes;
+        if !(1.0..=3.0).contains(&c.crown_spread) {
+            let (field, value) = ("changes.crown_spread", c.crown_spread);
+            return Err(WorldError::InvalidConfig { field, value, reason: "must be within 1–3" });
+        }
+        if !(0.0..=100.0).contains(&c.pedestrians_per_100m) {
+            let (field, value) = ("changes.pedestrians_per_100m", c.pedestrians_per_100m);
+            return Err(WorldError::InvalidConfig { field, value, reason: "must be within 0–100" });
         }
         if config.preset == Preset::City {
             return Ok(city::City::new(config).window([config.origin_east, config.origin_north], 150.0));
@@ -149,12 +195,13 @@ impl World {
         let poles = placement::poles(config.seed, &streets, &junctions);
         let cars = placement::cars(config.seed, &streets, &junctions, config.ground_height);
         let buildings = placement::buildings(config.seed, &streets, &junctions, &poles, config.ground_height);
-        Ok(World::assemble(config, Content { junctions, streets, buildings, poles, cars }))
+        let pedestrians = placement::pedestrians(config, &streets, &junctions);
+        Ok(World::assemble(config, Content { junctions, streets, buildings, poles, cars, pedestrians }))
     }
 
     /// A world of the given content, indexed for texture queries and ray casting.
     pub(crate) fn assemble(config: &WorldConfig, content: Content) -> World {
-        let Content { junctions, streets, buildings, poles, cars } = content;
+        let Content { junctions, streets, buildings, poles, cars, pedestrians } = content;
         let (min, max) = bounds(&streets);
         let mut world = World {
             config: config.clone(),
@@ -168,6 +215,7 @@ impl World {
             buildings,
             poles,
             cars,
+            pedestrians,
         };
         world.build_index();
         world
@@ -201,6 +249,10 @@ impl World {
         match item {
             Item::Building(i) => self.buildings[i as usize].shape.base + self.buildings[i as usize].shape.height,
             Item::Car(i) => self.cars[i as usize].shape.base + self.cars[i as usize].shape.height,
+            Item::Pedestrian(i) => {
+                let s = &self.pedestrians[i as usize].shape;
+                s.base + s.height
+            }
             Item::Pole(i) => {
                 let p = &self.poles[i as usize];
                 let g = self.config.ground_height;
@@ -232,10 +284,15 @@ impl World {
             let s = &c.shape;
             self.object_grid.insert_rect(s.center, s.axis, s.half, Item::Car(i as u32));
         }
+        for (i, c) in self.pedestrians.iter().enumerate() {
+            let s = &c.shape;
+            self.object_grid.insert_rect(s.center, s.axis, s.half, Item::Pedestrian(i as u32));
+        }
         let g = self.config.ground_height;
+        let spread = self.config.changes.crown_spread.max(1.0);
         for (i, p) in self.poles.iter().enumerate() {
             let top_c = p.crown_center(g);
-            let r = p.diameter / 2.0 + p.crown + p.height * p.lean[0].hypot(p.lean[1]) + 0.1;
+            let r = p.diameter / 2.0 + p.crown * spread + p.height * p.lean[0].hypot(p.lean[1]) + 0.1;
             let (cx, cy) = ((p.base[0] + top_c.x) / 2.0, (p.base[1] + top_c.y) / 2.0);
             self.object_grid.insert_box([cx - r, cy - r], [cx + r, cy + r], Item::Pole(i as u32));
             top = top.max(top_c.z + p.crown);

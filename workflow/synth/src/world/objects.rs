@@ -101,6 +101,17 @@ impl Pole {
     }
 }
 
+/// A pedestrian: a person-sized box on a sidewalk or a zebra crossing, there at one epoch only.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Pedestrian {
+    /// The person's box (about 0.5 × 0.35 m, 1.6–1.9 m tall).
+    pub shape: BoxShape,
+    /// Clothing colour, linear RGB.
+    pub colour: [f32; 3],
+    /// The epoch the person is there at.
+    pub epoch: super::Epoch,
+}
+
 /// A parked car, present in one or both epochs.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Car {

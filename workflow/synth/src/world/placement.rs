@@ -1,9 +1,11 @@
-//! Placing furniture along the streets: poles and trees on the sidewalks, parked cars, building blocks.
+//! Placing furniture along the streets: poles and trees on the sidewalks, parked cars, building blocks,
+//! pedestrians.
 
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::objects::{BoxShape, Building, Car, Pole, PoleClass};
+use super::Epoch;
+use super::objects::{BoxShape, Building, Car, Pedestrian, Pole, PoleClass};
 use super::polyline::{self, P2};
 use super::streets::{Junction, Street, StreetClass};
 
@@ -254,4 +256,53 @@ fn fits(shape: &BoxShape, streets: &[Street], poles: &[Pole]) -> bool {
     }
     probes.iter().all(|&p| clearance(streets, p, Street::half_corridor) > 0.0)
         && poles.iter().all(|p| !shape.contains(p.base, p.crown.max(0.5)))
+}
+
+/// Pedestrians of both epochs ([`super::EpochChanges::pedestrians_per_100m`]; none at 0), from their own
+/// random stream so that the rest of the world does not change with them.
+pub fn pedestrians(config: &super::WorldConfig, streets: &[Street], junctions: &[Junction]) -> Vec<Pedestrian> {
+    let mut rng = ChaCha8Rng::seed_from_u64(config.seed ^ 0x5757_0007);
+    let mut out = Vec::new();
+    for st in streets {
+        street_pedestrians(&mut rng, &mut out, st, junctions, config);
+    }
+    out
+}
+
+/// The pedestrians of one street at both epochs, drawn from `rng`: two thirds along the sidewalks, one third
+/// on the zebra crossing zone at either end (within 3.3 m of the junction area, across the carriageway).
+pub(crate) fn street_pedestrians(
+    rng: &mut ChaCha8Rng,
+    out: &mut Vec<Pedestrian>,
+    st: &Street,
+    junctions: &[Junction],
+    config: &super::WorldConfig,
+) {
+    let rate = config.changes.pedestrians_per_100m;
+    let (s0, s1) = span(st, junctions, 0.0);
+    if rate <= 0.0 || s1 <= s0 {
+        return;
+    }
+    let half = st.carriageway() / 2.0;
+    let kerb_t = half + st.kerb;
+    for epoch in [Epoch::Mobile, Epoch::Aerial] {
+        let count = (rate * (s1 - s0) / 100.0 + rng.random_range(0.0..1.0)) as usize;
+        for _ in 0..count {
+            let crossing = rng.random_bool(1.0 / 3.0);
+            let (s, t) = if crossing || st.sidewalk <= 0.6 {
+                let end = rng.random_range(0.3..3.3);
+                let s = if rng.random_bool(0.5) { s0 + end } else { s1 - end };
+                (s, rng.random_range(-half..half))
+            } else {
+                let side = if rng.random_bool(0.5) { 1.0 } else { -1.0 };
+                (rng.random_range(s0..s1), side * (kerb_t + rng.random_range(0.3..st.sidewalk - 0.3)))
+            };
+            let (p, tan) = at(st, s, t);
+            let height = rng.random_range(1.6..1.9);
+            let shape = BoxShape { center: p, axis: tan, half: [0.25, 0.18], base: config.ground_height, height };
+            let colour =
+                [rng.random_range(0.03..0.6f32), rng.random_range(0.03..0.6f32), rng.random_range(0.03..0.6f32)];
+            out.push(Pedestrian { shape, colour, epoch });
+        }
+    }
 }

@@ -1,5 +1,6 @@
-//! Ray casting against the world: flat ground, building blocks, parked cars, poles and trunks as cylinders,
-//! tree crowns as spheres. A 2D grid walk (Amanatides–Woo) visits only the cells the ray crosses.
+//! Ray casting against the world: flat ground, building blocks, parked cars and pedestrians, poles and trunks
+//! as cylinders, tree crowns as spheres (ellipsoids spread wider in the aerial epoch, `EpochChanges`). A 2D
+//! grid walk (Amanatides–Woo) visits only the cells the ray crosses.
 
 use nalgebra::Vector3;
 
@@ -21,6 +22,8 @@ pub enum Surface {
     Crown(u32),
     /// A parked car.
     Car(u32),
+    /// A pedestrian.
+    Pedestrian(u32),
 }
 
 /// The first surface along a ray.
@@ -164,7 +167,17 @@ impl World {
                 }
                 hit_box(&car.shape, o, d).map(|h| Hit { surface: Surface::Car(i), ..h })
             }
-            Item::Pole(i) => hit_pole(&self.poles[i as usize], self.config.ground_height, o, d),
+            Item::Pedestrian(i) => {
+                let person = &self.pedestrians[i as usize];
+                if person.epoch != epoch {
+                    return None;
+                }
+                hit_box(&person.shape, o, d).map(|h| Hit { surface: Surface::Pedestrian(i), ..h })
+            }
+            Item::Pole(i) => {
+                let spread = if epoch == Epoch::Aerial { self.config.changes.crown_spread } else { 1.0 };
+                hit_pole(&self.poles[i as usize], self.config.ground_height, spread, o, d)
+            }
         }
     }
 }
@@ -202,8 +215,9 @@ pub fn hit_box(b: &BoxShape, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<Hit> 
     Some(Hit { t: t_near, point: o + d * t_near, normal, surface: Surface::Ground, uv: [along, local[2]] })
 }
 
-/// A leaning cylinder with a top cap, then the crown sphere for trees.
-pub fn hit_pole(p: &Pole, ground: f64, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<Hit> {
+/// A leaning cylinder with a top cap, then the crown for trees: a sphere, or with `spread` > 1 an ellipsoid
+/// `spread` times as wide as it is tall.
+pub fn hit_pole(p: &Pole, ground: f64, spread: f64, o: &Vector3<f64>, d: &Vector3<f64>) -> Option<Hit> {
     let axis = p.axis();
     let base = Vector3::new(p.base[0], p.base[1], ground);
     let r = p.diameter / 2.0;
@@ -238,14 +252,22 @@ pub fn hit_pole(p: &Pole, ground: f64, o: &Vector3<f64>, d: &Vector3<f64>) -> Op
         }
     }
     if p.crown > 0.0 {
+        // In coordinates shrunk horizontally by `spread` the ellipsoid is the crown's sphere; t is unchanged.
         let c = p.crown_center(ground);
-        let oc = o - c;
-        let (b, cc) = (oc.dot(d), oc.dot(&oc) - p.crown * p.crown);
-        let disc = b * b - cc;
+        let shrink = |v: Vector3<f64>| Vector3::new(v.x / spread, v.y / spread, v.z);
+        let (oc, ds) = (shrink(o - c), shrink(*d));
+        let (a, b, cc) = (ds.dot(&ds), oc.dot(&ds), oc.dot(&oc) - p.crown * p.crown);
+        let disc = b * b - a * cc;
         if disc >= 0.0 {
-            let t = -b - disc.sqrt();
+            let t = (-b - disc.sqrt()) / a;
             let q = o + d * t;
-            take(Hit { t, point: q, normal: (q - c) / p.crown, surface: Surface::Crown(p.id), uv: [0.0; 2] });
+            let g = q - c;
+            let normal = if spread == 1.0 {
+                g / p.crown
+            } else {
+                Vector3::new(g.x / (spread * spread), g.y / (spread * spread), g.z).normalize()
+            };
+            take(Hit { t, point: q, normal, surface: Surface::Crown(p.id), uv: [0.0; 2] });
         }
     }
     best
@@ -272,11 +294,11 @@ mod tests {
             lean: [0.0; 2],
             crown: 0.0,
         };
-        let h = hit_pole(&p, 0.0, &Vector3::new(0.0, 0.0, 1.5), &Vector3::x()).unwrap();
+        let h = hit_pole(&p, 0.0, 1.0, &Vector3::new(0.0, 0.0, 1.5), &Vector3::x()).unwrap();
         assert!((h.t - 4.9).abs() < 1e-12);
         // Leaning 0.1 m per metre toward +x: at 2 m height the axis is 0.2 m further.
         let leaning = Pole { lean: [0.1, 0.0], ..p };
-        let h = hit_pole(&leaning, 0.0, &Vector3::new(0.0, 0.0, 2.0), &Vector3::x()).unwrap();
+        let h = hit_pole(&leaning, 0.0, 1.0, &Vector3::new(0.0, 0.0, 2.0), &Vector3::x()).unwrap();
         let expected = 5.0 + 0.2 - 0.1 / (0.1f64.atan()).cos();
         assert!((h.t - expected).abs() < 1e-9, "{} vs {expected}", h.t);
     }
