@@ -354,10 +354,13 @@ fn city_streams_legs_into_one_valid_continuous_campaign() {
     let out = dir.path().join("city").to_str().unwrap().to_owned();
     // Coarse aerial data: this test is about the legs (tests/city.rs checks the aerial block).
     let sizes = ["--panorama-width", "128", "--panorama-spacing", "40", "--depth-rate", "0.1", "--aerial-gsd", "0.6"];
+    // At the harsh level: the city's windows carry pedestrians, and the manifest names the rig of cameras.
     let args =
         [&["simulate", "--preset", "city", "--length", "0.7km", "--seed", "3", "--profile", "canyon"][..], &sizes];
-    plumbline(&[&args.concat()[..], &["--out", &out]].concat()).run().success();
+    plumbline(&[&args.concat()[..], &["--realism", "harsh", "--out", &out]].concat()).run().success();
     plumbline(&["validate", &format!("{out}/campaign.toml")]).run().success();
+    let manifest = std::fs::read_to_string(format!("{out}/campaign.toml")).unwrap();
+    assert!(manifest.contains("[panoramas.rig]\ncameras = 6\nradius_m = 0.1\n"), "{manifest}");
     // One trajectory across the legs: 200 Hz without gaps, and no step between epochs beyond driving speed.
     let truth = csv_rows(&format!("{out}/truth/trajectory.csv"));
     let errors = csv_rows(&format!("{out}/truth/dg_errors.csv"));

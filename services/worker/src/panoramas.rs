@@ -11,7 +11,7 @@ use plumbline_geo::{PositionInterpolation, TrajectoryRecord};
 use plumbline_imaging::ImagePart;
 use plumbline_imaging::decode::{Bounds, DecodeError, PANORAMA_PIXELS, decode_gray_part, decode_mask, header};
 use plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M;
-use plumbline_registration::mm::{Panorama, PanoramaRig};
+use plumbline_registration::mm::{Panorama, PanoramaRig, SubCameras};
 use plumbline_registration::pipeline::PanoramaInfo;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
@@ -209,7 +209,8 @@ pub(crate) async fn rig(
         }
         None => None,
     };
-    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height })
+    let sub_cameras = spec.rig.map(|r| SubCameras { count: r.cameras, radius_m: r.radius_m });
+    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height, sub_cameras })
 }
 
 #[cfg(test)]

@@ -230,6 +230,7 @@ mod tests {
             mount: CameraMount::new([0.0, 0.0, 0.0], &Boresight::from_degrees(0.0, 0.0, 0.0)),
             vehicle_mask: None,
             camera_height: 2.5,
+            sub_cameras: None,
         });
         let mut config = PipelineConfig::default();
         config.mm.half_extent = 3.0;

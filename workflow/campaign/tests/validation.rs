@@ -85,6 +85,12 @@ fn panoramas_and_mounts() {
         &format!("{PANORAMAS}{bad_mount}"),
         &["panoramas.mount.lever_arm_m[1]", "panoramas.mount.lever_arm_m[2]", "panoramas.mount.boresight_deg[2]"],
     );
+    // A ring of stitched cameras: 2–32 of them, 0–1 m from the centre.
+    check(&format!("{PANORAMAS}{mount}[panoramas.rig]\ncameras = 6\nradius_m = 0.08\n"), &[]);
+    check(
+        &format!("{PANORAMAS}{mount}[panoramas.rig]\ncameras = 1\nradius_m = -0.1\n"),
+        &["panoramas.rig.cameras", "panoramas.rig.radius_m"],
+    );
 }
 
 /// A depth camera with the extra keys `keys` and the intrinsics table `intrinsics`.

@@ -18,6 +18,7 @@ mod nearest;
 pub mod ortho;
 pub mod radiometry;
 pub mod ransac;
+pub mod seams;
 mod stencil;
 pub mod warp;
 

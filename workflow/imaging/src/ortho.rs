@@ -3,7 +3,7 @@
 //! coordinates, is projected into the image through the camera model and sampled bilinearly.
 
 use nalgebra::{Matrix3, Vector3};
-use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
+use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole, Pixel};
 use plumbline_geo::dg::CameraMount;
 use plumbline_geo::{Camera, MapFromBody, Vec3};
 use rayon::prelude::*;
@@ -92,6 +92,74 @@ pub struct Exposure<'a, C> {
     pub mount: &'a CameraMount,
     /// The vehicle pose at the exposure.
     pub pose: &'a MapFromBody,
+    /// For a panorama stitched from a ring of cameras: where each sees from (`None`: one centre).
+    pub sub_cameras: Option<&'a SubCameras>,
+}
+
+/// A 360° panorama stitched from a ring of cameras around the horizon, each imaging an equal slice of the
+/// columns (the first from column 0) from its own centre, `radius_m` out along its optical axis (the middle
+/// column of its slice, on the horizon row), and stitched at infinity: a pixel's ray leaves its camera's
+/// centre in the pixel's direction. A point near the rig is then seen off its central direction by up to
+/// `radius_m` / range — for the ground 4–10 m away and a 10 cm rig a shift of the whole slice by up to
+/// 10 cm in the ortho-image, different in each slice. The ortho-projection undoes it by projecting each
+/// ground point from the centre of the camera whose slice its pixel falls in.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SubCameras {
+    /// Cameras in the ring (at least 1).
+    pub count: u32,
+    /// Distance of each camera's centre from the panorama's centre, metres.
+    pub radius_m: f64,
+}
+
+impl SubCameras {
+    /// The camera imaging column `u` of a panorama `width` pixels wide.
+    pub fn slice(&self, u: f64, width: u32) -> usize {
+        let n = self.count.max(1);
+        let col = u.floor().rem_euclid(f64::from(width)) as u64;
+        ((col * u64::from(n)) / u64::from(width.max(1))).min(u64::from(n) - 1) as usize
+    }
+
+    /// Each camera's centre in the panorama's camera frame (its axis on the horizon row times the radius).
+    pub fn centres<C: CameraModel>(&self, camera: &C) -> Vec<Vector3<f64>> {
+        let (n, w, h) = (self.count.max(1), f64::from(camera.width()), f64::from(camera.height()));
+        (0..n)
+            .map(|k| {
+                let axis = Pixel::new((f64::from(k) + 0.5) * w / f64::from(n), h / 2.0);
+                camera.unproject(axis).map_or(Vector3::zeros(), |d| d.v * self.radius_m)
+            })
+            .collect()
+    }
+
+    /// The pixel showing the camera-frame point `p` (relative to the panorama's centre): projected from the
+    /// centre of the camera whose slice the pixel falls in. A point near a seam that neither camera's slice
+    /// shows (stitched at infinity, near ground falls between the slices: 2 · radius · sin(π / count) /
+    /// range of the circle per seam) gets the pixel its central direction projects to, on the seam, so the
+    /// ortho-image stays whole; `None` when the point does not project.
+    pub fn project<C: CameraModel>(&self, camera: &C, centres: &[Vector3<f64>], p: &Vector3<f64>) -> Option<Pixel> {
+        let from = |k: usize| camera.project(&Vec3::<Camera>::from_vector(p - centres[k]));
+        let central = camera.project(&Vec3::<Camera>::from_vector(*p))?;
+        let mut k = self.slice(central.u, camera.width());
+        for _ in 0..2 {
+            let px = from(k)?;
+            let seen_by = self.slice(px.u, camera.width());
+            if seen_by == k {
+                return Some(px);
+            }
+            k = seen_by;
+        }
+        Some(central)
+    }
+
+    /// Whether a camera's slice shows the camera-frame point `p` (false in the gaps between slices).
+    pub fn sees<C: CameraModel>(&self, camera: &C, centres: &[Vector3<f64>], p: &Vector3<f64>) -> bool {
+        let Some(central) = camera.project(&Vec3::<Camera>::from_vector(*p)) else { return false };
+        let k0 = self.slice(central.u, camera.width());
+        [k0, (k0 + 1) % centres.len(), (k0 + centres.len() - 1) % centres.len()].iter().any(|&k| {
+            camera
+                .project(&Vec3::<Camera>::from_vector(p - centres[k]))
+                .is_some_and(|px| self.slice(px.u, camera.width()) == k)
+        })
+    }
 }
 
 /// Back-project every cell of `grid` at ground height `height(e, n)` into `image` and sample it
@@ -148,12 +216,16 @@ pub fn ortho_project_part<C: OrthoCamera>(
     // The camera pose once per image: a cell costs one matrix product before the camera model.
     let pose = exposure.mount.camera_pose(exposure.pose);
     let (to_camera, centre) = (pose.rotation.matrix().transpose(), pose.translation);
+    let ring = exposure.sub_cameras.map(|r| (r, r.centres(cam)));
     let samples: Vec<Option<f32>> = (0..grid.width * grid.height)
         .into_par_iter()
         .map(|i| {
             let [e, n] = grid.to_map((i % grid.width) as f64 + 0.5, (i / grid.width) as f64 + 0.5);
             let d = to_camera * Vector3::new(e - centre.x(), n - centre.y(), height(e, n) - centre.z());
-            let px = cam.project(&Vec3::<Camera>::new(d.x, d.y, d.z))?;
+            let px = match &ring {
+                None => cam.project(&Vec3::<Camera>::new(d.x, d.y, d.z))?,
+                Some((r, centres)) => r.project(cam, centres, &d)?,
+            };
             if vehicle_mask.is_some_and(|m| touches::<C>(m, px.u, px.v)) {
                 return None;
             }

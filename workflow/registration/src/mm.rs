@@ -17,6 +17,7 @@ use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::CameraMount;
 use plumbline_imaging::corners::Foerstner;
 use plumbline_imaging::kaze::KazeConfig;
+pub use plumbline_imaging::ortho::SubCameras;
 use plumbline_imaging::{GrayImage, ImagePart, ImagingError, Mask};
 
 pub use corners::{CornerMatch, CornerMatches, match_corners};
@@ -56,6 +57,9 @@ pub struct PanoramaRig {
     pub vehicle_mask: Option<Mask>,
     /// Height of the camera centre above the road, metres: places the ground plane of §3.2.
     pub camera_height: f64,
+    /// A panorama stitched from a ring of cameras, each with its own centre: the ortho-projection sees each
+    /// ground point from the camera that imaged it (`None`: one centre).
+    pub sub_cameras: Option<SubCameras>,
 }
 
 /// Parameters of steps 1–4 (paper 000 §3.2–§3.5); `Default` gives the paper's values where it states them.

@@ -117,14 +117,21 @@ pub(crate) fn for_each_in_flight<T: Sync>(
         .try_for_each(|(c, chunk)| chunk.par_iter().enumerate().try_for_each(|(k, item)| f(c * in_flight + k, item)))
 }
 
-/// The manifest's `[panoramas]` for the IMU `imu_height` above the road.
+/// The manifest's `[panoramas]` for the IMU `imu_height` above the road, with the ring of cameras the
+/// panoramas were rendered through when the realism level has one (as a real rig's calibration gives it).
 pub(crate) fn panorama_section(sizes: &Sizes, imu_height: f64) -> String {
     let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
     // The IMU rides `imu_height` above the road; the lever arm's z points down.
     let camera_height = imu_height - Mount::PANORAMA.lever_arm_m[2];
+    let rig = sizes.realism.rig;
+    let ring = if rig.sub_cameras > 1 {
+        format!("\n[panoramas.rig]\ncameras = {}\nradius_m = {:?}\n", rig.sub_cameras, rig.radius_m)
+    } else {
+        String::new()
+    };
     format!(
         "[panoramas]\nindex = \"panoramas/index.csv\"\nimages = \"panoramas/\"\nwidth_px = {w}\nheight_px = {h}\n\
-         vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{}",
+         vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{}{ring}",
         mount("panoramas", &Mount::PANORAMA)
     )
 }

@@ -40,6 +40,21 @@ pub struct Panoramas {
     /// ortho-projected onto (paper 000 §3.2). Required for aerial registration unless a terrain model
     /// is given.
     pub camera_height_m: Option<f64>,
+    /// For panoramas stitched from a ring of cameras: the ring (each camera's own centre makes near ground
+    /// shift between the slices; the ortho-projection undoes it).
+    pub rig: Option<StitchedRig>,
+}
+
+/// A panoramic rig of cameras in a ring around the horizon, stitched at infinity into the equirectangular
+/// image: camera k images the k-th of `cameras` equal slices of the columns (the first from column 0) from
+/// its own centre, `radius_m` out along its optical axis (the middle of its slice, on the horizon row).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StitchedRig {
+    /// Cameras in the ring, 2–32.
+    pub cameras: u32,
+    /// Distance of each camera's centre from the panorama's centre, metres (0–1).
+    pub radius_m: f64,
 }
 
 /// A depth (range) camera taking 16-bit PNG depth images along the trajectory.
@@ -132,6 +147,10 @@ impl Panoramas {
         self.mount.check(&at.field("mount"), c);
         if let Some(height) = self.camera_height_m {
             c.in_range(&at.field("camera_height_m"), height, 0.5, 10.0, " m");
+        }
+        if let Some(rig) = &self.rig {
+            c.count(&at.field("rig").field("cameras"), rig.cameras, 2, 32);
+            c.in_range(&at.field("rig").field("radius_m"), rig.radius_m, 0.0, 1.0, " m");
         }
     }
 }

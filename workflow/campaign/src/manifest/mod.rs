@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 pub use aerial::{Aerial, DEFAULT_AERIAL_GSD_M, FrameBlock, InteriorOrientation, Orthophoto};
 pub use cadastre::{Cadastre, ClassAccuracy, PoleClass};
 pub use clouds::{CloudFormat, CloudTime, PointCloud};
-pub use imagery::{CameraMount, DepthCamera, DepthIntrinsics, Panoramas};
+pub use imagery::{CameraMount, DepthCamera, DepthIntrinsics, Panoramas, StitchedRig};
 pub use parameters::{Adjustment, Parameters, PoleParameters, Registration, RobustLoss};
 pub use trajectory::{AttitudeConvention, CsvTrajectory, SbetTrajectory, TrajectorySource};
 

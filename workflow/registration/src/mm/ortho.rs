@@ -3,6 +3,7 @@
 
 use plumbline_geo::{Map, MapFromBody, Point3};
 use plumbline_imaging::ortho::{Exposure, GroundGrid, ortho_project_part};
+use plumbline_imaging::seams::{SeamConfig, find_seams, level_seams};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 
 use super::{MmError, Panorama, PanoramaRig};
@@ -39,15 +40,37 @@ impl OrthoPatch {
 }
 
 /// Ortho-project `pano` at `gsd` onto a north-up square of half-side `half_extent` metres around its DG
-/// camera centre, on the plane `camera_height` below that centre (paper 000 §3.2), vehicle masked.
+/// camera centre, on the plane `camera_height` below that centre (paper 000 §3.2), vehicle masked. A
+/// panorama stitched from a ring of cameras (`rig.sub_cameras`) first has the exposure steps between its
+/// cameras levelled (`plumbline_imaging::seams`), and each ground point is seen from its camera's centre.
 pub fn ortho_patch(pano: &Panorama, rig: &PanoramaRig, gsd: f64, half_extent: f64) -> Result<OrthoPatch, MmError> {
     let (grid, plane_height) = patch_grid(&pano.id, &pano.pose, rig, gsd, half_extent)?;
     let imaging = |source| MmError::Imaging { image: pano.id.clone(), step: "ortho-projection", source };
-    let exposure = Exposure { camera: &rig.camera, mount: &rig.mount, pose: &pano.pose };
+    let exposure =
+        Exposure { camera: &rig.camera, mount: &rig.mount, pose: &pano.pose, sub_cameras: rig.sub_cameras.as_ref() };
     let mask = rig.vehicle_mask.as_ref();
-    let ortho =
-        ortho_project_part(&pano.image, &pano.part, mask, &exposure, &grid, |_, _| plane_height).map_err(imaging)?;
+    let levelled = rig.sub_cameras.is_some().then(|| levelled(pano, mask)).flatten();
+    let image = levelled.as_ref().unwrap_or(&pano.image);
+    let ortho = ortho_project_part(image, &pano.part, mask, &exposure, &grid, |_, _| plane_height).map_err(imaging)?;
     Ok(OrthoPatch { grid, image: ortho.image, valid: ortho.valid, plane_height })
+}
+
+/// `pano`'s image with the exposure steps between its cameras levelled, compared off the vehicle; `None`
+/// when fewer than two seams show (nothing to level).
+fn levelled(pano: &Panorama, mask: Option<&Mask>) -> Option<GrayImage> {
+    let (step, first) = (pano.part.col_step() as usize, pano.part.first_row() as usize);
+    let off_vehicle = |col: usize, row: usize| {
+        mask.is_none_or(|m| {
+            let (c, r) = (col * step, row + first);
+            c < m.width() && r < m.height() && !m.get(c, r)
+        })
+    };
+    let seams = find_seams(&pano.image, off_vehicle, &SeamConfig::default());
+    (seams.found.len() >= 2).then(|| {
+        let mut image = pano.image.clone();
+        level_seams(&mut image, &seams);
+        image
+    })
 }
 
 /// The ground grid of [`ortho_patch`] around the DG camera centre of `pose` (panorama `id`), and its plane

@@ -79,7 +79,7 @@ pub(crate) fn rig(with_mask: bool) -> PanoramaRig {
     let camera = Equirectangular { width: 1024, height: 512 };
     let mount = CameraMount::new([0.4, 0.02, -1.85], &Boresight::from_degrees(0.12, -0.35, 0.8));
     let vehicle_mask = with_mask.then(|| vehicle_mask(&camera, &mount));
-    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85 }
+    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85, sub_cameras: None }
 }
 
 /// Pixels whose ray from the camera hits the van (body box −1.2…3.4 × −0.95…0.95 × −0.5…0.8 m).

@@ -15,7 +15,7 @@ use plumbline_imaging::decode::{Bounds, decode_gray};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::aerial::{AerialFrame, AerialReference};
-use plumbline_registration::mm::{Panorama, PanoramaRig};
+use plumbline_registration::mm::{Panorama, PanoramaRig, SubCameras};
 use plumbline_synth::aerial::{block, small_format};
 use plumbline_synth::motion::dg::{self, DgConfig};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
@@ -162,7 +162,10 @@ impl Campaign {
                 }
             })
             .collect();
-        let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height };
+        // The rig the panoramas were rendered through, as a manifest's `[panoramas.rig]` would give it.
+        let r = spec.realism.rig;
+        let sub_cameras = (r.sub_cameras > 1).then_some(SubCameras { count: r.sub_cameras, radius_m: r.radius_m });
+        let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height, sub_cameras };
         let reference = aerial_frames(&world, spec.seed, &shots, &spec.realism.aerial, ideal);
         let truth = shots.iter().map(|s| (s.id.clone(), s.truth.pose())).collect();
         let dg_error = shots
