@@ -149,17 +149,6 @@ impl SubCameras {
         }
         Some(central)
     }
-
-    /// Whether a camera's slice shows the camera-frame point `p` (false in the gaps between slices).
-    pub fn sees<C: CameraModel>(&self, camera: &C, centres: &[Vector3<f64>], p: &Vector3<f64>) -> bool {
-        let Some(central) = camera.project(&Vec3::<Camera>::from_vector(*p)) else { return false };
-        let k0 = self.slice(central.u, camera.width());
-        [k0, (k0 + 1) % centres.len(), (k0 + centres.len() - 1) % centres.len()].iter().any(|&k| {
-            camera
-                .project(&Vec3::<Camera>::from_vector(p - centres[k]))
-                .is_some_and(|px| self.slice(px.u, camera.width()) == k)
-        })
-    }
 }
 
 /// Back-project every cell of `grid` at ground height `height(e, n)` into `image` and sample it
