@@ -7,6 +7,7 @@ use nalgebra::Vector3;
 use rayon::prelude::*;
 
 use crate::render::Scene;
+use crate::world::World;
 
 /// Height above the ground the vertical rays start from, metres (above every building).
 const START_ABOVE_GROUND_M: f64 = 500.0;
@@ -49,7 +50,7 @@ impl OrthoGrid {
 /// Render the orthophoto of `grid` (rows in parallel; each pixel a pure function of its centre).
 pub fn render_orthophoto(scene: &Scene, grid: &OrthoGrid) -> RgbImage {
     let (w, h) = (grid.width, grid.height);
-    let z0 = scene.world.config.ground_height + START_ABOVE_GROUND_M;
+    let z0 = scene.world.ground_top() + START_ABOVE_GROUND_M;
     let down = Vector3::new(0.0, 0.0, -1.0);
     // The texture footprint of one pixel at the ground: gsd (radiance scales the angle by the distance).
     let pixel_angle = grid.gsd / START_ABOVE_GROUND_M;
@@ -64,10 +65,36 @@ pub fn render_orthophoto(scene: &Scene, grid: &OrthoGrid) -> RgbImage {
     RgbImage::from_raw(w, h, rgb).unwrap_or_default()
 }
 
+/// Samples per side of a terrain model's cell that [`terrain_model`] averages.
+const TERRAIN_SAMPLES: u32 = 4;
+
+/// The terrain model (DTM) of `grid`: per cell the mean ground height of 4 × 4 samples (kerbs averaged over
+/// the cell, as a DTM interpolated from ground points has them), row-major from the north-west.
+pub fn terrain_model(world: &World, grid: &OrthoGrid) -> Vec<f32> {
+    let n = TERRAIN_SAMPLES;
+    let mut heights = vec![0f32; grid.width as usize * grid.height as usize];
+    heights.par_chunks_mut(grid.width as usize).enumerate().for_each(|(row, line)| {
+        for (col, h) in line.iter_mut().enumerate() {
+            let west = grid.west + col as f64 * grid.gsd;
+            let north = grid.north - row as f64 * grid.gsd;
+            let mut sum = 0.0;
+            for i in 0..n {
+                for j in 0..n {
+                    let e = west + (f64::from(i) + 0.5) / f64::from(n) * grid.gsd;
+                    let nn = north - (f64::from(j) + 0.5) / f64::from(n) * grid.gsd;
+                    sum += world.ground_at(e, nn);
+                }
+            }
+            *h = (sum / f64::from(n * n)) as f32;
+        }
+    });
+    heights
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::world::{Preset, World, WorldConfig};
+    use crate::world::{Preset, WorldConfig};
 
     #[test]
     fn pixels_sit_where_the_geotransform_says_crowns_show_where_trees_stand() {
@@ -82,7 +109,7 @@ mod tests {
         let green = |c: [u8; 3]| c[1] > c[0] && c[1] > c[2];
         let mut checked = 0;
         for tree in world.poles.iter().filter(|p| p.crown > 0.0) {
-            let c = tree.crown_center(world.config.ground_height);
+            let c = tree.crown_center(world.pole_ground(tree.id));
             let sub = OrthoGrid { west: c.x - 3.0, north: c.y + 3.0, gsd: 0.1, width: 200, height: 200 };
             let img = render_orthophoto(&scene, &sub);
             assert!(green(img.get_pixel(30, 30).0), "crown of tree {} at {:?}", tree.id, img.get_pixel(30, 30));

@@ -33,6 +33,10 @@ pub struct Waypoint {
     pub north: f64,
     /// Height of the road surface, metres.
     pub ground_height: f64,
+    /// The terrain's lean across the lane: its rise per metre to the left of travel (a hillside street; the
+    /// lane's own cross-fall is the drive's `camber`). 0 on flat ground.
+    #[serde(default)]
+    pub bank: f64,
     /// Largest speed allowed here, m/s.
     pub speed_limit: f64,
     /// True at a junction (the vehicle may stop here, e.g. at a traffic light).

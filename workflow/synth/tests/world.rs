@@ -1,12 +1,15 @@
 //! The generated world: deterministic, with the street classes, objects and sizes the issue asks for, and
 //! geometrically sane (nothing stands on the carriageway, no building in a street), checked by brute force;
-//! the changes between the epochs (crowns spreading over the road in the aerial flight, pedestrians).
+//! the changes between the epochs (crowns spreading over the road in the aerial flight, pedestrians); the
+//! relief (hills, cross-fall, kerbs), rays landing on it, objects and the drive standing on it.
 #![allow(clippy::unwrap_used)]
 
 use nalgebra::Vector3;
+use plumbline_synth::motion::{Drive, DriveConfig};
+use plumbline_synth::ortho::{OrthoGrid, terrain_model};
 use plumbline_synth::world::polyline::{self, P2};
 use plumbline_synth::world::{
-    Epoch, EpochChanges, PoleClass, Preset, Street, StreetClass, Surface, World, WorldConfig,
+    BoxShape, Epoch, EpochChanges, PoleClass, Preset, Relief, Street, StreetClass, Surface, World, WorldConfig,
 };
 
 fn world(preset: Preset, seed: u64) -> World {
@@ -239,4 +242,184 @@ fn pedestrians_are_there_at_one_epoch_at_their_rate_and_on_crossings() {
         assert!(matches!(surface(p.epoch), Some(Surface::Pedestrian(_))), "{p:?}");
         assert!(!matches!(surface(other), Some(Surface::Pedestrian(_))), "{p:?}");
     }
+}
+
+/// The harsh level's relief (`Realism::of(Harsh).relief`).
+const HILLY: Relief = Relief { grade: 0.08, cross_fall: 0.025, kerb_m: 0.15 };
+
+fn hilly(preset: Preset, seed: u64) -> World {
+    World::generate(&WorldConfig { relief: HILLY, ..WorldConfig::new(preset, seed) }).unwrap()
+}
+
+#[test]
+fn the_ground_has_its_grade_its_cross_fall_and_its_kerbs() {
+    let w = hilly(Preset::District, 1);
+    // The hills reach their steepest slope inside the district and never exceed it.
+    let (lo, hi) = w.bounds();
+    let mut steepest: f64 = 0.0;
+    for i in 0..=100 {
+        for j in 0..=100 {
+            let e = lo[0] + (hi[0] - lo[0]) * f64::from(i) / 100.0;
+            let n = lo[1] + (hi[1] - lo[1]) * f64::from(j) / 100.0;
+            let g = w.hill_gradient(e, n);
+            steepest = steepest.max(g[0].hypot(g[1]));
+        }
+    }
+    assert!(steepest <= HILLY.grade + 1e-9 && steepest > 0.85 * HILLY.grade, "steepest slope {steepest}");
+    let range = |f: &dyn Fn(f64, f64) -> f64| {
+        let hs: Vec<f64> = (0..=50).map(|i| f(lo[0] + (hi[0] - lo[0]) * f64::from(i) / 50.0, lo[1])).collect();
+        hs.iter().copied().fold(f64::NEG_INFINITY, f64::max) - hs.iter().copied().fold(f64::INFINITY, f64::min)
+    };
+    assert!(range(&|e, n| w.ground_at(e, n)) > 3.0, "hills of some metres along the district's south edge");
+    // Across every street, half way along it: the kerb's step and the crown above its gutters.
+    let mut checked = 0;
+    for st in w.streets.iter().filter(|s| s.length() > 40.0) {
+        let (p, tan) = polyline::point_at(&st.points, &st.cum, st.length() / 2.0);
+        let at = |t: f64| w.ground_at(p[0] - tan[1] * t, p[1] + tan[0] * t);
+        let cw = st.carriageway() / 2.0;
+        for side in [1.0, -1.0] {
+            let step = at(side * (cw + 0.03)) - at(side * (cw - 0.03));
+            assert!((step - HILLY.kerb_m).abs() < 0.01, "street {}: kerb step {step}", st.id);
+        }
+        // Relative to the hills under each point (the hills curve by centimetres across a wide street).
+        let above_hills = |t: f64| at(t) - w.hill_height(p[0] - tan[1] * t, p[1] + tan[0] * t);
+        let gutters = (above_hills(cw - 0.03) + above_hills(-(cw - 0.03))) / 2.0;
+        assert!((gutters + HILLY.kerb_m).abs() < 0.001, "street {}: gutters {gutters} under the hills", st.id);
+        let crown = above_hills(0.0) - gutters;
+        assert!((crown - HILLY.cross_fall * (cw - 0.03)).abs() < 0.005, "street {}: crown {crown}", st.id);
+        checked += 1;
+    }
+    assert!(checked > 20, "{checked} streets checked");
+}
+
+#[test]
+fn rays_land_on_the_relief_and_never_pass_through_it() {
+    let w = hilly(Preset::Tiny, 2);
+    let route = w.route(2, 300.0);
+    let (mut ground, mut faces, mut slivers) = (0, 0, 0);
+    let under = |q: Vector3<f64>| q.z < w.ground_at(q.x, q.y) - 1e-3;
+    for wp in route.waypoints.iter().step_by(9) {
+        let o = Vector3::new(wp.east, wp.north, wp.ground_height + 2.5);
+        for k in 0..72 {
+            let azimuth = f64::from(k) * 5f64.to_radians();
+            for depression in [1.5f64, 4.0, 10.0, 30.0, 70.0] {
+                let (s, c) = depression.to_radians().sin_cos();
+                let d = Vector3::new(c * azimuth.cos(), c * azimuth.sin(), -s);
+                let Some(hit) = w.trace(&o, &d, 200.0, Epoch::Mobile) else { continue };
+                // Nothing along the ray before its hit lies under the ground, but for strips narrower than the
+                // march's step (the kerb of a junction's corner): the ray is above ground again within 10 cm.
+                for i in 1..100 {
+                    let t = hit.t * f64::from(i) / 100.0;
+                    if under(o + d * t) {
+                        let horizontal = d.x.hypot(d.y);
+                        let emerges = (1..=10).any(|k| !under(o + d * (t + 0.01 * f64::from(k) / horizontal)));
+                        assert!(emerges, "ray {d:?} from {o:?} passes under the ground at t {t}");
+                        slivers += 1;
+                        break;
+                    }
+                }
+                if hit.surface != Surface::Ground {
+                    continue;
+                }
+                let below = hit.point.z - w.ground_at(hit.point.x, hit.point.y);
+                if hit.normal.z.abs() < 1e-9 {
+                    // A kerb's face: between the gutter and the kerb's top.
+                    assert!((-1e-3..=HILLY.kerb_m + 1e-3).contains(&below), "{below} on a kerb face");
+                    faces += 1;
+                } else {
+                    assert!(below.abs() < 2e-3, "hit {below} m off the ground at {:?}", hit.point);
+                    ground += 1;
+                }
+            }
+        }
+    }
+    assert!(ground > 1000 && faces > 0, "{ground} ground hits, {faces} kerb faces");
+    assert!(slivers * 200 < ground, "{slivers} rays missed a narrow strip, of {ground}");
+}
+
+#[test]
+fn objects_stand_on_the_relief_and_the_terrain_model_has_its_slope() {
+    let w = hilly(Preset::Tiny, 3);
+    let corners = |s: &BoxShape| {
+        let (a, n) = (s.axis, [-s.axis[1], s.axis[0]]);
+        [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0)].map(|(u, v)| {
+            let e = s.center[0] + u * s.half[0] * a[0] + v * s.half[1] * n[0];
+            let m = s.center[1] + u * s.half[0] * a[1] + v * s.half[1] * n[1];
+            w.ground_at(e, m)
+        })
+    };
+    for b in &w.buildings {
+        let g = corners(&b.shape);
+        // Foundations 0.3 m below the lowest corner; the highest corner up to the grade across the diagonal.
+        let rise = 0.3 + HILLY.grade * 2.0 * b.shape.half[0].hypot(b.shape.half[1]) + HILLY.kerb_m;
+        assert!(
+            g.iter().all(|&h| h >= b.shape.base && h < b.shape.base + rise),
+            "building on {g:?}, base {}",
+            b.shape.base
+        );
+    }
+    for c in &w.cars {
+        let g = corners(&c.shape);
+        assert!(g.iter().all(|&h| h >= c.shape.base && h < c.shape.base + 0.3), "car on {g:?}, base {}", c.shape.base);
+    }
+    for p in &w.poles {
+        assert_eq!(w.pole_ground(p.id), w.ground_at(p.base[0], p.base[1]));
+    }
+    // The terrain model (1 m cells, kerbs averaged) has the hills' slope over 30 m anywhere.
+    let (lo, hi) = w.bounds();
+    let grid = OrthoGrid {
+        west: lo[0],
+        north: hi[1],
+        gsd: 1.0,
+        width: (hi[0] - lo[0]) as u32,
+        height: (hi[1] - lo[1]) as u32,
+    };
+    let dtm = terrain_model(&w, &grid);
+    let at = |col: u32, row: u32| f64::from(dtm[(row * grid.width + col) as usize]);
+    let mut worst: f64 = 0.0;
+    for row in (0..grid.height - 30).step_by(37) {
+        for col in (0..grid.width - 30).step_by(41) {
+            let [e, n] = grid.centre(col + 15, row + 15);
+            let g = w.hill_gradient(e, n);
+            let east = (at(col + 30, row + 15) - at(col, row + 15)) / 30.0;
+            let north = (at(col + 15, row) - at(col + 15, row + 30)) / 30.0;
+            worst = worst.max((east - g[0]).abs()).max((north - g[1]).abs());
+        }
+    }
+    // A kerb between the ends changes a 30 m slope by 0.15 / 30; the crown by less.
+    assert!(worst < 0.012, "terrain model slope off by {worst}");
+}
+
+#[test]
+fn the_drive_follows_the_relief_and_leans_with_it() {
+    let w = hilly(Preset::Tiny, 1);
+    let route = w.route(1, 700.0);
+    let config = DriveConfig::default();
+    let drive = Drive::simulate(&route, &config, 1).unwrap();
+    let mut off: Vec<f64> = Vec::new();
+    let (mut banks, mut rolls) = (Vec::new(), Vec::new());
+    for (r, k) in drive.trajectory.records().iter().zip(&drive.kinematics).step_by(10) {
+        let p = r.position;
+        off.push((p.z() - config.imu_height - w.ground_at(p.x(), p.y())).abs());
+        if k.speed > 3.0 {
+            let v = k.velocity;
+            let (tan_e, tan_n) = (v.x() / k.speed, v.y() / k.speed);
+            let g = w.hill_gradient(p.x(), p.y());
+            banks.push(-tan_n * g[0] + tan_e * g[1]);
+            rolls.push(r.attitude.roll);
+        }
+    }
+    off.sort_by(f64::total_cmp);
+    let (median, p95) = (off[off.len() / 2], off[off.len() * 95 / 100]);
+    assert!(median < 0.01 && p95 < 0.05, "IMU height above the road off by {median} (median), {p95} (95 %)");
+    let max_bank = banks.iter().map(|b| b.abs()).fold(0.0, f64::max);
+    assert!(max_bank > 0.02, "the drive crosses hillsides: bank up to {max_bank}");
+    // Roll follows the bank (camber and curve roll on top): their correlation.
+    let mean = |x: &[f64]| x.iter().sum::<f64>() / x.len() as f64;
+    let (mb, mr) = (mean(&banks), mean(&rolls));
+    let cov: f64 = banks.iter().zip(&rolls).map(|(b, r)| (b - mb) * (r - mr)).sum();
+    let (vb, vr): (f64, f64) =
+        (banks.iter().map(|b| (b - mb).powi(2)).sum(), rolls.iter().map(|r| (r - mr).powi(2)).sum());
+    let corr = cov / (vb * vr).sqrt();
+    assert!(corr > 0.8, "roll against bank: correlation {corr}");
 }

@@ -9,7 +9,7 @@ use plumbline_geo::camera::MetricInterior;
 use plumbline_runtime::gdal_write::{Raster, RasterData, cloud_optimized_geotiff, geotiff, image_tiff};
 use plumbline_synth::aerial;
 use plumbline_synth::map::footprint;
-use plumbline_synth::ortho::{OrthoGrid, render_orthophoto};
+use plumbline_synth::ortho::{OrthoGrid, render_orthophoto, terrain_model};
 use plumbline_synth::render::{AerialOptics, AtErrors, BlockSpec, Radiometry, Scene, encode_jpeg, render_aerial_with};
 use plumbline_synth::world::World;
 
@@ -110,7 +110,7 @@ pub(crate) fn write(
     let grid = OrthoGrid::covering(&scene, spec.gsd);
     let ortho = ortho_raster(&render_orthophoto(&scene, &grid), &grid, epsg);
     sink.put("aerial/orthophoto.tif", cloud_optimized_geotiff(&ortho).context("orthophoto COG")?)?;
-    let terrain = flat_terrain(&OrthoGrid::covering(&scene, TERRAIN_GSD_M), world.config.ground_height, epsg);
+    let terrain = terrain_raster(world, &OrthoGrid::covering(&scene, TERRAIN_GSD_M), epsg);
     sink.put("aerial/terrain.tif", geotiff(&terrain).context("terrain GeoTIFF")?)?;
     let footprints = frames.iter().map(|f| footprint(&f.truth, interior.width, interior.height, gsd)).collect();
     let section = section(&spec, &interior, "aerial/orthophoto.tif", "aerial/terrain.tif");
@@ -163,9 +163,9 @@ pub(crate) fn ortho_raster(image: &image::RgbImage, grid: &OrthoGrid, epsg: u32)
     Raster { width, height, geotransform: grid.geotransform(), epsg, data: RasterData::U8(bands), nodata: None }
 }
 
-/// A terrain model of `grid` at the flat ground height (no-data −9999).
-pub(crate) fn flat_terrain(grid: &OrthoGrid, ground_height: f64, epsg: u32) -> Raster {
-    let heights = vec![ground_height as f32; grid.width as usize * grid.height as usize];
+/// The terrain model of `world` over `grid` (`plumbline_synth::ortho::terrain_model`; no-data −9999).
+pub(crate) fn terrain_raster(world: &World, grid: &OrthoGrid, epsg: u32) -> Raster {
+    let heights = terrain_model(world, grid);
     Raster {
         width: grid.width as usize,
         height: grid.height as usize,

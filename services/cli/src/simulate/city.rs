@@ -57,7 +57,8 @@ struct Progress {
 /// Simulate a city campaign of `length` metres and hand its files to `sink`; returns a summary.
 pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<String> {
     let seed = args.seed;
-    let config = WorldConfig { changes: args.realism.realism().world, ..WorldConfig::new(Preset::City, seed) };
+    let realism = args.realism.realism();
+    let config = WorldConfig { changes: realism.world, relief: realism.relief, ..WorldConfig::new(Preset::City, seed) };
     let crs = config.epsg;
     let mut walk = CityWalk::new(City::new(&config), seed, LEG_LENGTH_M);
     let (imu_errors, outage_growth) = imu_grade(args.imu);

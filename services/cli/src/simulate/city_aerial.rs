@@ -22,7 +22,7 @@ use plumbline_synth::world::WorldConfig;
 use plumbline_synth::world::city::City;
 
 use super::Sink;
-use super::aerial::{FRAME_PX, TERRAIN_GSD_M, TERRAIN_NODATA, block_spec, flat_terrain, ortho_raster};
+use super::aerial::{FRAME_PX, TERRAIN_GSD_M, TERRAIN_NODATA, block_spec, ortho_raster, terrain_raster};
 
 /// Frames are made that see ground this close to the drive, metres: the registration's ortho patch (14 m
 /// half side, `MmConfig::default`) plus DG errors of metres and the search around them; the worker picks the
@@ -44,7 +44,6 @@ pub(crate) struct CityAerial {
     spec: BlockSpec,
     tiles: TileLattice,
     terrain_px: u32,
-    ground_height: f64,
     epsg: u32,
     seed: u64,
     radiometry: Radiometry,
@@ -66,7 +65,6 @@ impl CityAerial {
             spec,
             tiles: TileLattice { origin: [config.origin_east, config.origin_north], size: tile_m },
             terrain_px: (tile_m / TERRAIN_GSD_M).round().max(1.0) as u32,
-            ground_height: config.ground_height,
             epsg: config.epsg,
             seed: config.seed,
             radiometry,
@@ -126,7 +124,7 @@ impl CityAerial {
         let ortho = ortho_raster(&render_orthophoto(scene, &grid), &grid, self.epsg);
         let name = format!("{}_{}.tif", key.col, key.row);
         sink.put(format!("aerial/orthophoto/{name}"), cloud_optimized_geotiff(&ortho).context("orthophoto tile COG")?)?;
-        let terrain = flat_terrain(&self.tiles.grid(key, self.terrain_px), self.ground_height, self.epsg);
+        let terrain = terrain_raster(scene.world, &self.tiles.grid(key, self.terrain_px), self.epsg);
         sink.put(format!("aerial/terrain/{name}"), geotiff(&terrain).context("terrain tile GeoTIFF")?)
     }
 

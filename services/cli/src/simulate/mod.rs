@@ -290,7 +290,9 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
         }
         return city::generate(args, length, sink);
     }
-    let world_config = WorldConfig { changes: args.realism.realism().world, ..WorldConfig::new(world_preset, seed) };
+    let realism = args.realism.realism();
+    let world_config =
+        WorldConfig { changes: realism.world, relief: realism.relief, ..WorldConfig::new(world_preset, seed) };
     let crs = world_config.epsg;
     let world = World::generate(&world_config).context("synthetic world")?;
     let route = with_profile(world.route(seed, length), args.profile);

@@ -5,8 +5,8 @@
 //!
 //! Attitude (Applanix convention, ARCHITECTURE.md): heading from the path tangent (grid heading = π/2 −
 //! direction), pitch from the grade plus squat/dive (`pitch_per_accel` × longitudinal acceleration, nose up
-//! when accelerating), roll from the road camber (right side down, the crossfall of a right-hand lane) plus
-//! body roll to the outside of curves (`roll_per_accel` × centripetal acceleration). Roll and pitch follow
+//! when accelerating), roll from the road camber (right side down, the crossfall of a right-hand lane) and the terrain's bank
+//! (`PathPoint::bank`, a hillside street) plus body roll to the outside of curves (`roll_per_accel` × centripetal acceleration). Roll and pitch follow
 //! their targets through a first-order lag (`attitude_lag`), as a sprung body does, so attitude is
 //! continuous. The body (IMU) origin rides `imu_height` above the road surface.
 
@@ -104,10 +104,10 @@ fn smooth(raw: &[Longitudinal], half: usize, dt: f64) -> Vec<Longitudinal> {
 
 const ZERO_STD: PoseStd = PoseStd { east: 0.0, north: 0.0, height: 0.0, roll: 0.0, pitch: 0.0, heading: 0.0 };
 
-/// Roll and pitch the body would settle at: camber and curve roll, grade and squat/dive.
+/// Roll and pitch the body would settle at: camber, the terrain's bank and curve roll, grade and squat/dive.
 fn target_roll_pitch(p: &PathPoint, speed: f64, accel: f64, config: &DriveConfig) -> (f64, f64) {
     // Centripetal acceleration to the left is v²κ; the body rolls outward (right side down for a left turn).
-    let roll = config.camber.atan() + config.roll_per_accel * speed * speed * p.curvature;
+    let roll = (config.camber + p.bank).atan() + config.roll_per_accel * speed * speed * p.curvature;
     let pitch = p.grade.atan() + config.pitch_per_accel * accel;
     (roll, pitch)
 }

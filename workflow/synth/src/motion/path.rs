@@ -33,6 +33,8 @@ pub struct PathPoint {
     pub curvature: f64,
     /// Height gain per horizontal metre.
     pub grade: f64,
+    /// The terrain's rise per metre to the left of travel (`Waypoint::bank`), interpolated between waypoints.
+    pub bank: f64,
     /// Smallest speed limit of the route segment, m/s.
     pub speed_limit: f64,
     /// The street's enclosure, interpolated between waypoints.
@@ -139,8 +141,9 @@ impl Path {
         let (h0, h1) = (self.route_height(p.d0), self.route_height(p.d1));
         let grade = if p.len > 0.0 { (h1 - h0) / p.len } else { 0.0 };
         let (east, north, direction, curvature) = shape_at(&p.shape, u);
-        let (speed_limit, canyon) = self.attributes(d);
-        PathPoint { east, north, height: h0 + (h1 - h0) * w, direction, curvature, grade, speed_limit, canyon }
+        let (speed_limit, canyon, bank) = self.attributes(d);
+        let height = h0 + (h1 - h0) * w;
+        PathPoint { east, north, height, direction, curvature, grade, bank, speed_limit, canyon }
     }
 
     fn segment_of(&self, d: f64) -> usize {
@@ -154,7 +157,7 @@ impl Path {
         a.ground_height + (b.ground_height - a.ground_height) * w
     }
 
-    fn attributes(&self, d: f64) -> (f64, Canyon) {
+    fn attributes(&self, d: f64) -> (f64, Canyon, f64) {
         let i = self.segment_of(d);
         let (a, b) = (&self.waypoints[i], &self.waypoints[i + 1]);
         let w = ((d - self.route_distance[i]) / (self.route_distance[i + 1] - self.route_distance[i])).clamp(0.0, 1.0);
@@ -163,7 +166,7 @@ impl Path {
             street_width: l(a.canyon.street_width, b.canyon.street_width),
             building_height: l(a.canyon.building_height, b.canyon.building_height),
         };
-        (a.speed_limit.min(b.speed_limit), canyon)
+        (a.speed_limit.min(b.speed_limit), canyon, l(a.bank, b.bank))
     }
 }
 
@@ -232,6 +235,7 @@ fn check_route(route: &Route) -> Result<(), MotionError> {
             ("east", p.east),
             ("north", p.north),
             ("ground_height", p.ground_height),
+            ("bank", p.bank),
             ("speed_limit", p.speed_limit),
             ("canyon.street_width", p.canyon.street_width),
             ("canyon.building_height", p.canyon.building_height),
@@ -274,7 +278,15 @@ mod tests {
     use super::*;
 
     pub(crate) fn wp(east: f64, north: f64) -> Waypoint {
-        Waypoint { east, north, ground_height: 0.0, speed_limit: 13.9, junction: false, canyon: Canyon::OPEN }
+        Waypoint {
+            east,
+            north,
+            ground_height: 0.0,
+            bank: 0.0,
+            speed_limit: 13.9,
+            junction: false,
+            canyon: Canyon::OPEN,
+        }
     }
 
     #[test]

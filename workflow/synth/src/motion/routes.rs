@@ -13,7 +13,7 @@ pub const URBAN_STREET: Canyon = Canyon { street_width: 24.0, building_height: 1
 
 /// A waypoint at (east, north) on flat ground at the city speed limit.
 pub fn waypoint(east: f64, north: f64, canyon: Canyon) -> Waypoint {
-    Waypoint { east, north, ground_height: 0.0, speed_limit: CITY_LIMIT, junction: false, canyon }
+    Waypoint { east, north, ground_height: 0.0, bank: 0.0, speed_limit: CITY_LIMIT, junction: false, canyon }
 }
 
 /// A straight street from `origin` heading east for `length` metres, with a junction every `block` metres.

@@ -3,7 +3,8 @@
 //! the JPEG quality the images are written at. For a panorama stitched from a rig of sub-cameras: parallax at
 //! the seams (each sub-camera looks from its own centre), exposure steps between sub-cameras, rolling-shutter
 //! skew and motion blur at driving speed. Each level also names the world's changes between the epochs that
-//! hide ground from one of them (crowns over the road in the aerial flight, pedestrians: [`EpochChanges`]).
+//! hide ground from one of them (crowns over the road in the aerial flight, pedestrians: [`EpochChanges`]), and
+//! the ground's relief (hills, cross-fall, kerbs: [`Relief`]).
 //!
 //! Three levels. `Ideal` adds nothing: the world the method's figures were first measured on. `Default` is a
 //! current survey rig (six global-shutter sub-cameras 4 cm from the rig's centre, matched exposures) and a
@@ -12,7 +13,7 @@
 //! stronger curve; the figures of each are in [`Realism::of`].
 
 use crate::texture::{Rgb, unit};
-use crate::world::EpochChanges;
+use crate::world::{EpochChanges, Relief};
 
 /// How much of real sensors' imperfection a simulation adds.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
@@ -152,6 +153,8 @@ pub struct Realism {
     /// What the world changes between the epochs (crowns over the road, pedestrians); the world is made
     /// with it (`WorldConfig::changes`).
     pub world: EpochChanges,
+    /// The ground's hills, cross-fall and kerbs (`WorldConfig::relief`).
+    pub relief: Relief,
 }
 
 impl Realism {
@@ -166,6 +169,7 @@ impl Realism {
     /// | rig: sub-cameras, radius | 6, 4 cm | 6, 10 cm |
     /// | rig: exposure step, exposure, readout | ±4 %, 0.5 ms, global | ±15 %, 2 ms, 33 ms |
     /// | aerial crowns spread / pedestrians per 100 m | 1.2 / 4 | 1.6 / 12 |
+    /// | hills' steepest grade / cross-fall / kerb | 4 % / 2 % / 10 cm | 8 % / 2.5 % / 15 cm |
     pub fn of(level: RealismLevel) -> Self {
         let radiometry = |white_balance, s_curve, vignetting, noise, jpeg_quality| Radiometry {
             white_balance,
@@ -177,7 +181,7 @@ impl Realism {
         match level {
             RealismLevel::Ideal => {
                 let (street, aerial) = (Radiometry::IDEAL, Radiometry::IDEAL);
-                Self { level, street, aerial, rig: Rig::IDEAL, world: EpochChanges::NONE }
+                Self { level, street, aerial, rig: Rig::IDEAL, world: EpochChanges::NONE, relief: Relief::FLAT }
             }
             RealismLevel::Default => Self {
                 level,
@@ -185,6 +189,7 @@ impl Realism {
                 aerial: radiometry([0.96, 1.0, 1.04], 0.15, 0.08, 1.0, 90),
                 rig: Rig { sub_cameras: 6, radius_m: 0.04, exposure_step: 0.04, exposure_s: 0.0005, readout_s: 0.0 },
                 world: EpochChanges { crown_spread: 1.2, pedestrians_per_100m: 4.0 },
+                relief: Relief { grade: 0.04, cross_fall: 0.02, kerb_m: 0.10 },
             },
             RealismLevel::Harsh => Self {
                 level,
@@ -192,6 +197,7 @@ impl Realism {
                 aerial: radiometry([0.9, 1.0, 1.12], 0.4, 0.25, 3.0, 75),
                 rig: Rig { sub_cameras: 6, radius_m: 0.10, exposure_step: 0.15, exposure_s: 0.002, readout_s: 0.033 },
                 world: EpochChanges { crown_spread: 1.6, pedestrians_per_100m: 12.0 },
+                relief: Relief { grade: 0.08, cross_fall: 0.025, kerb_m: 0.15 },
             },
         }
     }

@@ -139,6 +139,7 @@ pub fn cut(route: &Route, length: f64) -> Route {
             east: lerp(a.east, b.east),
             north: lerp(a.north, b.north),
             ground_height: lerp(a.ground_height, b.ground_height),
+            bank: lerp(a.bank, b.bank),
             junction: u >= 1.0 && b.junction,
             ..*a
         };

@@ -6,7 +6,8 @@
 //! (10–40 m) line the streets; street lights, sign posts and trees stand on the sidewalks, traffic lights and
 //! tree groups at junctions; cars park in the parking strips, differently at the two epochs; pedestrians and
 //! crowns spreading over the road in the aerial flight are [`EpochChanges`] (none by default). The ground is flat
-//! at `ground_height`. Everything is held in memory with uniform grids for the texture and the ray caster.
+//! at `ground_height`, or has hills, crowned carriageways and kerbs ([`Relief`], `relief`); everything stands
+//! on it. Everything is held in memory with uniform grids for the texture and the ray caster.
 //!
 //! Sizes: `tiny` (about 700 m of streets, for tests) and `district` (about 2.6 km). The `city` ([`city`]) is
 //! unbounded: every random choice is a hash of (seed, lattice node or edge), so any window of it is made on its
@@ -18,12 +19,14 @@ mod index;
 pub mod objects;
 mod placement;
 pub mod polyline;
+mod relief;
 mod route;
 pub mod streets;
 mod trace;
 
 pub use index::Grid;
 pub use objects::{BoxShape, Building, Car, Pedestrian, Pole, PoleClass};
+pub use relief::Relief;
 pub use streets::{Junction, Street, StreetClass};
 pub use trace::{Hit, Surface};
 
@@ -53,14 +56,16 @@ pub struct WorldConfig {
     pub origin_east: f64,
     /// Northing of the world's centre, metres.
     pub origin_north: f64,
-    /// Height of the (flat) ground, metres.
+    /// Height of the ground (of the hills' mean with relief), metres.
     pub ground_height: f64,
     /// What differs between the epochs beyond parked cars, paint and light.
     pub changes: EpochChanges,
+    /// Hills, cross-fall and kerbs ([`Relief::FLAT`] by default).
+    pub relief: Relief,
 }
 
 impl WorldConfig {
-    /// Defaults: EPSG 25832 around E 565 000, N 5 933 000, ground at 8 m, no further epoch changes.
+    /// Defaults: EPSG 25832 around E 565 000, N 5 933 000, flat ground at 8 m, no further epoch changes.
     pub fn new(preset: Preset, seed: u64) -> Self {
         Self {
             preset,
@@ -70,6 +75,7 @@ impl WorldConfig {
             origin_north: 5_933_000.0,
             ground_height: 8.0,
             changes: EpochChanges::NONE,
+            relief: Relief::FLAT,
         }
     }
 }
@@ -161,9 +167,15 @@ pub struct World {
     pub(crate) top: f64,
     /// Tallest object top per object-grid cell, metres (rays above it skip the cell).
     pub(crate) cell_top: Vec<f64>,
+    /// The hills under everything (none on flat ground).
+    pub(crate) hills: relief::Hills,
+    /// Ground height at each pole's base, metres.
+    pub(crate) pole_ground: Vec<f64>,
 }
 
 const CELL: f64 = 8.0;
+/// How far a building on relief reaches below the lowest ground under it, metres.
+const FOUNDATION_M: f64 = 0.3;
 
 impl World {
     /// Generate a world; the same config gives the same world.
@@ -174,6 +186,9 @@ impl World {
             ("ground_height", config.ground_height),
             ("changes.crown_spread", config.changes.crown_spread),
             ("changes.pedestrians_per_100m", config.changes.pedestrians_per_100m),
+            ("relief.grade", config.relief.grade),
+            ("relief.cross_fall", config.relief.cross_fall),
+            ("relief.kerb_m", config.relief.kerb_m),
         ] {
             if !value.is_finite() {
                 return Err(WorldError::InvalidConfig { field, value, reason: "must be finite" });
@@ -187,6 +202,20 @@ impl World {
         if !(0.0..=100.0).contains(&c.pedestrians_per_100m) {
             let (field, value) = ("changes.pedestrians_per_100m", c.pedestrians_per_100m);
             return Err(WorldError::InvalidConfig { field, value, reason: "must be within 0–100" });
+        }
+        let r = config.relief;
+        for (field, value, max) in [
+            ("relief.grade", r.grade, 0.15),
+            ("relief.cross_fall", r.cross_fall, 0.05),
+            ("relief.kerb_m", r.kerb_m, 0.3),
+        ] {
+            if !(0.0..=max).contains(&value) {
+                return Err(WorldError::InvalidConfig {
+                    field,
+                    value,
+                    reason: "must be within 0 and its maximum (grade 0.15, cross-fall 0.05, kerb 0.3 m)",
+                });
+            }
         }
         if config.preset == Preset::City {
             return Ok(city::City::new(config).window([config.origin_east, config.origin_north], 150.0));
@@ -210,6 +239,8 @@ impl World {
             object_grid: Grid::new(min, max, CELL),
             top: config.ground_height,
             cell_top: Vec::new(),
+            hills: relief::Hills::new(config.seed, [config.origin_east, config.origin_north], config.relief.grade),
+            pole_ground: Vec::new(),
             junctions,
             streets,
             buildings,
@@ -255,13 +286,54 @@ impl World {
             }
             Item::Pole(i) => {
                 let p = &self.poles[i as usize];
-                let g = self.config.ground_height;
+                let g = self.pole_ground[i as usize];
                 (g + p.height * p.axis().z + p.diameter).max(p.crown_center(g).z + p.crown)
             }
         }
     }
 
     fn build_index(&mut self) {
+        self.index_streets();
+        self.settle();
+        self.index_objects();
+    }
+
+    /// Stand every object on the ground: poles and pedestrians where they stand, cars and buildings at the
+    /// lowest ground under their footprint (buildings [`FOUNDATION_M`] lower, as tall above it). Nothing moves on
+    /// flat ground.
+    fn settle(&mut self) {
+        self.pole_ground = self.poles.iter().map(|p| self.ground_at(p.base[0], p.base[1])).collect();
+        if self.config.relief.is_flat() {
+            return;
+        }
+        let lowest = |s: &BoxShape| {
+            let (a, n) = (s.axis, [-s.axis[1], s.axis[0]]);
+            [(1.0, 1.0), (1.0, -1.0), (-1.0, 1.0), (-1.0, -1.0), (0.0, 0.0)]
+                .iter()
+                .map(|(u, v)| {
+                    let e = s.center[0] + u * s.half[0] * a[0] + v * s.half[1] * n[0];
+                    let n_ = s.center[1] + u * s.half[0] * a[1] + v * s.half[1] * n[1];
+                    self.ground_at(e, n_)
+                })
+                .fold(f64::INFINITY, f64::min)
+        };
+        let cars: Vec<f64> = self.cars.iter().map(|c| lowest(&c.shape)).collect();
+        let people: Vec<f64> =
+            self.pedestrians.iter().map(|c| self.ground_at(c.shape.center[0], c.shape.center[1])).collect();
+        let buildings: Vec<f64> = self.buildings.iter().map(|b| lowest(&b.shape) - FOUNDATION_M).collect();
+        for (c, base) in self.cars.iter_mut().zip(cars) {
+            c.shape.base = base;
+        }
+        for (c, base) in self.pedestrians.iter_mut().zip(people) {
+            c.shape.base = base;
+        }
+        for (b, base) in self.buildings.iter_mut().zip(buildings) {
+            b.shape.height += FOUNDATION_M;
+            b.shape.base = base;
+        }
+    }
+
+    fn index_streets(&mut self) {
         for st in &self.streets {
             let m = st.half_corridor() + 1.0;
             for (k, w) in st.points.windows(2).enumerate() {
@@ -274,7 +346,10 @@ impl World {
             let r = j.radius + 16.0;
             self.junction_grid.insert_box([j.pos[0] - r, j.pos[1] - r], [j.pos[0] + r, j.pos[1] + r], j.id);
         }
-        let mut top = self.config.ground_height;
+    }
+
+    fn index_objects(&mut self) {
+        let mut top = self.ground_top();
         for (i, b) in self.buildings.iter().enumerate() {
             let s = &b.shape;
             self.object_grid.insert_rect(s.center, s.axis, s.half, Item::Building(i as u32));
@@ -288,10 +363,9 @@ impl World {
             let s = &c.shape;
             self.object_grid.insert_rect(s.center, s.axis, s.half, Item::Pedestrian(i as u32));
         }
-        let g = self.config.ground_height;
         let spread = self.config.changes.crown_spread.max(1.0);
         for (i, p) in self.poles.iter().enumerate() {
-            let top_c = p.crown_center(g);
+            let top_c = p.crown_center(self.pole_ground[i]);
             let r = p.diameter / 2.0 + p.crown * spread + p.height * p.lean[0].hypot(p.lean[1]) + 0.1;
             let (cx, cy) = ((p.base[0] + top_c.x) / 2.0, (p.base[1] + top_c.y) / 2.0);
             self.object_grid.insert_box([cx - r, cy - r], [cx + r, cy + r], Item::Pole(i as u32));

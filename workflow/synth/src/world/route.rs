@@ -83,7 +83,11 @@ impl World {
                 Waypoint {
                     east: pos[0],
                     north: pos[1],
-                    ground_height: self.config.ground_height,
+                    ground_height: self.ground_at(pos[0], pos[1]),
+                    bank: {
+                        let g = self.hill_gradient(pos[0], pos[1]);
+                        -tan[1] * g[0] + tan[0] * g[1]
+                    },
                     speed_limit: st.class.speed_limit(),
                     junction: k == 0 || k == n,
                     canyon: self.canyon(pos, tan),
@@ -95,7 +99,7 @@ impl World {
     /// Street width between the building fronts across `tangent` and their mean height, by horizontal probes
     /// 2 m above the road (the enclosure that decides GNSS quality, paper 001 §1.2, paper 002 §3).
     pub fn canyon(&self, p: P2, tangent: P2) -> Canyon {
-        let o = Vector3::new(p[0], p[1], self.config.ground_height + 2.0);
+        let o = Vector3::new(p[0], p[1], self.ground_at(p[0], p[1]) + 2.0);
         let mut width = 0.0;
         let mut heights = 0.0;
         let mut found = 0;

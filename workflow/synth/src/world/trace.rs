@@ -1,4 +1,4 @@
-//! Ray casting against the world: flat ground, building blocks, parked cars and pedestrians, poles and trunks
+//! Ray casting against the world: the ground (flat, or the relief's, `relief.rs`), building blocks, parked cars and pedestrians, poles and trunks
 //! as cylinders, tree crowns as spheres (ellipsoids spread wider in the aerial epoch, `EpochChanges`). A 2D
 //! grid walk (Amanatides–Woo) visits only the cells the ray crosses.
 
@@ -53,8 +53,8 @@ impl World {
     }
 
     fn cast(&self, origin: &Vector3<f64>, dir: &Vector3<f64>, t_max: f64, epoch: Epoch, any: bool) -> Option<Hit> {
-        let g = self.config.ground_height;
-        let t_ground = if dir.z < -1e-12 && origin.z > g { (g - origin.z) / dir.z } else { f64::INFINITY };
+        let ground = self.ground_hit(origin, dir, 1e-6, t_max);
+        let t_ground = ground.map_or(f64::INFINITY, |g| g.0);
         let mut t_end = t_max.min(t_ground);
         let mut t_start = 0.0;
         if origin.z > self.top {
@@ -69,10 +69,7 @@ impl World {
         if let Some(hit) = self.walk(origin, dir, (t_start, t_end), epoch, any) {
             return Some(hit);
         }
-        (t_ground <= t_max).then(|| {
-            let point = origin + dir * t_ground;
-            Hit { t: t_ground, point, normal: Vector3::z(), surface: Surface::Ground, uv: [0.0; 2] }
-        })
+        ground.map(|(t, normal)| Hit { t, point: origin + dir * t, normal, surface: Surface::Ground, uv: [0.0; 2] })
     }
 
     fn walk(&self, o: &Vector3<f64>, d: &Vector3<f64>, span: (f64, f64), epoch: Epoch, any: bool) -> Option<Hit> {
@@ -176,7 +173,7 @@ impl World {
             }
             Item::Pole(i) => {
                 let spread = if epoch == Epoch::Aerial { self.config.changes.crown_spread } else { 1.0 };
-                hit_pole(&self.poles[i as usize], self.config.ground_height, spread, o, d)
+                hit_pole(&self.poles[i as usize], self.pole_ground[i as usize], spread, o, d)
             }
         }
     }
