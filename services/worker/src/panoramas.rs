@@ -1,6 +1,8 @@
 //! The MM side of a tile's registration: its owned and context panoramas placed at their DG pose, decoded to
 //! gray one at a time (`crate::prepare`), and the rig they share (camera model, mount, vehicle mask, camera
-//! height above the road).
+//! height above the road, and the terrain model the ortho-projection follows).
+
+use std::sync::Arc;
 
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::plan::PlannedImage;
@@ -11,8 +13,10 @@ use plumbline_geo::{PositionInterpolation, TrajectoryRecord};
 use plumbline_imaging::ImagePart;
 use plumbline_imaging::decode::{Bounds, DecodeError, PANORAMA_PIXELS, decode_gray_part, decode_mask, header};
 use plumbline_poles::pipeline::DEFAULT_DG_SIGMA_M;
+use plumbline_registration::aerial::Terrain;
 use plumbline_registration::mm::{Panorama, PanoramaRig, SubCameras};
 use plumbline_registration::pipeline::PanoramaInfo;
+use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
@@ -174,6 +178,33 @@ pub(crate) async fn camera_height(
     }
 }
 
+/// The terrain model of `[aerial.orthophoto]` over `area`, for the ortho-projection to follow the relief
+/// (`PanoramaRig::terrain`). `None` without one; an unreadable or non-covering model is reported and the
+/// panoramas are projected on a plane. A store that fails to deliver it is an error (the tile is retried).
+pub(crate) async fn terrain_model(
+    files: &Files,
+    campaign: &Campaign,
+    area: MapBox,
+    skipped_items: &mut Vec<SkippedInput>,
+) -> anyhow::Result<Option<Arc<Terrain>>> {
+    let Some(ortho) = campaign.manifest.aerial.as_ref().and_then(|a| a.orthophoto.as_ref()) else {
+        return Ok(None);
+    };
+    let url = campaign.url(&ortho.terrain)?;
+    let problem = match read_window(files, &url, area, campaign.epsg()).await {
+        Ok(Some(w)) => match terrain(&w) {
+            Ok(t) => return Ok(Some(Arc::new(t))),
+            Err(e) => (SkipReason::Decode, format!("{url}: {e:#}")),
+        },
+        Ok(None) => (SkipReason::Outside, format!("{url}: the terrain model does not cover the tile")),
+        Err(e) if e.reason().retryable() => return Err(anyhow::anyhow!("{url}: {e}")),
+        Err(e) => (e.reason(), format!("{url}: {e}")),
+    };
+    let (why, detail) = problem;
+    skipped_items.push(skipped(STAGE, &url, why, format!("{detail}; panoramas projected on a level plane")));
+    Ok(None)
+}
+
 /// The rig: camera of `size`, the manifest's mount, the vehicle mask when it can be read (else skipped and
 /// reported, and the panoramas are processed without a mask).
 pub(crate) async fn rig(
@@ -210,7 +241,7 @@ pub(crate) async fn rig(
         None => None,
     };
     let sub_cameras = spec.rig.map(|r| SubCameras { count: r.cameras, radius_m: r.radius_m });
-    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height, sub_cameras })
+    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height, sub_cameras, terrain: None })
 }
 
 #[cfg(test)]

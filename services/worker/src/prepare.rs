@@ -231,6 +231,7 @@ mod tests {
             vehicle_mask: None,
             camera_height: 2.5,
             sub_cameras: None,
+            terrain: None,
         });
         let mut config = PipelineConfig::default();
         config.mm.half_extent = 3.0;

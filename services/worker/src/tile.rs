@@ -220,11 +220,13 @@ async fn register(
             return Ok(out);
         }
     };
-    let rig = Arc::new(panoramas::rig(files, campaign, spec, size, camera_height, &mut out.skipped).await?);
+    let mut rig = panoramas::rig(files, campaign, spec, size, camera_height, &mut out.skipped).await?;
     let pipeline = config.registration;
+    let area = aerial::window_of(&tile.fetch, pipeline.mm.half_extent);
+    rig.terrain = panoramas::terrain_model(files, campaign, area, &mut out.skipped).await?;
+    let rig = Arc::new(rig);
     // The reference first: where the patches lie follows from the DG poses alone.
     let ground = ground_points(&placed, &rig, tile);
-    let area = aerial::window_of(&tile.fetch, pipeline.mm.half_extent);
     let sigma = placed.iter().filter(|p| p.info.owned).map(|p| p.info.position_sigma).fold(0.0, f64::max);
     let reach = pipeline.aerial.frame_reach(pipeline.mm.half_extent, sigma);
     let Some(reference) = aerial::load(files, campaign, &ground, reach, area, config.concurrency).await? else {

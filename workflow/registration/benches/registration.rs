@@ -17,7 +17,8 @@
 //! `MM_BENCH_REALISM` (`ideal` | `default` | `harsh`, default `ideal`) renders the campaign through the
 //! simulator's sensor realism; `MM_BENCH_NUISANCES=1` then also runs it with each nuisance switched off
 //! in turn and prints one summary row per variant, so the cost of each is visible (`=seams,JPEG`: only the
-//! rows whose names contain one of the words).
+//! rows whose names contain one of the words). `MM_BENCH_LEVEL_PLANE=1` ortho-projects on the level plane
+//! even where the world has relief (no terrain model).
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
@@ -41,7 +42,7 @@ use plumbline_registration::mm::TransformSource;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
 use plumbline_synth::render::{Radiometry, Realism, RealismLevel, Rig};
-use plumbline_synth::world::{self, EpochChanges};
+use plumbline_synth::world::{self, EpochChanges, Relief};
 use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
@@ -115,7 +116,12 @@ fn median(mut v: Vec<f64>) -> f64 {
 
 fn run(name: &str, spec: &Spec) -> Row {
     let t0 = Instant::now();
-    let campaign = Campaign::build(spec);
+    let mut campaign = Campaign::build(spec);
+    if std::env::var("MM_BENCH_LEVEL_PLANE").is_ok_and(|v| v == "1") {
+        // Ortho-project on the level plane even where the world has relief (what a campaign without a
+        // terrain model gets).
+        campaign.rig.terrain = None;
+    }
     let build_s = t0.elapsed().as_secs_f64();
     let config = config();
     let t1 = Instant::now();
@@ -388,6 +394,7 @@ fn nuisances(base: Realism) -> Vec<(&'static str, Realism)> {
             Realism { world: EpochChanges { crown_spread: 1.0, ..base.world }, ..base },
         ),
         ("no pedestrians", Realism { world: EpochChanges { pedestrians_per_100m: 0.0, ..base.world }, ..base }),
+        ("flat ground (no hills, cross-fall or kerbs)", Realism { relief: Relief::FLAT, ..base }),
         ("street: no white balance error", street(Radiometry { white_balance: [1.0; 3], ..base.street })),
         ("street: no S-curve", street(Radiometry { s_curve: 0.0, ..base.street })),
         ("street: no vignetting", street(Radiometry { vignetting: 0.0, ..base.street })),

@@ -12,6 +12,8 @@ pub mod triangulate;
 #[cfg(test)]
 pub(crate) mod testing;
 
+use std::sync::Arc;
+
 use plumbline_geo::MapFromBody;
 use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::CameraMount;
@@ -19,6 +21,8 @@ use plumbline_imaging::corners::Foerstner;
 use plumbline_imaging::kaze::KazeConfig;
 pub use plumbline_imaging::ortho::SubCameras;
 use plumbline_imaging::{GrayImage, ImagePart, ImagingError, Mask};
+
+use crate::aerial::Terrain;
 
 pub use corners::{CornerMatch, CornerMatches, match_corners};
 pub use motion::image_motion;
@@ -60,6 +64,9 @@ pub struct PanoramaRig {
     /// A panorama stitched from a ring of cameras, each with its own centre: the ortho-projection sees each
     /// ground point from the camera that imaged it (`None`: one centre).
     pub sub_cameras: Option<SubCameras>,
+    /// A terrain model (DTM) under the panoramas: the ortho-projection follows its relief around the ground
+    /// under the camera instead of a level plane ([`OrthoPatch::height_at`]; `None`: the plane).
+    pub terrain: Option<Arc<Terrain>>,
 }
 
 /// Parameters of steps 1–4 (paper 000 §3.2–§3.5); `Default` gives the paper's values where it states them.

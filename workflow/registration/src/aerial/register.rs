@@ -91,9 +91,9 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
     }
     let views: Vec<View<'_>> = overlapping.iter().map(|p| p.0).collect();
     // paper 000 §3.8: RANSAC over the correspondences of all images (one DG error), then their consistency
-    joint::keep_common(&mut results, &views, patch, height, gsd, config);
+    joint::keep_common(&mut results, &views, patch, gsd, config);
     if matches!(reference, AerialReference::Frames(_)) {
-        enforce_consistency(&mut results, &views, height, gsd, config);
+        enforce_consistency(&mut results, &views, patch, gsd, config);
     }
     let (images, correspondences) = settle(&mut results, config.min_correspondences);
     if images < needed || correspondences < config.min_correspondences {
@@ -107,10 +107,10 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
     }
     let points = match (reference, config.single_ray_sigma_m) {
         (AerialReference::Frames(_), Some(along)) if images == 1 => {
-            single_ray_points(patch, &results, &views, height, along, config)
+            single_ray_points(patch, &results, &views, along, config)
         }
-        (AerialReference::Frames(_), _) => triangulate_points(patch, &results, &views, height, config),
-        (AerialReference::Orthophoto(o), _) => ortho_points(patch, &results, &views[0], o, height, config),
+        (AerialReference::Frames(_), _) => triangulate_points(patch, &results, &views, config),
+        (AerialReference::Orthophoto(o), _) => ortho_points(patch, &results, &views[0], o, config),
     };
     let discarded = points.is_empty().then_some(AerialDiscard::NoTriangulatedPoints);
     let (images, trace) = split(results);
@@ -187,9 +187,15 @@ fn split(results: Vec<ImageResult>) -> (Vec<AerialImageDiagnostic>, Vec<ImageTra
         .unzip()
 }
 
-/// Paper 000 §3.8: drop observations whose ground intersection (at the patch height) disagrees with the
-/// point's other observations.
-fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: f64, gsd: f64, config: &AerialConfig) {
+/// Paper 000 §3.8: drop observations whose ground intersection (at the MM point's height) disagrees with
+/// the point's other observations.
+fn enforce_consistency(
+    results: &mut [ImageResult],
+    views: &[View<'_>],
+    patch: &MmPatch<'_>,
+    gsd: f64,
+    config: &AerialConfig,
+) {
     let tolerance = config.consistency_px * gsd;
     let mut dropped: Vec<Vec<bool>> = results.iter().map(|r| vec![false; r.matches.len()]).collect();
     let slots: std::collections::BTreeSet<usize> = results.iter().flat_map(|r| r.matches.iter().map(|m| m.0)).collect();
@@ -199,6 +205,7 @@ fn enforce_consistency(results: &mut [ImageResult], views: &[View<'_>], height: 
             .enumerate()
             .flat_map(|(i, r)| r.matches.iter().enumerate().filter(|m| m.1.0 == slot).map(move |(k, m)| (i, k, m.1)))
             .collect();
+        let height = patch.points[slot].map[2];
         let grounds: Vec<[f64; 2]> =
             obs.iter().map(|&(i, _, px)| views[i].ground(px, height).unwrap_or([f64::NAN; 2])).collect();
         for (&(i, k, _), ok) in obs.iter().zip(consistent(&grounds, tolerance)) {

@@ -2,8 +2,8 @@
 //! with a known true pose, so every step can be checked against the exact answer.
 
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pixel};
-use plumbline_geo::dg::{Boresight, CameraMount, intersect_height};
-use plumbline_geo::{Attitude, MapFromBody, Point3};
+use plumbline_geo::dg::{Boresight, CameraMount};
+use plumbline_geo::{Attitude, Map, MapFromBody, Point3, Vec3};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -32,10 +32,13 @@ impl Marking {
     }
 }
 
-/// A flat ground at `height` with random markings around a centre.
+/// A ground at `height` at its centre, level or tilted by `slope` (rise per metre east and north), with
+/// random markings around the centre.
 #[derive(Clone, Debug)]
 pub(crate) struct Ground {
     pub height: f64,
+    pub slope: [f64; 2],
+    centre: [f64; 2],
     markings: Vec<Marking>,
 }
 
@@ -52,7 +55,20 @@ impl Ground {
                 contrast: if rng.random_range(0.0..1.0) < 0.7 { 110.0 } else { -45.0 },
             })
             .collect();
-        Self { height: 8.0, markings }
+        Self { height: 8.0, slope: [0.0; 2], centre, markings }
+    }
+
+    /// The ground's height at (e, n).
+    pub(crate) fn height_at(&self, e: f64, n: f64) -> f64 {
+        self.height + self.slope[0] * (e - self.centre[0]) + self.slope[1] * (n - self.centre[1])
+    }
+
+    /// Where the ray `o + t·d` meets the ground (t > 0).
+    fn intersect(&self, o: &Point3<Map>, d: &Vec3<Map>) -> Option<Point3<Map>> {
+        let level = self.height_at(o.x(), o.y());
+        let falls = -d.z() + self.slope[0] * d.x() + self.slope[1] * d.y();
+        let t = (o.z() - level) / falls;
+        (falls > 1e-9 && t > 0.0).then(|| Point3::new(o.x() + t * d.x(), o.y() + t * d.y(), o.z() + t * d.z()))
     }
 
     /// Grey value at (e, n) with edges blurred over `blur` metres (at least 3 cm).
@@ -79,7 +95,7 @@ pub(crate) fn rig(with_mask: bool) -> PanoramaRig {
     let camera = Equirectangular { width: 1024, height: 512 };
     let mount = CameraMount::new([0.4, 0.02, -1.85], &Boresight::from_degrees(0.12, -0.35, 0.8));
     let vehicle_mask = with_mask.then(|| vehicle_mask(&camera, &mount));
-    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85, sub_cameras: None }
+    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85, sub_cameras: None, terrain: None }
 }
 
 /// Pixels whose ray from the camera hits the van (body box −1.2…3.4 × −0.95…0.95 × −0.5…0.8 m).
@@ -105,7 +121,7 @@ fn vehicle_mask(cam: &Equirectangular, mount: &CameraMount) -> Mask {
 /// The true vehicle pose at ground position `at` with `heading` (IMU 1 m above the road, level).
 pub(crate) fn true_pose(ground: &Ground, at: [f64; 2], heading: f64) -> MapFromBody {
     let attitude = Attitude { roll: 0.0, pitch: 0.0, heading };
-    MapFromBody::new(attitude.to_rotation(), Point3::new(at[0], at[1], ground.height + 1.0))
+    MapFromBody::new(attitude.to_rotation(), Point3::new(at[0], at[1], ground.height_at(at[0], at[1]) + 1.0))
 }
 
 /// A panorama rendered with the true pose at `at`; its DG pose is the true one shifted by `dg_offset`.
@@ -126,7 +142,7 @@ pub(crate) fn scene_panorama(
         }
         let px = Pixel::new(c as f64 + 0.5, r as f64 + 0.5);
         let Some((o, d)) = rig.mount.ray(cam, &truth, px) else { return SKY };
-        let Some(g) = intersect_height(&o, &d, ground.height) else { return SKY };
+        let Some(g) = ground.intersect(&o, &d) else { return SKY };
         let range = (g - o).norm();
         let footprint = range * pixel_angle / (-d.z()).max(0.05);
         ground.value_blurred(g.x(), g.y(), footprint)

@@ -133,7 +133,7 @@ pub fn triangulate(
             stats.miss += 1;
             continue;
         }
-        if (hit.point.z() - a.plane_height).abs() > config.max_height_offset {
+        if (hit.point.z() - a.height_at(hit.point.x(), hit.point.y())).abs() > config.max_height_offset {
             stats.off_ground += 1;
             continue;
         }

@@ -32,8 +32,10 @@ pub struct CrossCheckConfig {
     /// paper 000's) and a matching bias its points share (up to a quarter of a 12 cm aerial pixel, 3 cm),
     /// ≈ 5 cm summed, and the DG heading error times the lever from the body origin to its points (0.05° ×
     /// 7.5 m ≈ 7 mm); two panoramas, ≈ 0.12 m — one aerial pixel. Half the 0.24 m "correct" bound of the
-    /// accuracy report, so a registration off by a wrong dash (≥ 1.5 m) cannot hide in it. Not covered:
-    /// road slope, which the flat ortho plane turns into an offset (neighbouring panoramas share most of it).
+    /// accuracy report, so a registration off by a wrong dash (≥ 1.5 m) cannot hide in it. Road slope needs
+    /// no term: with a terrain model the patch follows it (`mm::ortho`), so an offset is the DG's horizontal
+    /// error alone; without one, the level plane turns slope into an offset that neighbouring panoramas
+    /// share almost all of.
     pub floor_m: f64,
     /// Prior σ of one aerial point's horizontal position per axis (metres), for a panorama's offset when
     /// its few points' spread says little: half a 12 cm aerial pixel, what NCC + LSM on road markings

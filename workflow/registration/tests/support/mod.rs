@@ -8,18 +8,21 @@
 
 pub mod markings;
 
+use std::sync::Arc;
+
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
 use plumbline_imaging::decode::{Bounds, decode_gray};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 use plumbline_registration::TileResultV1;
-use plumbline_registration::aerial::{AerialFrame, AerialReference};
+use plumbline_registration::aerial::{AerialFrame, AerialReference, Terrain};
 use plumbline_registration::mm::{Panorama, PanoramaRig, SubCameras};
 use plumbline_synth::aerial::{block, small_format};
 use plumbline_synth::motion::dg::{self, DgConfig};
 use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig};
+use plumbline_synth::ortho::{OrthoGrid, terrain_model};
 use plumbline_synth::render::{
     AerialOptics, AtErrors, BlockSpec, Radiometry, Realism, RealismLevel, RgbImage, Scene, VehicleBody, encode_jpeg,
     render_aerial_with, render_panorama, render_panorama_with,
@@ -66,6 +69,20 @@ fn through_jpeg(id: &str, rgb: &RgbImage, quality: u8) -> GrayImage {
     decode_gray(id, &bytes, &Bounds::budget(u64::MAX)).expect("decoded JPEG")
 }
 
+/// The world's terrain model (1 m cells) over the shots' positions and 60 m around them.
+fn terrain_under(world: &World, shots: &[Shot]) -> Terrain {
+    let (mut lo, mut hi) = ([f64::INFINITY; 2], [f64::NEG_INFINITY; 2]);
+    for s in shots {
+        let p = s.truth.position;
+        lo = [lo[0].min(p.x() - 60.0), lo[1].min(p.y() - 60.0)];
+        hi = [hi[0].max(p.x() + 60.0), hi[1].max(p.y() + 60.0)];
+    }
+    let (width, height) = ((hi[0] - lo[0]).ceil() as u32, (hi[1] - lo[1]).ceil() as u32);
+    let grid = OrthoGrid { west: lo[0], north: hi[1], gsd: 1.0, width, height };
+    let heights = terrain_model(world, &grid);
+    Terrain { heights, width: width as usize, height: height as usize, geotransform: grid.geotransform() }
+}
+
 /// A campaign ready for `register_tile`, with its truth.
 pub struct Campaign {
     pub panoramas: Vec<Panorama>,
@@ -110,7 +127,11 @@ fn around_junction(shots: Vec<Shot>, route: &Route, window: usize) -> Vec<Shot> 
 impl Campaign {
     /// Simulate and render.
     pub fn build(spec: &Spec) -> Campaign {
-        let config = WorldConfig { changes: spec.realism.world, ..WorldConfig::new(spec.preset, spec.seed) };
+        let config = WorldConfig {
+            changes: spec.realism.world,
+            relief: spec.realism.relief,
+            ..WorldConfig::new(spec.preset, spec.seed)
+        };
         let world = World::generate(&config).expect("world");
         let route = with_profile(world.route(spec.seed, spec.length), spec.profile);
         let drive_config = DriveConfig::default();
@@ -165,7 +186,9 @@ impl Campaign {
         // The rig the panoramas were rendered through, as a manifest's `[panoramas.rig]` would give it.
         let r = spec.realism.rig;
         let sub_cameras = (r.sub_cameras > 1).then_some(SubCameras { count: r.sub_cameras, radius_m: r.radius_m });
-        let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height, sub_cameras };
+        // On relief, the terrain model an orthophoto's [aerial.orthophoto] terrain would give (1 m cells).
+        let terrain = (!spec.realism.relief.is_flat()).then(|| Arc::new(terrain_under(&world, &shots)));
+        let rig = PanoramaRig { camera, mount, vehicle_mask, camera_height, sub_cameras, terrain };
         let reference = aerial_frames(&world, spec.seed, &shots, &spec.realism.aerial, ideal);
         let truth = shots.iter().map(|s| (s.id.clone(), s.truth.pose())).collect();
         let dg_error = shots

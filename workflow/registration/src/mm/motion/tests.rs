@@ -34,7 +34,8 @@ fn shot(rig: &PanoramaRig, at: [f64; 2], heading: f64, err: [f64; 4], time: f64)
     let grid = GroundGrid::new([cam.x(), cam.y()], 0.03, 900, 900, 0.0).unwrap();
     let empty = GrayImage::filled(1, 1, 0.0);
     let valid = Mask::from_fn(1, 1, |_, _| true);
-    let patch = OrthoPatch { grid, image: empty.clone(), valid, plane_height: cam.z() - rig.camera_height };
+    let patch =
+        OrthoPatch { grid, image: empty.clone(), valid, plane_height: cam.z() - rig.camera_height, relief: None };
     let part = ImagePart::whole(1, 1);
     let pano = Panorama { id: format!("t{time}"), time, image: empty, part, pose: dg, position_sigma: 0.1 };
     Shot { truth, pano, patch }
