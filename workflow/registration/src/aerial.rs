@@ -125,6 +125,9 @@ pub struct PatchPoint {
     pub pixel: [f64; 2],
     /// E, N, H from the MM triangulation with DG poses (§3.5).
     pub map: [f64; 3],
+    /// The ground's rise at the point from under the camera (the terrain model's, `mm::OrthoPatch`; 0 on a
+    /// level plane): the aerial steps meet a ray at the patch's ground height plus this.
+    pub rise: f64,
 }
 
 /// The result of registering one MM patch.

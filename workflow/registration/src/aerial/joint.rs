@@ -50,14 +50,15 @@ pub(crate) fn common_translation(
 }
 
 /// Keep in every image only the matches that fit the patch's common offset (threshold: the per-image
-/// RANSAC's, in aerial pixels of `gsd` metres; aerial rays met at each MM point's height, which follows the
-/// terrain on a slope); when fewer than
+/// RANSAC's, in aerial pixels of `gsd` metres; aerial rays met at the patch height `height` plus the ground's
+/// rise at each point); when fewer than
 /// `config.min_correspondences` fit, drop all.
 /// Returns the matches kept over all images.
 pub(super) fn keep_common(
     results: &mut [ImageResult],
     views: &[View<'_>],
     patch: &MmPatch<'_>,
+    height: f64,
     gsd: f64,
     config: &AerialConfig,
 ) -> usize {
@@ -69,7 +70,7 @@ pub(super) fn keep_common(
         for (k, &(slot, pixel)) in r.matches.iter().enumerate() {
             let q = patch.points[slot].pixel;
             let m = patch.grid.to_map(q[0], q[1]);
-            let Some(g) = views[i].ground(pixel, patch.points[slot].map[2]) else { continue };
+            let Some(g) = views[i].ground(pixel, height + patch.points[slot].rise) else { continue };
             owners.push((i, k));
             pairs.push(([m[0] - c[0], m[1] - c[1]], [g[0] - c[0], g[1] - c[1]]));
         }

@@ -17,6 +17,7 @@ pub(super) fn triangulate_points(
     patch: &MmPatch<'_>,
     results: &[ImageResult],
     views: &[View<'_>],
+    height: f64,
     config: &AerialConfig,
 ) -> Vec<AerialPointResult> {
     let slots: std::collections::BTreeSet<usize> = results.iter().flat_map(|r| r.matches.iter().map(|m| m.0)).collect();
@@ -37,7 +38,8 @@ pub(super) fn triangulate_points(
                 })
                 .collect();
             let t = triangulate(&rays, config.pixel_sigma, config.max_reprojection_px).ok()?;
-            if !plausible_height(t.position[2], t.covariance[2][2].sqrt(), patch.points[slot].map[2], config) {
+            let ground = height + patch.points[slot].rise;
+            if !plausible_height(t.position[2], t.covariance[2][2].sqrt(), ground, config) {
                 return None;
             }
             let observations = obs
@@ -57,14 +59,15 @@ pub(super) fn triangulate_points(
 }
 
 /// The points of a patch only one frame kept correspondences for: each its aerial ray, as the point where
-/// the ray meets its MM point's ground height with a covariance of `pixel_sigma` (at the ray's range)
-/// across the ray and `along` metres along it. The adjustment thus learns the point's position across the
-/// ray — horizontal, for a near-nadir ray — and takes the height from the panoramas. Edges are left out as
-/// in [`triangulate_points`].
+/// the ray meets the patch's ground height `height` (plus the ground's rise at the point) with a covariance
+/// of `pixel_sigma` (at the ray's range) across the ray and `along` metres along it. The adjustment thus
+/// learns the point's position across the ray — horizontal, for a near-nadir ray — and takes the height
+/// from the panoramas. Edges are left out as in [`triangulate_points`].
 pub(super) fn single_ray_points(
     patch: &MmPatch<'_>,
     results: &[ImageResult],
     views: &[View<'_>],
+    height: f64,
     along: f64,
     config: &AerialConfig,
 ) -> Vec<AerialPointResult> {
@@ -83,7 +86,7 @@ pub(super) fn single_ray_points(
             if d.z > -0.1 {
                 return None;
             }
-            let range = (patch.points[slot].map[2] - origin.z) / d.z;
+            let range = (height + patch.points[slot].rise - origin.z) / d.z;
             if !(range.is_finite() && range > 0.0) {
                 return None;
             }
@@ -115,8 +118,8 @@ fn roundness(results: &[ImageResult], slot: usize) -> f64 {
 
 /// Paper 000 §3.9 blunder check for narrow-baseline points: two nadir rays cannot reveal a mismatch along
 /// their baseline, which moves the point vertically by about GSD · height / base per pixel; a height
-/// `z` (σ `sigma_z`) further than `height_sigmas · σ + height_floor_m` from its MM point's (DG) ground
-/// height marks such a blunder.
+/// `z` (σ `sigma_z`) further than `height_sigmas · σ + height_floor_m` from the (DG) ground height at the
+/// point marks such a blunder.
 fn plausible_height(z: f64, sigma_z: f64, patch_height: f64, config: &AerialConfig) -> bool {
     (z - patch_height).abs() <= config.height_sigmas * sigma_z + config.height_floor_m
 }
@@ -128,6 +131,7 @@ pub(super) fn ortho_points(
     results: &[ImageResult],
     view: &View<'_>,
     ortho: &Orthophoto,
+    patch_height: f64,
     config: &AerialConfig,
 ) -> Vec<AerialPointResult> {
     let g = &ortho.geotransform;
@@ -142,7 +146,8 @@ pub(super) fn ortho_points(
             let (h, var_h) = match &ortho.terrain {
                 Some(t) => (t.height_at(e, n)?, config.terrain_sigma_m.powi(2)),
                 None => {
-                    (patch.points[slot].map[2], (3.0 * patch.position_sigma).powi(2) + config.terrain_sigma_m.powi(2))
+                    let h = patch_height + patch.points[slot].rise;
+                    (h, (3.0 * patch.position_sigma).powi(2) + config.terrain_sigma_m.powi(2))
                 }
             };
             Some(AerialPointResult {
@@ -221,14 +226,14 @@ mod tests {
         let (image, valid) = (GrayImage::from_fn(10, 10, |_, _| 0.0), Mask::from_fn(10, 10, |_, _| true));
         let grid = GroundGrid { centre: [1013.0, 2002.0], gsd: 0.12, width: 10, height: 10, up_heading: 0.0 };
         let points: Vec<PatchPoint> =
-            (0..2).map(|k| PatchPoint { index: 40 + k, pixel: [1.0, 1.0], map: truth[k] }).collect();
+            (0..2).map(|k| PatchPoint { index: 40 + k, pixel: [1.0, 1.0], map: truth[k], rise: 0.0 }).collect();
         let patch = MmPatch { image: &image, valid: &valid, grid: &grid, points: &points, position_sigma: 0.5 };
         let config = AerialConfig::default();
-        let out = triangulate_points(&patch, &results, &views, &config);
+        let out = triangulate_points(&patch, &results, &views, 8.0, &config);
         assert_eq!(out.iter().map(|p| p.index).collect::<Vec<_>>(), vec![40]);
         assert!((out[0].position[0] - 1012.0).hypot(out[0].position[1] - 2003.0) < 0.01, "{:?}", out[0].position);
         // Without the bound the edge point is output too: the filter, not the geometry, dropped it.
-        let all = triangulate_points(&patch, &results, &views, &AerialConfig { min_roundness: 0.0, ..config });
+        let all = triangulate_points(&patch, &results, &views, 8.0, &AerialConfig { min_roundness: 0.0, ..config });
         assert_eq!(all.iter().map(|p| p.index).collect::<Vec<_>>(), vec![40, 41]);
     }
 

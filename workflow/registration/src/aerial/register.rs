@@ -91,9 +91,9 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
     }
     let views: Vec<View<'_>> = overlapping.iter().map(|p| p.0).collect();
     // paper 000 §3.8: RANSAC over the correspondences of all images (one DG error), then their consistency
-    joint::keep_common(&mut results, &views, patch, gsd, config);
+    joint::keep_common(&mut results, &views, patch, height, gsd, config);
     if matches!(reference, AerialReference::Frames(_)) {
-        enforce_consistency(&mut results, &views, patch, gsd, config);
+        enforce_consistency(&mut results, &views, patch, height, gsd, config);
     }
     let (images, correspondences) = settle(&mut results, config.min_correspondences);
     if images < needed || correspondences < config.min_correspondences {
@@ -107,10 +107,10 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
     }
     let points = match (reference, config.single_ray_sigma_m) {
         (AerialReference::Frames(_), Some(along)) if images == 1 => {
-            single_ray_points(patch, &results, &views, along, config)
+            single_ray_points(patch, &results, &views, height, along, config)
         }
-        (AerialReference::Frames(_), _) => triangulate_points(patch, &results, &views, config),
-        (AerialReference::Orthophoto(o), _) => ortho_points(patch, &results, &views[0], o, config),
+        (AerialReference::Frames(_), _) => triangulate_points(patch, &results, &views, height, config),
+        (AerialReference::Orthophoto(o), _) => ortho_points(patch, &results, &views[0], o, height, config),
     };
     let discarded = points.is_empty().then_some(AerialDiscard::NoTriangulatedPoints);
     let (images, trace) = split(results);
@@ -144,7 +144,8 @@ fn mm_side(blurred: &BlurredPatch, local: &LocalGeometry, config: &AerialConfig)
     Ok(MmSide { prepared, features })
 }
 
-/// The patch's ground height (median of its points' heights), or what is wrong with the patch.
+/// The patch's ground height under the camera (median of its points' heights less the ground's rise at each),
+/// or what is wrong with the patch.
 fn validate(patch: &MmPatch<'_>) -> Result<f64, String> {
     let (img, valid, grid) = (patch.image, patch.valid, patch.grid);
     if img.width() != grid.width || img.height() != grid.height {
@@ -162,10 +163,11 @@ fn validate(patch: &MmPatch<'_>) -> Result<f64, String> {
     if !(patch.position_sigma.is_finite() && patch.position_sigma >= 0.0) {
         return Err(format!("position_sigma = {} must be finite and non-negative", patch.position_sigma));
     }
-    if let Some(p) = patch.points.iter().find(|p| !p.map.iter().chain(&p.pixel).all(|x| x.is_finite())) {
+    if let Some(p) = patch.points.iter().find(|p| !p.map.iter().chain(&p.pixel).chain([&p.rise]).all(|x| x.is_finite()))
+    {
         return Err(format!("point {} has non-finite coordinates", p.index));
     }
-    let mut heights: Vec<f64> = patch.points.iter().map(|p| p.map[2]).collect();
+    let mut heights: Vec<f64> = patch.points.iter().map(|p| p.map[2] - p.rise).collect();
     heights.sort_by(f64::total_cmp);
     heights.get(heights.len() / 2).copied().ok_or_else(|| "no points".to_string())
 }
@@ -187,12 +189,13 @@ fn split(results: Vec<ImageResult>) -> (Vec<AerialImageDiagnostic>, Vec<ImageTra
         .unzip()
 }
 
-/// Paper 000 §3.8: drop observations whose ground intersection (at the MM point's height) disagrees with
-/// the point's other observations.
+/// Paper 000 §3.8: drop observations whose ground intersection (at the patch height `height` plus the
+/// ground's rise at the point) disagrees with the point's other observations.
 fn enforce_consistency(
     results: &mut [ImageResult],
     views: &[View<'_>],
     patch: &MmPatch<'_>,
+    height: f64,
     gsd: f64,
     config: &AerialConfig,
 ) {
@@ -205,9 +208,9 @@ fn enforce_consistency(
             .enumerate()
             .flat_map(|(i, r)| r.matches.iter().enumerate().filter(|m| m.1.0 == slot).map(move |(k, m)| (i, k, m.1)))
             .collect();
-        let height = patch.points[slot].map[2];
+        let at = height + patch.points[slot].rise;
         let grounds: Vec<[f64; 2]> =
-            obs.iter().map(|&(i, _, px)| views[i].ground(px, height).unwrap_or([f64::NAN; 2])).collect();
+            obs.iter().map(|&(i, _, px)| views[i].ground(px, at).unwrap_or([f64::NAN; 2])).collect();
         for (&(i, k, _), ok) in obs.iter().zip(consistent(&grounds, tolerance)) {
             dropped[i][k] = !ok;
         }

@@ -122,7 +122,7 @@ fn fixture() -> &'static Fixture {
             .enumerate()
             .map(|(index, c)| {
                 let [e, n] = grid.to_map(c.u, c.v);
-                PatchPoint { index, pixel: [c.u, c.v], map: [e, n, h] }
+                PatchPoint { index, pixel: [c.u, c.v], map: [e, n, h], rise: 0.0 }
             })
             .collect();
         let (frames, truth_poses) = aerial_frames(&world, truth_centre);

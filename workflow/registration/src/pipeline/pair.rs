@@ -135,7 +135,7 @@ fn run(
         return Err((DiscardReason::TooFewMmPoints { points: points.len(), needed: config.min_mm_points }, only.ties));
     }
     let t2 = Instant::now();
-    let points_for_aerial = patch_points(&points);
+    let points_for_aerial = patch_points(&points, patch);
     let mm_patch = MmPatch {
         image: &patch.image,
         valid: &patch.valid,
@@ -171,14 +171,18 @@ fn prepared<'a>(
     }
 }
 
-fn patch_points(points: &[MmPoint]) -> Vec<PatchPoint> {
+fn patch_points(points: &[MmPoint], patch: &OrthoPatch) -> Vec<PatchPoint> {
     points
         .iter()
         .enumerate()
-        .map(|(index, p)| PatchPoint {
-            index,
-            pixel: p.corner.a,
-            map: [p.position.x(), p.position.y(), p.position.z()],
+        .map(|(index, p)| {
+            let [e, n] = patch.grid.to_map(p.corner.a[0], p.corner.a[1]);
+            PatchPoint {
+                index,
+                pixel: p.corner.a,
+                map: [p.position.x(), p.position.y(), p.position.z()],
+                rise: patch.height_at(e, n) - patch.plane_height,
+            }
         })
         .collect()
 }
