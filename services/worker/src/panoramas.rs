@@ -180,7 +180,8 @@ pub(crate) async fn camera_height(
 
 /// The terrain model of `[aerial.orthophoto]` over `area`, for the ortho-projection to follow the relief
 /// (`PanoramaRig::terrain`). `None` without one; an unreadable or non-covering model is reported and the
-/// panoramas are projected on a plane. A store that fails to deliver it is an error (the tile is retried).
+/// panoramas are projected on a plane. A store that fails to deliver it is reported as such
+/// ([`SkipReason::Read`]), which makes the service retry the tile, as for the orthophoto's windows.
 pub(crate) async fn terrain_model(
     files: &Files,
     campaign: &Campaign,
@@ -197,7 +198,6 @@ pub(crate) async fn terrain_model(
             Err(e) => (SkipReason::Decode, format!("{url}: {e:#}")),
         },
         Ok(None) => (SkipReason::Outside, format!("{url}: the terrain model does not cover the tile")),
-        Err(e) if e.reason().retryable() => return Err(anyhow::anyhow!("{url}: {e}")),
         Err(e) => (e.reason(), format!("{url}: {e}")),
     };
     let (why, detail) = problem;
