@@ -7,6 +7,9 @@
 //! - `nav/gnss.csv`, `nav/imu.csv`: raw GNSS fixes and IMU increments (columns: `plumbline_synth::motion::files`);
 //! - `truth/trajectory.csv`: the true trajectory (campaign CRS, σ = 0), the manifest's `reference`;
 //! - `truth/dg_errors.csv`: DG − truth per epoch with the environment and fault;
+//! - `truth/road_markings.csv`: the road paint the panoramas see, one row per dash, solid line, stop line, zebra
+//!   stripe and arrow shaft: `id,kind,width_m,wkt`, the centre line as a quoted WKT `LINESTRING` in the campaign
+//!   CRS (`plumbline_synth::texture::road_markings`; not written for `--preset city`);
 //! - `overview.png`: a map of the drive coloured by the horizontal DG error, standstills in black;
 //! - `panoramas/`: equirectangular JPEGs every `--panorama-spacing` metres rendered with the TRUE pose,
 //!   `index.csv` and `vehicle_mask.png` (non-zero = vehicle); `truth/images.csv`: true and DG poses then;
@@ -57,6 +60,7 @@ use plumbline_synth::motion::routes::{DEEP_CANYON, URBAN_STREET};
 use plumbline_synth::motion::{Drive, DriveConfig, files, gnss, overview_png};
 use plumbline_synth::render::{Realism, RealismLevel};
 use plumbline_synth::route::{Canyon, Route};
+use plumbline_synth::texture;
 use plumbline_synth::world::{self, World, WorldConfig};
 use tokio::sync::mpsc;
 pub(crate) use writer::Sink;
@@ -314,6 +318,7 @@ fn generate(args: &Args, sink: &Sink) -> anyhow::Result<String> {
     let truth_csv = formats::write_csv(&RawTrajectory::from_map_projected(drive.trajectory.records()));
     sink.put("truth/trajectory.csv", truth_csv)?;
     sink.put("truth/dg_errors.csv", files::dg_errors_csv(&dg.errors))?;
+    sink.put("truth/road_markings.csv", texture::markings_csv(&texture::road_markings(&world)))?;
     sink.put("overview.png", overview_png(&drive, &dg, OVERVIEW_WIDTH_PX).context("overview map")?)?;
     let mut sections = manifest::Sections::default();
     if !args.navigation_only {

@@ -4,14 +4,72 @@
 
 use super::filter::{hash, pulses, sdf_cover, stripe, unit};
 use super::{Place, Rgb};
-use crate::world::{Epoch, StreetClass};
+use crate::world::{Epoch, Street, StreetClass};
 
 /// Fresh road paint.
 pub const WHITE: Rgb = [0.86, 0.86, 0.83];
+
+// The geometry below is shared with the true marking polylines ([`super::markings_truth`]), so the two
+// cannot drift apart. `end` is the distance along the street from the nearest junction area's edge.
 /// Half width of a lane line, metres.
-const LINE: f64 = 0.06;
+pub(crate) const LINE: f64 = 0.06;
 /// Where lane lines stop before a junction area: the crossing and the stop line lie in between.
-const CLEAR: f64 = 5.0;
+pub(crate) const CLEAR: f64 = 5.0;
+/// Dashed lines: a dash of `DASH_LEN` at stations [k·`DASH_PERIOD`, k·`DASH_PERIOD` + `DASH_LEN`], metres.
+pub(crate) const DASH_PERIOD: f64 = 9.0;
+/// Length of a dash, metres.
+pub(crate) const DASH_LEN: f64 = 3.0;
+/// Offset of each of an arterial's two solid centre lines, metres.
+pub(crate) const ARTERIAL_CENTRE: f64 = 0.15;
+/// Zebra stripes lie at `end` within this range, metres.
+pub(crate) const ZEBRA_END: (f64, f64) = (0.3, 3.3);
+/// Zebra stripes across the carriageway: [k·period + start, k·period + start + len] from its right edge
+/// (t = −half carriageway), metres.
+pub(crate) const ZEBRA_PERIOD: f64 = 1.0;
+/// Start of the first zebra stripe from the carriageway's right edge, metres.
+pub(crate) const ZEBRA_START: f64 = 0.25;
+/// Width of a zebra stripe, metres.
+pub(crate) const ZEBRA_LEN: f64 = 0.5;
+/// The stop line lies at `end` within this range, on the approaching half of the carriageway, metres.
+pub(crate) const STOP_END: (f64, f64) = (3.8, 4.3);
+/// An arrow's tip lies at this `end`; arrow-local a = end − `ARROW_TIP`, metres.
+pub(crate) const ARROW_TIP: f64 = 8.0;
+/// The arrow head spans a in [0, `ARROW_HEAD`], the shaft a in [`ARROW_HEAD`, `ARROW_TAIL`], metres.
+pub(crate) const ARROW_HEAD: f64 = 1.5;
+/// Where the shaft ends (its tail), arrow-local, metres.
+pub(crate) const ARROW_TAIL: f64 = 5.0;
+/// Half width of the shaft, metres.
+pub(crate) const ARROW_SHAFT: f64 = 0.15;
+/// Half width of the head at its base, metres.
+pub(crate) const ARROW_HEAD_HALF: f64 = 0.6;
+
+/// The longitudinal lines of a street, each as (offset t, dashed): the centre line(s), lane lines and parking
+/// edge lines. Painted where `end` ≥ [`CLEAR`].
+pub(crate) fn each_line(st: &Street, mut f: impl FnMut(f64, bool)) {
+    match st.class {
+        StreetClass::Arterial => {
+            f(-ARTERIAL_CENTRE, false);
+            f(ARTERIAL_CENTRE, false);
+        }
+        _ => f(0.0, true),
+    }
+    for k in 1..st.lanes {
+        let c = f64::from(k) * st.lane_width;
+        f(c, true);
+        f(-c, true);
+    }
+    if st.parking > 0.0 {
+        let lanes = f64::from(st.lanes) * st.lane_width;
+        f(lanes, false);
+        f(-lanes, false);
+    }
+}
+
+/// Whether the street's end at its `from` (`near_from`) or `to` junction has a zebra crossing.
+pub(crate) fn has_zebra(st: &Street, near_from: bool) -> bool {
+    let j = if near_from { st.end_keys[0] } else { st.end_keys[1] };
+    !hash(0x2EB2A, i64::from(j), i64::from(st.key)).is_multiple_of(3)
+}
 
 /// Paint coverage at a place and the paint's strength (wear) at the epoch.
 pub fn paint(place: &Place, epoch: Epoch, seed: u64, fp: f64) -> (f32, f32) {
@@ -27,7 +85,7 @@ pub fn paint(place: &Place, epoch: Epoch, seed: u64, fp: f64) -> (f32, f32) {
         (junction_paint(place, end, near_from, fp), 2 + i64::from(near_from))
     } else {
         let arrows = if st.class == StreetClass::Arterial { arrow(place, end, near_from, fp) } else { 0.0 };
-        (lines(place, s + dash_shift(seed, i64::from(st.key), epoch), t, fp).max(arrows), 1)
+        (lines(s + dash_shift(seed, i64::from(st.key), epoch), t, st, fp).max(arrows), 1)
     };
     (cover, strength(seed, i64::from(st.key), element, epoch))
 }
@@ -39,23 +97,13 @@ fn dash_shift(seed: u64, street: i64, epoch: Epoch) -> f64 {
     if epoch == Epoch::Aerial && r < 0.15 { 1.5 + 20.0 * f64::from(r) } else { 0.0 }
 }
 
-fn lines(place: &Place, s: f64, t: f64, fp: f64) -> f32 {
-    let st = place.street;
-    let lanes = f64::from(st.lanes) * st.lane_width;
-    let across = |c: f64| stripe(t, c - LINE, c + LINE, fp);
-    let dashed = |c: f64| across(c) * pulses(s, 9.0, 0.0, 3.0, fp);
-    let centre = match st.class {
-        StreetClass::Arterial => across(-0.15).max(across(0.15)),
-        _ => dashed(0.0),
-    };
-    let mut cover = centre;
-    for k in 1..st.lanes {
-        let c = f64::from(k) * st.lane_width;
-        cover = cover.max(dashed(c)).max(dashed(-c));
-    }
-    if st.parking > 0.0 {
-        cover = cover.max(across(lanes)).max(across(-lanes));
-    }
+fn lines(s: f64, t: f64, st: &Street, fp: f64) -> f32 {
+    let mut cover = 0.0f32;
+    each_line(st, |c, dashed| {
+        let across = stripe(t, c - LINE, c + LINE, fp);
+        let along = if dashed { pulses(s, DASH_PERIOD, 0.0, DASH_LEN, fp) } else { 1.0 };
+        cover = cover.max(across * along);
+    });
     cover
 }
 
@@ -64,20 +112,23 @@ fn junction_paint(place: &Place, end: f64, near_from: bool, fp: f64) -> f32 {
     let st = place.street;
     let t = place.station.t;
     let half = st.carriageway() / 2.0;
-    let j = if near_from { st.end_keys[0] } else { st.end_keys[1] };
-    let zebra = !hash(0x2EB2A, i64::from(j), i64::from(st.key)).is_multiple_of(3);
-    let stripes = if zebra { stripe(end, 0.3, 3.3, fp) * pulses(t + half, 1.0, 0.25, 0.5, fp) } else { 0.0 };
+    let stripes = if has_zebra(st, near_from) {
+        let (a, b) = ZEBRA_END;
+        stripe(end, a, b, fp) * pulses(t + half, ZEBRA_PERIOD, ZEBRA_START, ZEBRA_LEN, fp)
+    } else {
+        0.0
+    };
     // Traffic approaching this end drives on the side where t has the sign of `near_from`.
     let approach = if near_from { stripe(t, 0.0, half, fp) } else { stripe(t, -half, 0.0, fp) };
-    let stop = stripe(end, 3.8, 4.3, fp) * approach;
+    let stop = stripe(end, STOP_END.0, STOP_END.1, fp) * approach;
     stripes.max(stop)
 }
 
 /// A straight-ahead arrow 8–13 m before the stop line in each approaching lane.
 fn arrow(place: &Place, end: f64, near_from: bool, fp: f64) -> f32 {
     let st = place.street;
-    let a = end - 8.0;
-    if !(-1.0..6.0).contains(&a) {
+    let a = end - ARROW_TIP;
+    if !(-1.0..ARROW_TAIL + 1.0).contains(&a) {
         return 0.0;
     }
     // Lane-local across coordinate, positive away from the centre line.
@@ -88,8 +139,8 @@ fn arrow(place: &Place, end: f64, near_from: bool, fp: f64) -> f32 {
     }
     let c = t - (lane + 0.5) * st.lane_width;
     // The head points toward the junction (decreasing `end`): head for a in [0, 1.5], shaft beyond.
-    let shaft = stripe(a, 1.5, 5.0, fp) * stripe(c, -0.15, 0.15, fp);
-    let head_sd = (0.6 * a / 1.5 - c.abs()).min(a).min(1.5 - a);
+    let shaft = stripe(a, ARROW_HEAD, ARROW_TAIL, fp) * stripe(c, -ARROW_SHAFT, ARROW_SHAFT, fp);
+    let head_sd = (ARROW_HEAD_HALF * a / ARROW_HEAD - c.abs()).min(a).min(ARROW_HEAD - a);
     shaft.max(sdf_cover(head_sd, fp))
 }
 

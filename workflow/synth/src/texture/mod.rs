@@ -5,9 +5,11 @@
 
 mod filter;
 mod markings;
+pub mod markings_truth;
 mod materials;
 
 pub use filter::{fbm, hash, pulses, stripe, unit};
+pub use markings_truth::{MarkingKind, MarkingTruth, markings_csv, road_markings};
 
 use crate::world::polyline::{self, Station};
 use crate::world::{Epoch, Street, World};
