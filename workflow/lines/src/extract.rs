@@ -1,0 +1,604 @@
+//! Strokes from one ortho patch, after Grejner-Brzezinska & Toth's linear-feature mapping: the local
+//! background (a box mean over valid pixels that excludes bright pixels on a second pass) is subtracted,
+//! pixels brighter than k robust σ are linked into 8-connected components, and each component is binned
+//! along its principal axis and vectorised from the sub-pixel centroids of its across profiles. Blobs that
+//! are too wide, too short, too stubby, wider in places than their stripe, or not darker on both flanks
+//! (sidewalk and car-roof edges) are rejected.
+
+use plumbline_imaging::ortho::GroundGrid;
+use plumbline_imaging::{GrayImage, Mask};
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+use crate::background::background_difference;
+use crate::geometry::{add_scaled, dot, length, median, normal, sub, unit};
+
+/// Settings of the extraction.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ExtractConfig {
+    /// Side of the square window of the local background mean, metres (wider than the widest stripe).
+    pub background_m: f64,
+    /// Detection threshold on the background-subtracted image, in robust σ (1.4826·MAD over valid pixels).
+    pub threshold_sigma: f64,
+    /// Absolute minimum contrast above the background, grey levels; also the detection threshold floor.
+    pub min_contrast: f64,
+    /// Narrowest accepted painted width, metres.
+    pub min_width_m: f64,
+    /// Widest accepted painted width, metres.
+    pub max_width_m: f64,
+    /// Shortest accepted stroke, metres.
+    pub min_length_m: f64,
+    /// Smallest accepted length / width.
+    pub min_aspect: f64,
+    /// Length of the bins along a component, one centre-line vertex per bin, metres.
+    pub bin_m: f64,
+    /// A component is a blob (arrow head, car, sidewalk) when one bin's across extent exceeds this many
+    /// times the stripe width plus 3 px.
+    pub max_extent_ratio: f64,
+    /// Both flanks of a stripe must lie below it by at least this share of its contrast.
+    pub flank_ratio: f64,
+    /// An end is open when its pixels lie within this many pixels of the border or an invalid pixel.
+    pub open_margin_px: usize,
+    /// Floor of a stroke's across σ, metres.
+    pub sigma_floor_m: f64,
+}
+
+impl Default for ExtractConfig {
+    fn default() -> Self {
+        Self {
+            background_m: 1.5,
+            threshold_sigma: 4.0,
+            min_contrast: 0.08,
+            min_width_m: 0.06,
+            max_width_m: 0.7,
+            min_length_m: 0.4,
+            min_aspect: 3.0,
+            bin_m: 0.5,
+            max_extent_ratio: 2.0,
+            flank_ratio: 0.5,
+            open_margin_px: 2,
+            sigma_floor_m: 0.005,
+        }
+    }
+}
+
+/// One painted element (or its visible part) seen in one ortho patch, in the patch's map coordinates.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Stroke {
+    /// Centre-line vertices, easting/northing, metres; at least two, in order along the element.
+    pub points: Vec<[f64; 2]>,
+    /// Painted width, metres.
+    pub width_m: f64,
+    /// 1σ of a vertex across the line from the extraction itself, metres.
+    pub sigma_m: f64,
+    /// Whether the start / end touches the patch border or an invalid area (the element's true end unseen).
+    pub open: [bool; 2],
+}
+
+/// The strokes of one ortho patch. `valid` marks the pixels that saw the ground; `grid` places the patch.
+/// Mismatched shapes (image, mask and grid sizes differ) or a non-positive gsd yield no strokes.
+pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &ExtractConfig) -> Vec<Stroke> {
+    let (width, height) = (image.width(), image.height());
+    let shapes_agree = valid.width() == width && valid.height() == height;
+    if !shapes_agree || grid.width != width || grid.height != height || !grid.gsd.is_finite() || grid.gsd <= 0.0 {
+        return Vec::new();
+    }
+    let half = ((config.background_m / grid.gsd / 2.0).round().max(1.0)) as usize;
+    let (diff, noise) = background_difference(image.data(), valid.data(), width, height, half, config.min_contrast);
+    let threshold = (config.threshold_sigma * noise).max(config.min_contrast) as f32;
+    let bright: Vec<bool> = diff.iter().zip(valid.data()).map(|(&d, &ok)| ok && d > threshold).collect();
+    let min_pixels = (0.5 * config.min_length_m * config.min_width_m / (grid.gsd * grid.gsd)).max(3.0) as usize;
+    let ctx = Component {
+        image,
+        valid: valid.data(),
+        diff: &diff,
+        width,
+        height,
+        noise,
+        threshold: f64::from(threshold),
+        config,
+        gsd: grid.gsd,
+    };
+    components(&bright, width, height)
+        .into_iter()
+        .filter(|pixels| pixels.len() >= min_pixels)
+        .filter_map(|pixels| ctx.stroke(&pixels))
+        .map(|(points, width_m, sigma_m, open)| Stroke {
+            points: points.iter().map(|p| grid.to_map(p[0], p[1])).collect(),
+            width_m,
+            sigma_m,
+            open,
+        })
+        .collect()
+}
+
+/// 8-connected components of the set pixels, each as its row-major indices.
+fn components(set: &[bool], width: usize, height: usize) -> Vec<Vec<usize>> {
+    let mut seen = vec![false; set.len()];
+    let mut out = Vec::new();
+    let mut stack = Vec::new();
+    for start in 0..set.len() {
+        if !set[start] || seen[start] {
+            continue;
+        }
+        seen[start] = true;
+        stack.push(start);
+        let mut pixels = Vec::new();
+        while let Some(i) = stack.pop() {
+            pixels.push(i);
+            let (c, r) = (i % width, i / width);
+            for rr in r.saturating_sub(1)..(r + 2).min(height) {
+                for cc in c.saturating_sub(1)..(c + 2).min(width) {
+                    let j = rr * width + cc;
+                    if set[j] && !seen[j] {
+                        seen[j] = true;
+                        stack.push(j);
+                    }
+                }
+            }
+        }
+        out.push(pixels);
+    }
+    out
+}
+
+/// What a component's analysis reads: the patch, its background difference and the settings.
+struct Component<'a> {
+    image: &'a GrayImage,
+    valid: &'a [bool],
+    diff: &'a [f32],
+    width: usize,
+    height: usize,
+    noise: f64,
+    /// The detection threshold: a stripe's mean core contrast must exceed it too.
+    threshold: f64,
+    config: &'a ExtractConfig,
+    gsd: f64,
+}
+
+/// Sums over the pixels of one bin's window, relative to its refined centre (pixel units).
+#[derive(Clone, Copy, Debug, Default)]
+struct BinFit {
+    centre: [f64; 2],
+    /// Σ contrast over the window.
+    sum: f64,
+    /// Σ contrast and count of the core (fully painted) pixels, and Σ of their raw grey values.
+    core_sum: f64,
+    core_n: usize,
+    core_raw: f64,
+    /// Across σ of the centroid, pixels.
+    sigma: f64,
+}
+
+/// A bin's window: along [−back, fwd) from the centre, across ±half.
+#[derive(Clone, Copy, Debug)]
+struct Window {
+    back: f64,
+    fwd: f64,
+    half: f64,
+    core: f64,
+}
+
+type RawStroke = (Vec<[f64; 2]>, f64, f64, [bool; 2]);
+
+impl Component<'_> {
+    fn pixel(&self, i: usize) -> [f64; 2] {
+        [(i % self.width) as f64 + 0.5, (i / self.width) as f64 + 0.5]
+    }
+
+    /// Whether pixel (c, r) lies inside the image and is valid.
+    fn valid_at(&self, c: isize, r: isize) -> bool {
+        c >= 0
+            && r >= 0
+            && (c as usize) < self.width
+            && (r as usize) < self.height
+            && self.valid[r as usize * self.width + c as usize]
+    }
+
+    /// The across centroid of the contrast in a window around `c` along `t` (two re-centring passes).
+    fn measure(&self, mut c: [f64; 2], t: [f64; 2], w: Window) -> BinFit {
+        let n = normal(t);
+        let mut fit = BinFit { centre: c, ..BinFit::default() };
+        for _ in 0..2 {
+            let reach = w.back.max(w.fwd) + w.half + 1.0;
+            let (c0, c1) = (((c[0] - reach).floor().max(0.0)) as usize, ((c[0] + reach).ceil().max(0.0)) as usize);
+            let (r0, r1) = (((c[1] - reach).floor().max(0.0)) as usize, ((c[1] + reach).ceil().max(0.0)) as usize);
+            let (mut sum, mut sx, mut sxx, mut px, mut count) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            let (mut core_sum, mut core_n, mut core_raw) = (0.0, 0, 0.0);
+            for row in r0..r1.min(self.height) {
+                for col in c0..c1.min(self.width) {
+                    let i = row * self.width + col;
+                    if !self.valid[i] {
+                        continue;
+                    }
+                    let d = sub(self.pixel(i), c);
+                    let (u, x) = (dot(d, t), dot(d, n));
+                    if u < -w.back || u >= w.fwd || x.abs() > w.half {
+                        continue;
+                    }
+                    let v = f64::from(self.diff[i]);
+                    (sum, sx, sxx, px, count) = (sum + v, sx + v * x, sxx + x * x, px + x, count + 1.0);
+                    if x.abs() <= w.core {
+                        (core_sum, core_n, core_raw) =
+                            (core_sum + v, core_n + 1, core_raw + f64::from(self.image.data()[i]));
+                    }
+                }
+            }
+            let shift = if sum > 0.0 { (sx / sum).clamp(-w.half, w.half) } else { 0.0 };
+            // var(x̄) = σ² Σ(x − x̄)² / (Σ contrast)²
+            let spread = (sxx - 2.0 * shift * px + count * shift * shift).max(0.0);
+            let sigma = if sum > 0.0 { self.noise * spread.sqrt() / sum } else { f64::INFINITY };
+            c = add_scaled(c, n, shift);
+            fit = BinFit { centre: c, sum, core_sum, core_n, core_raw, sigma };
+        }
+        fit
+    }
+
+    /// Mean raw grey value on one flank of a bin (`side` ±1), or `None` when no flank pixel is valid.
+    fn flank(&self, c: [f64; 2], t: [f64; 2], bin: f64, offset: f64, side: f64) -> Option<f64> {
+        let n = normal(t);
+        let (mut sum, mut count) = (0.0, 0.0);
+        for u in [-0.25 * bin, 0.0, 0.25 * bin] {
+            for k in [2.0, 3.0, 4.0] {
+                let p = add_scaled(add_scaled(c, t, u), n, side * (offset + k));
+                if self.valid_at(p[0].floor() as isize, p[1].floor() as isize) {
+                    sum += f64::from(self.image.sample_clamped(p[0], p[1]));
+                    count += 1.0;
+                }
+            }
+        }
+        (count > 0.0).then(|| sum / count)
+    }
+
+    /// Whether pixel `i` lies within the open margin of the border or an invalid pixel.
+    fn at_edge(&self, i: usize) -> bool {
+        let m = self.config.open_margin_px as isize;
+        let (c, r) = ((i % self.width) as isize, (i / self.width) as isize);
+        (-m..=m).any(|dr| (-m..=m).any(|dc| !self.valid_at(c + dc, r + dr)))
+    }
+
+    /// Whether any component pixel whose along position satisfies `near` lies at an edge.
+    fn end_open(&self, pixels: &[usize], along: &[f64], near: impl Fn(f64) -> bool) -> bool {
+        pixels.iter().zip(along).filter(|(_, s)| near(**s)).any(|(&i, _)| self.at_edge(i))
+    }
+
+    /// The stroke of one component in pixel coordinates (vertices, width m, σ m, open), or `None` for a blob.
+    fn stroke(&self, pixels: &[usize]) -> Option<RawStroke> {
+        let cfg = self.config;
+        let pts: Vec<[f64; 2]> = pixels.iter().map(|&i| self.pixel(i)).collect();
+        let count = pts.len() as f64;
+        let m = [pts.iter().map(|p| p[0]).sum::<f64>() / count, pts.iter().map(|p| p[1]).sum::<f64>() / count];
+        let (mut cxx, mut cyy, mut cxy) = (0.0, 0.0, 0.0);
+        for p in &pts {
+            let d = sub(*p, m);
+            (cxx, cyy, cxy) = (cxx + d[0] * d[0], cyy + d[1] * d[1], cxy + d[0] * d[1]);
+        }
+        let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+        let a = [theta.cos(), theta.sin()];
+        let along: Vec<f64> = pts.iter().map(|p| dot(sub(*p, m), a)).collect();
+        let smin = along.iter().copied().fold(f64::INFINITY, f64::min);
+        let smax = along.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let extent = smax - smin + 1.0;
+        let w0 = count / extent;
+        if w0 * self.gsd > 1.5 * cfg.max_width_m || extent * self.gsd < cfg.min_length_m {
+            return None;
+        }
+        let nb = ((extent * self.gsd / cfg.bin_m).round().clamp(1.0, extent.ceil()) as usize).max(1);
+        let bin = extent / nb as f64;
+        let e0 = smin - 0.5;
+        let index = |s: f64| (((s - e0) / bin).floor().max(0.0) as usize).min(nb - 1);
+        let mut members: Vec<Vec<usize>> = vec![Vec::new(); nb];
+        along.iter().enumerate().for_each(|(k, &s)| members[index(s)].push(k));
+        if members.iter().any(|b| b.len() < 2) {
+            return None;
+        }
+        // A sliver along the border or a mask edge (most bins touch it) is an element cut lengthwise.
+        if 2 * members.iter().filter(|b| b.iter().any(|&k| self.at_edge(pixels[k]))).count() > nb {
+            return None;
+        }
+        let an = normal(a);
+        let centres: Vec<[f64; 2]> = members
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let x = b.iter().map(|&k| dot(sub(pts[k], m), an)).sum::<f64>() / b.len() as f64;
+                add_scaled(add_scaled(m, a, e0 + (i as f64 + 0.5) * bin), an, x)
+            })
+            .collect();
+        let tangents: Vec<[f64; 2]> = (0..nb)
+            .map(|i| {
+                if nb < 3 {
+                    return a;
+                }
+                let d = sub(centres[(i + 2).min(nb - 1)], centres[i.saturating_sub(2)]);
+                unit(d).map_or(a, |t| if dot(t, a) < 0.0 { [-t[0], -t[1]] } else { t })
+            })
+            .collect();
+        let (half, core) = (0.5 * w0 + 2.5, (0.5 * w0 - 1.0).max(0.5));
+        let fits: Vec<BinFit> = (0..nb)
+            .map(|i| {
+                let back = 0.5 * bin + if i == 0 { 4.0 } else { 0.0 };
+                let fwd = 0.5 * bin + if i + 1 == nb { 4.0 } else { 0.0 };
+                self.measure(centres[i], tangents[i], Window { back, fwd, half, core })
+            })
+            .collect();
+        let interior = if nb >= 3 { &fits[1..nb - 1] } else { &fits[..] };
+        let core_n: usize = interior.iter().map(|f| f.core_n).sum();
+        if core_n == 0 {
+            return None;
+        }
+        let contrast = interior.iter().map(|f| f.core_sum).sum::<f64>() / core_n as f64;
+        if contrast < cfg.min_contrast.max(self.threshold) {
+            return None;
+        }
+        let (first, last) = (fits[0], fits[nb - 1]);
+        let (t0, t1) = (tangents[0], tangents[nb - 1]);
+        let (width_px, end0, end1) = if nb >= 3 {
+            // Contrast per pixel along, and each end's painted length from the end bin's integral.
+            let q = median(&mut interior.iter().map(|f| f.sum / bin).collect::<Vec<_>>());
+            if !q.is_finite() || q <= 0.0 {
+                return None;
+            }
+            let (l0, l1) = ((first.sum / q).clamp(0.0, bin + 4.0), (last.sum / q).clamp(0.0, bin + 4.0));
+            (q / contrast, add_scaled(first.centre, t0, 0.5 * bin - l0), add_scaled(last.centre, t1, l1 - 0.5 * bin))
+        } else {
+            let total: f64 = fits.iter().map(|f| f.sum).sum();
+            (
+                total / (contrast * extent),
+                add_scaled(first.centre, t0, -0.5 * bin),
+                add_scaled(last.centre, t1, 0.5 * bin),
+            )
+        };
+        let width_m = width_px * self.gsd;
+        if !(cfg.min_width_m..=cfg.max_width_m).contains(&width_m) {
+            return None;
+        }
+        // Blobs: a bin whose component pixels spread far beyond the stripe width.
+        let limit = cfg.max_extent_ratio * width_px + 3.0;
+        for (i, b) in members.iter().enumerate() {
+            let n = normal(tangents[i]);
+            let xs = b.iter().map(|&k| dot(sub(pts[k], fits[i].centre), n));
+            let (lo, hi) = xs.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), x| (lo.min(x), hi.max(x)));
+            if hi - lo + 1.0 > limit {
+                return None;
+            }
+        }
+        if !self.flanks_darker(interior, &tangents[if nb >= 3 { 1 } else { 0 }..], bin, width_px, contrast) {
+            return None;
+        }
+        let mut points = vec![end0];
+        if nb >= 3 {
+            points.extend(fits[1..nb - 1].iter().map(|f| f.centre));
+        }
+        points.push(end1);
+        let len_m = length(&points) * self.gsd;
+        if len_m < cfg.min_length_m || len_m < cfg.min_aspect * width_m {
+            return None;
+        }
+        let var = interior.iter().map(|f| f.sigma * f.sigma).sum::<f64>() / interior.len() as f64;
+        let sigma_m = (var.sqrt() * self.gsd).max(cfg.sigma_floor_m);
+        if !sigma_m.is_finite() {
+            return None;
+        }
+        let open =
+            [self.end_open(pixels, &along, |s| s <= smin + 2.0), self.end_open(pixels, &along, |s| s >= smax - 2.0)];
+        Some((points, width_m, sigma_m, open))
+    }
+
+    /// Whether each flank of the stripe (where seen) lies below it by `flank_ratio` of its contrast and by
+    /// the minimum contrast: edges of wide bright areas have one flank as bright as the stripe.
+    fn flanks_darker(&self, fits: &[BinFit], tangents: &[[f64; 2]], bin: f64, width_px: f64, contrast: f64) -> bool {
+        let core_n: usize = fits.iter().map(|f| f.core_n).sum();
+        let stripe = fits.iter().map(|f| f.core_raw).sum::<f64>() / core_n.max(1) as f64;
+        let drop = (self.config.flank_ratio * contrast).max(self.config.min_contrast);
+        [-1.0, 1.0].into_iter().all(|side| {
+            let flank: Vec<f64> = fits
+                .iter()
+                .zip(tangents)
+                .filter_map(|(f, &t)| self.flank(f.centre, t, bin, 0.5 * width_px, side))
+                .collect();
+            flank.is_empty() || stripe - flank.iter().sum::<f64>() / flank.len() as f64 >= drop
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geometry::{cross, dist};
+    use crate::scene::{PAINT, Road, Shape, WORN, distractors, render};
+
+    fn grid(size: usize) -> GroundGrid {
+        GroundGrid::new([1000.0, 2000.0], 0.03, size, size, 0.0).unwrap()
+    }
+
+    /// A straight truth element: centre-line ends, width, and whether each end lies inside the patch.
+    struct Truth {
+        a: [f64; 2],
+        b: [f64; 2],
+        width: f64,
+    }
+
+    impl Truth {
+        fn frame(&self) -> ([f64; 2], f64) {
+            let t = unit(sub(self.b, self.a)).unwrap();
+            (t, dist(self.a, self.b))
+        }
+
+        /// Max across distance of the stroke's vertices, or `None` when the stroke is not on this element.
+        fn across(&self, s: &Stroke) -> Option<f64> {
+            let (t, len) = self.frame();
+            let on = s.points.iter().all(|p| {
+                let (u, x) = (dot(sub(*p, self.a), t), cross(t, sub(*p, self.a)));
+                x.abs() < 0.1 && u > -0.1 && u < len + 0.1
+            });
+            on.then(|| s.points.iter().map(|p| cross(t, sub(*p, self.a)).abs()).fold(0.0, f64::max))
+        }
+
+        /// Along positions of the stroke's start and end.
+        fn ends(&self, s: &Stroke) -> [f64; 2] {
+            let (t, _) = self.frame();
+            [dot(sub(s.points[0], self.a), t), dot(sub(s.points[s.points.len() - 1], self.a), t)]
+        }
+    }
+
+    /// Every stroke lies on one truth element within `tol` across and has its width within 2 cm; returns the
+    /// strokes per element.
+    fn assign<'a>(strokes: &'a [Stroke], truths: &[Truth], tol: f64) -> Vec<Vec<&'a Stroke>> {
+        let mut per = vec![Vec::new(); truths.len()];
+        for s in strokes {
+            let hit = truths.iter().enumerate().find_map(|(k, t)| t.across(s).map(|e| (k, e)));
+            let Some((k, err)) = hit else { panic!("stroke on no painted element: {s:?}") };
+            assert!(err < tol, "centre-line error {err} m ≥ {tol} m: {s:?}");
+            assert!((s.width_m - truths[k].width).abs() < 0.02, "width {} ≠ {}", s.width_m, truths[k].width);
+            assert!(s.sigma_m >= 0.005 && s.sigma_m < 0.02, "σ {}", s.sigma_m);
+            per[k].push(s);
+        }
+        per
+    }
+
+    fn lane_scene(noise: f32, size: usize) -> (Vec<Stroke>, Vec<Truth>) {
+        let g = grid(size);
+        let road = Road { origin: g.centre, heading: 0.35 };
+        let mut shapes = distractors(&road, 4.0, [-4.5, -2.0], [2.5, 0.0]);
+        shapes.push(Shape::Stripe { line: road.line(-2.0, -20.0, -2.0, 20.0), width: 0.12, value: WORN });
+        for y in [-5.0, 4.0] {
+            shapes.push(Shape::Stripe { line: road.line(1.0, y, 1.0, y + 3.0), width: 0.12, value: PAINT });
+        }
+        let (image, valid) = render(&g, &shapes, noise, 7, Some((road.map(-2.0, 0.5), 0.8)));
+        let truths = [(-2.0, -20.0, 20.0), (1.0, -5.0, -2.0), (1.0, 4.0, 7.0)].map(|(x, y0, y1)| Truth {
+            a: road.map(x, y0),
+            b: road.map(x, y1),
+            width: 0.12,
+        });
+        (extract(&image, &valid, &g, &ExtractConfig::default()), truths.into())
+    }
+
+    fn check_lane_scene(noise: f32, tol: f64) {
+        let (strokes, truths) = lane_scene(noise, 400);
+        let per = assign(&strokes, &truths, tol);
+        // The solid line is cut by the vehicle disc: two strokes, each open at the border and at the disc.
+        assert_eq!(per[0].len(), 2, "{strokes:?}");
+        assert!(per[0].iter().all(|s| s.open == [true, true]));
+        // The first dash lies wholly inside: closed at both ends, 3 m long.
+        assert_eq!(per[1].len(), 1);
+        let mut ends = truths[1].ends(per[1][0]);
+        ends.sort_by(f64::total_cmp);
+        assert!(ends[0].abs() < 0.03 && (ends[1] - 3.0).abs() < 0.03, "dash ends {ends:?}");
+        assert_eq!(per[1][0].open, [false, false]);
+        // The second runs out of the patch: closed where it starts, open at the border.
+        assert_eq!(per[2].len(), 1);
+        let (s, e) = (per[2][0], truths[2].ends(per[2][0]));
+        let closed_end = if e[0] < e[1] { 0 } else { 1 };
+        assert!(e[closed_end].abs() < 0.03, "dash start {e:?}");
+        assert!(!s.open[closed_end] && s.open[1 - closed_end], "{:?}", s.open);
+    }
+
+    #[test]
+    fn lane_lines_are_found_to_a_centimetre_without_noise_and_nothing_on_distractors() {
+        check_lane_scene(0.0, 0.01);
+    }
+
+    #[test]
+    fn lane_lines_are_found_to_two_centimetres_in_noise() {
+        check_lane_scene(0.03, 0.02);
+    }
+
+    fn check_crossing(noise: f32, tol: f64) {
+        let g = grid(360);
+        let road = Road { origin: [g.centre[0] + 0.3, g.centre[1] - 0.2], heading: -0.6 };
+        let mut shapes = vec![Shape::Stripe { line: road.line(-3.2, 3.5, -0.1, 3.5), width: 0.5, value: PAINT }];
+        let mut truths = vec![Truth { a: road.map(-3.2, 3.5), b: road.map(-0.1, 3.5), width: 0.5 }];
+        for x in [-3.0, -2.0, -1.0, 0.0, 1.0, 2.0] {
+            let value = if x == 0.0 { WORN } else { PAINT };
+            shapes.push(Shape::Stripe { line: road.line(x, -2.0, x, 1.0), width: 0.5, value });
+            truths.push(Truth { a: road.map(x, -2.0), b: road.map(x, 1.0), width: 0.5 });
+        }
+        let (image, valid) = render(&g, &shapes, noise, 11, Some((road.map(0.0, -4.5), 1.0)));
+        let strokes = extract(&image, &valid, &g, &ExtractConfig::default());
+        for s in &strokes {
+            let p0 = s.points[0];
+            let q = |p: [f64; 2]| {
+                let d = sub(p, road.origin);
+                let (sn, cs) = road.heading.sin_cos();
+                (d[0] * cs - d[1] * sn, d[0] * sn + d[1] * cs)
+            };
+            eprintln!("{:?} {:?} w {:.3} n {}", q(p0), q(s.points[s.points.len() - 1]), s.width_m, s.points.len());
+        }
+        let per = assign(&strokes, &truths, tol);
+        for (k, (truth, found)) in truths.iter().zip(&per).enumerate() {
+            assert_eq!(found.len(), 1, "element {k}: {strokes:?}");
+            let mut ends = truth.ends(found[0]);
+            ends.sort_by(f64::total_cmp);
+            let len = dist(truth.a, truth.b);
+            assert!(ends[0].abs() < 0.04 && (ends[1] - len).abs() < 0.04, "element {k}: ends {ends:?}");
+            assert_eq!(found[0].open, [false, false]);
+        }
+    }
+
+    #[test]
+    fn a_stop_line_and_zebra_stripes_are_strokes_of_half_a_metre() {
+        check_crossing(0.0, 0.01);
+        check_crossing(0.03, 0.02);
+    }
+
+    #[test]
+    fn a_curved_line_of_sixty_metres_radius_follows_the_circle() {
+        let g = grid(400);
+        let (centre, radius) = ([g.centre[0] - 58.0, g.centre[1] - 3.0], 60.0);
+        let line: Vec<[f64; 2]> = (-180..=180)
+            .map(|k| f64::from(k) * 0.1 / radius)
+            .map(|phi| [centre[0] + radius * phi.cos(), centre[1] + radius * phi.sin()])
+            .collect();
+        for (noise, tol) in [(0.0, 0.01), (0.03, 0.02)] {
+            let shapes = [Shape::Stripe { line: line.clone(), width: 0.12, value: PAINT }];
+            let (image, valid) = render(&g, &shapes, noise, 3, None);
+            let strokes = extract(&image, &valid, &g, &ExtractConfig::default());
+            assert_eq!(strokes.len(), 1, "{strokes:?}");
+            let s = &strokes[0];
+            let err = s.points.iter().map(|p| (dist(*p, centre) - radius).abs()).fold(0.0, f64::max);
+            assert!(err < tol, "radial error {err}");
+            assert!((s.width_m - 0.12).abs() < 0.02 && s.open == [true, true] && length(&s.points) > 11.0);
+        }
+    }
+
+    #[test]
+    fn mismatched_shapes_and_a_blank_patch_give_no_strokes() {
+        let g = grid(50);
+        let image = GrayImage::filled(50, 50, 0.3);
+        assert!(extract(&image, &Mask::from_fn(50, 40, |_, _| true), &g, &ExtractConfig::default()).is_empty());
+        assert!(extract(&image, &Mask::from_fn(50, 50, |_, _| true), &g, &ExtractConfig::default()).is_empty());
+        assert!(extract(&image, &Mask::from_fn(50, 50, |_, _| false), &g, &ExtractConfig::default()).is_empty());
+    }
+
+    /// `cargo test -p plumbline-lines --release -- --ignored --nocapture extraction_time`
+    #[test]
+    #[ignore = "timing, run in release"]
+    fn extraction_time_on_a_full_patch() {
+        let g = grid(933);
+        let road = Road { origin: g.centre, heading: 0.35 };
+        let mut shapes = distractors(&road, 4.0, [-4.5, -2.0], [2.5, 0.0]);
+        shapes.push(Shape::Stripe { line: road.line(-2.0, -30.0, -2.0, 30.0), width: 0.12, value: WORN });
+        for y in [-23.0, -14.0, -5.0, 4.0, 13.0] {
+            shapes.push(Shape::Stripe { line: road.line(1.0, y, 1.0, y + 3.0), width: 0.12, value: PAINT });
+        }
+        let (image, valid) = render(&g, &shapes, 0.03, 5, Some((g.centre, 1.5)));
+        let start = std::time::Instant::now();
+        let runs = 20;
+        let mut n = 0;
+        for _ in 0..runs {
+            n = extract(&image, &valid, &g, &ExtractConfig::default()).len();
+        }
+        println!(
+            "extract 933²: {:.1} ms per patch, {n} strokes",
+            start.elapsed().as_secs_f64() * 1e3 / f64::from(runs)
+        );
+        let start = std::time::Instant::now();
+        for _ in 0..runs {
+            std::hint::black_box(background_difference(image.data(), valid.data(), 933, 933, 25, 0.08));
+        }
+        println!("background: {:.1} ms", start.elapsed().as_secs_f64() * 1e3 / f64::from(runs));
+    }
+}
