@@ -1,6 +1,6 @@
 //! The async end of a campaign run: merge the tiles, adjust, and write the outputs under the campaign's
-//! output prefix — the corrected trajectory in the input's format, `corrections.csv`, `observations.gpkg`,
-//! `report.json` and `report.html`. The CPU work runs on the blocking pool.
+//! output prefix — the corrected trajectory in the input's format, `corrections.csv`, `observations.gpkg`
+//! (with the road lines), `report.json` and `report.html`. The CPU work runs on the blocking pool.
 
 use std::collections::BTreeMap;
 
@@ -18,9 +18,11 @@ use crate::config::AdjusterConfig;
 use crate::corrections::corrections_csv;
 use crate::join::join_shared_points;
 use crate::layers::observation_layers;
+use crate::lines::{RoadLines, fill_report, ground_below_body, line_layers, road_lines};
 use crate::merge::{Merged, merge};
 use crate::report::build_report;
 use crate::solve::{Solved, panorama_mount, solve_observed};
+use plumbline_runtime::gdal_write::geopackage_with_lines;
 
 /// The progress stage of the adjustment.
 pub const STAGE: &str = "adjustment";
@@ -36,11 +38,14 @@ pub struct Finished {
     pub before: Option<Figures>,
     /// Corrected against the reference, when there is one.
     pub after: Option<Figures>,
+    /// The road lines (also in `observations.gpkg` and on the report's map).
+    pub road_lines: RoadLines,
 }
 
 /// Everything computed off the async runtime.
 struct Computed {
     solved: Solved,
+    road_lines: RoadLines,
     report: Report,
     corrections: Vec<u8>,
     geopackage: Vec<u8>,
@@ -98,7 +103,7 @@ pub async fn finish(
     }
     let accuracy = computed.report.accuracy.as_ref();
     let (before, after) = (accuracy.map(|a| a.before), accuracy.map(|a| a.after));
-    Ok(Finished { report: computed.report, written, before, after })
+    Ok(Finished { report: computed.report, written, before, after, road_lines: computed.road_lines })
 }
 
 fn compute(
@@ -114,13 +119,18 @@ fn compute(
     let solved = solve_observed(&campaign.trajectory.trajectory, &merged, &mount, config, observer)
         .with_context(|| format!("adjusting campaign {}", campaign.manifest.campaign.id))?;
     let stages = stages(tiles, &merged, &solved);
-    let report = build_report(campaign, &merged, &solved, campaign.reference.as_ref(), &stages);
+    let mut report = build_report(campaign, &merged, &solved, campaign.reference.as_ref(), &stages);
+    let depth = ground_below_body(&campaign.manifest);
+    let road_lines = road_lines(&campaign.trajectory.trajectory, &merged, &solved, depth);
+    let (pieces, lines) = (road_lines.corrected.pieces.len(), road_lines.corrected.lines.len());
+    tracing::info!(panoramas = road_lines.panoramas, strokes = road_lines.strokes, pieces, lines, "road lines");
+    fill_report(&mut report, &road_lines);
     let layers = observation_layers(campaign, &merged, &solved);
-    let geopackage =
-        plumbline_runtime::gdal_write::geopackage(&layers, campaign.epsg()).context("encoding observations.gpkg")?;
+    let geopackage = geopackage_with_lines(&layers, &line_layers(&road_lines), Some(campaign.epsg()))
+        .context("encoding observations.gpkg")?;
     let corrections = corrections_csv(&campaign.trajectory.trajectory, &solved.corrected);
     let html = plumbline_report::html::render(&report);
-    Ok(Computed { solved, report, corrections, geopackage, html })
+    Ok(Computed { solved, road_lines, report, corrections, geopackage, html })
 }
 
 /// The tiles' stages (seconds summed over tiles, tiles that ran them, items skipped in them) and the

@@ -10,6 +10,8 @@
 //! solve_observed(…, &mut |iteration| …) → the same, each adjustment iteration reported as it ends
 //! build_report(&campaign, &merged, &solved, reference, &stages) → plumbline_report::Report
 //! observation_layers(&campaign, &merged, &solved) → the point layers of observations.gpkg
+//! road_lines(&dg, &merged, &solved, depth) → RoadLines: the marking strokes placed with the corrected
+//!     and the DG trajectory, assembled into lines; line_layers(&lines) → the line layers of it
 //! finish(&files, &campaign, &tiles, &config, &progress).await → all of it, written under campaign.output
 //! ```
 
@@ -18,6 +20,7 @@ mod corrections;
 mod finish;
 mod join;
 mod layers;
+mod lines;
 mod merge;
 mod refs;
 mod report;
@@ -30,7 +33,8 @@ pub use corrections::{CORRECTIONS_HEADER, corrections_csv};
 pub use finish::{Finished, STAGE, finish, stages};
 pub use join::{SAME_POINT_SIGMAS, join_shared_points};
 pub use layers::{LAYERS, observation_layers};
-pub use merge::{ImageOutcome, Merged, merge, motions_of, tile_name};
+pub use lines::{LINE_LAYERS, RoadLines, fill_report, ground_below_body, line_layers, road_lines};
+pub use merge::{ImageOutcome, Merged, PanoramaStrokes, merge, motions_of, tile_name};
 pub use report::build_report;
 pub use report::series::SERIES_POINTS;
 pub use residuals::normalised_residuals;

@@ -49,6 +49,20 @@ pub struct Merged {
     pub tiles: Vec<TileLine>,
     /// Items the tiles skipped, registration discards (`registration`, `discard.<key>`) and duplicates.
     pub skipped: Vec<SkippedInput>,
+    /// The road markings each registered panorama's ortho patch showed, in DG map coordinates, in tile
+    /// order (a panorama once).
+    pub strokes: Vec<PanoramaStrokes>,
+}
+
+/// The road-marking strokes of one panorama.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PanoramaStrokes {
+    /// Panorama id.
+    pub image: String,
+    /// Exposure time, seconds.
+    pub time: f64,
+    /// The strokes, in the DG map coordinates of its ortho patch.
+    pub strokes: Vec<plumbline_lines::Stroke>,
 }
 
 /// The report's name of a tile: `c{col}_r{row}`.
@@ -132,6 +146,9 @@ fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1) {
             });
         }
         out.images.push(ImageOutcome { image: d.image.clone(), time: d.time, tile: *tile, discarded });
+        if !d.strokes.is_empty() && !out.strokes.iter().any(|s| s.image == d.image) {
+            out.strokes.push(PanoramaStrokes { image: d.image.clone(), time: d.time, strokes: d.strokes.clone() });
+        }
     }
 }
 

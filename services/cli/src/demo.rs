@@ -65,5 +65,13 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     progress.end("simulate");
     let outcome = run_campaign(ctx.files(), &manifest, false, 2, progress).await?;
     print_summary(&outcome);
+    let truth = format!("{}/truth/road_markings.csv", args.out.trim_end_matches('/'));
+    match ctx.read(&truth).await {
+        Ok(text) => {
+            let text = String::from_utf8_lossy(&text);
+            print!("\n{}", crate::lines::demo_table(&truth, &text, &outcome.finished.road_lines)?);
+        }
+        Err(e) => println!("\nno road-marking truth ({e:#}): no road-line table"),
+    }
     Ok(ExitCode::SUCCESS)
 }

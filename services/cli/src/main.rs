@@ -10,6 +10,7 @@ mod cadastre;
 mod demo;
 mod exit;
 mod io;
+mod lines;
 mod matching;
 mod navigate;
 mod poles;
@@ -61,6 +62,9 @@ enum Command {
     Adjust(adjust::Args),
     /// Fuse raw GNSS and IMU (Kalman filter + RTS smoother) with integrity tests; write the smoothed trajectory.
     Navigate(navigate::Args),
+    /// Road-line tools: export a run's road lines (GeoPackage, GeoJSON), compare them with a marking layer.
+    #[command(subcommand)]
+    Lines(lines::Command),
     /// Pole tools: detect poles and tree trunks in static LAS/LAZ clouds.
     #[command(subcommand)]
     Poles(poles::Command),
@@ -95,6 +99,7 @@ fn main() -> ExitCode {
             Command::Cadastre(cmd) => cadastre::run(&ctx, cmd).await,
             Command::Adjust(args) => adjust::run(&ctx, args).await,
             Command::Navigate(args) => navigate::run(&ctx, args).await,
+            Command::Lines(cmd) => lines::run(&ctx, cmd).await,
             Command::Poles(cmd) => poles::run(&ctx, cmd).await,
             Command::Serve(cmd) => serve::run(&ctx, cmd).await,
             Command::Submit(args) => submit::run(&ctx, args).await,

@@ -244,6 +244,11 @@ pub fn print_summary(outcome: &Outcome) {
             println!("  {stage:<12} {reason:<28} {n}");
         }
     }
+    if !report.road_lines.is_empty() {
+        let kinds: Vec<String> =
+            report.road_lines.iter().map(|k| format!("{} {} ({:.0} m)", k.lines, k.kind, k.length_m)).collect();
+        println!("road lines: {} (layer road_lines of observations.gpkg)", kinds.join(", "));
+    }
     match &report.accuracy {
         Some(acc) => print!("\n{}", acc.table()),
         None => println!("no reference trajectory in the manifest: no before/after table"),

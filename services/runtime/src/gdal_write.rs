@@ -82,6 +82,71 @@ pub struct PointLayer {
     pub features: Vec<PointFeature>,
 }
 
+/// A line feature: its vertices (x, y) in the layer CRS and one value per field.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineFeature {
+    /// Vertices, at least two.
+    pub points: Vec<[f64; 2]>,
+    /// Values in the order of [`LineLayer::fields`].
+    pub values: Vec<FieldValue>,
+}
+
+/// A line-string layer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LineLayer {
+    /// Layer name.
+    pub name: String,
+    /// Attribute columns: name and type.
+    pub fields: Vec<(String, FieldType)>,
+    /// The features.
+    pub features: Vec<LineFeature>,
+}
+
+/// What a feature of either layer kind gives the writer.
+trait Shaped {
+    const TYPE: OGRwkbGeometryType::Type;
+    fn values(&self) -> &[FieldValue];
+    /// The coordinates' problem, if one is not finite or the shape is degenerate.
+    fn problem(&self) -> Option<String>;
+    fn geometry(&self) -> Result<Geometry, GdalError>;
+}
+
+impl Shaped for PointFeature {
+    const TYPE: OGRwkbGeometryType::Type = OGRwkbGeometryType::wkbPoint;
+    fn values(&self) -> &[FieldValue] {
+        &self.values
+    }
+    fn problem(&self) -> Option<String> {
+        (!(self.x.is_finite() && self.y.is_finite())).then(|| format!("({}, {}) is not finite", self.x, self.y))
+    }
+    fn geometry(&self) -> Result<Geometry, GdalError> {
+        let mut point = Geometry::empty(Self::TYPE)?;
+        point.add_point_2d((self.x, self.y));
+        Ok(point)
+    }
+}
+
+impl Shaped for LineFeature {
+    const TYPE: OGRwkbGeometryType::Type = OGRwkbGeometryType::wkbLineString;
+    fn values(&self) -> &[FieldValue] {
+        &self.values
+    }
+    fn problem(&self) -> Option<String> {
+        if self.points.len() < 2 {
+            return Some(format!("has {} vertices (a line needs two)", self.points.len()));
+        }
+        let bad = self.points.iter().position(|p| !(p[0].is_finite() && p[1].is_finite()))?;
+        Some(format!("vertex {bad} {:?} is not finite", self.points[bad]))
+    }
+    fn geometry(&self) -> Result<Geometry, GdalError> {
+        let mut line = Geometry::empty(Self::TYPE)?;
+        for p in &self.points {
+            line.add_point_2d((p[0], p[1]));
+        }
+        Ok(line)
+    }
+}
+
 /// Pixels of a raster, band-sequential, rows top to bottom.
 #[derive(Clone, Debug, PartialEq)]
 pub enum RasterData {
@@ -123,7 +188,7 @@ pub(crate) fn vsimem_path(extension: &str) -> String {
     format!("/vsimem/plumbline-{}-{n}.{extension}", std::process::id())
 }
 
-fn srs(epsg: u32) -> Result<SpatialRef, GdalWriteError> {
+pub(crate) fn srs(epsg: u32) -> Result<SpatialRef, GdalWriteError> {
     let mut srs = SpatialRef::from_epsg(epsg).map_err(failed(format!("build the CRS EPSG:{epsg}")))?;
     srs.set_axis_mapping_strategy(AxisMappingStrategy::TraditionalGisOrder);
     Ok(srs)
@@ -142,13 +207,30 @@ pub fn geopackage(layers: &[PointLayer], epsg: u32) -> Result<Vec<u8>, GdalWrite
 /// A GeoPackage with the given point layers in CRS `epsg`, or with no CRS recorded (GeoPackage's
 /// "undefined Cartesian SRS") when `None`.
 pub fn geopackage_in(layers: &[PointLayer], epsg: Option<u32>) -> Result<Vec<u8>, GdalWriteError> {
+    geopackage_with_lines(layers, &[], epsg)
+}
+
+/// A GeoPackage with the given point layers, then the line layers, in CRS `epsg` (or none recorded).
+pub fn geopackage_with_lines(
+    points: &[PointLayer],
+    lines: &[LineLayer],
+    epsg: Option<u32>,
+) -> Result<Vec<u8>, GdalWriteError> {
     route_gdal_messages();
-    check_layers(layers)?;
+    for l in points {
+        check_layer(&l.name, &l.fields, &l.features)?;
+    }
+    for l in lines {
+        check_layer(&l.name, &l.fields, &l.features)?;
+    }
     let srs = epsg.map(srs).transpose()?;
     let path = vsimem_path("gpkg");
     let driver = DriverManager::get_driver_by_name("GPKG").map_err(failed("find the GPKG driver"))?;
     let mut ds = driver.create_vector_only(&path).map_err(failed("create a GeoPackage"))?;
-    let result = write_layers(&mut ds, layers, srs.as_ref());
+    let result =
+        points.iter().try_for_each(|l| write_layer(&mut ds, &l.name, &l.fields, &l.features, srs.as_ref())).and_then(
+            |()| lines.iter().try_for_each(|l| write_layer(&mut ds, &l.name, &l.fields, &l.features, srs.as_ref())),
+        );
     let closed = ds.close().map_err(failed("close the GeoPackage"));
     let bytes = take(&path);
     result?;
@@ -156,52 +238,66 @@ pub fn geopackage_in(layers: &[PointLayer], epsg: Option<u32>) -> Result<Vec<u8>
     bytes
 }
 
-fn check_layers(layers: &[PointLayer]) -> Result<(), GdalWriteError> {
-    for layer in layers {
-        for (i, f) in layer.features.iter().enumerate() {
-            let item = || format!("layer {} feature {i}", layer.name);
-            if f.values.len() != layer.fields.len() {
-                let problem = format!("has {} values for {} fields", f.values.len(), layer.fields.len());
-                return Err(GdalWriteError::Invalid { item: item(), field: "values", problem });
-            }
-            if !(f.x.is_finite() && f.y.is_finite()) {
-                let problem = format!("({}, {}) is not finite", f.x, f.y);
-                return Err(GdalWriteError::Invalid { item: item(), field: "x/y", problem });
-            }
+fn check_layer<F: Shaped>(name: &str, fields: &[(String, FieldType)], features: &[F]) -> Result<(), GdalWriteError> {
+    for (i, f) in features.iter().enumerate() {
+        let item = || format!("layer {name} feature {i}");
+        if f.values().len() != fields.len() {
+            let problem = format!("has {} values for {} fields", f.values().len(), fields.len());
+            return Err(GdalWriteError::Invalid { item: item(), field: "values", problem });
+        }
+        if let Some(problem) = f.problem() {
+            return Err(GdalWriteError::Invalid { item: item(), field: "geometry", problem });
         }
     }
     Ok(())
 }
 
-fn write_layers(ds: &mut Dataset, layers: &[PointLayer], srs: Option<&SpatialRef>) -> Result<(), GdalWriteError> {
-    for layer in layers {
-        let name = &layer.name;
-        let options = LayerOptions { name, srs, ty: OGRwkbGeometryType::wkbPoint, options: None };
-        let mut txn = ds.start_transaction().map_err(failed("start a transaction"))?;
-        let lyr = txn.create_layer(options).map_err(failed(format!("create layer {name}")))?;
-        for (field, ty) in &layer.fields {
-            let ogr = match ty {
-                FieldType::Integer => OGRFieldType::OFTInteger64,
-                FieldType::Real => OGRFieldType::OFTReal,
-                FieldType::Text => OGRFieldType::OFTString,
-            };
-            let defn = FieldDefn::new(field, ogr).map_err(failed(format!("define field {name}.{field}")))?;
-            defn.add_to_layer(&lyr).map_err(failed(format!("add field {name}.{field}")))?;
-        }
-        for (i, f) in layer.features.iter().enumerate() {
-            write_feature(&lyr, f).map_err(failed(format!("write feature {i} of layer {name}")))?;
-        }
-        txn.commit().map_err(failed(format!("commit layer {name}")))?;
+fn write_layer<F: Shaped>(
+    ds: &mut Dataset,
+    name: &str,
+    fields: &[(String, FieldType)],
+    features: &[F],
+    srs: Option<&SpatialRef>,
+) -> Result<(), GdalWriteError> {
+    let options = LayerOptions { name, srs, ty: F::TYPE, options: None };
+    let mut txn = ds.start_transaction().map_err(failed("start a transaction"))?;
+    let lyr = txn.create_layer(options).map_err(failed(format!("create layer {name}")))?;
+    add_fields(&lyr, name, fields)?;
+    for (i, f) in features.iter().enumerate() {
+        let written = f.geometry().and_then(|g| write_values(&lyr, g, f.values()));
+        written.map_err(failed(format!("write feature {i} of layer {name}")))?;
+    }
+    txn.commit().map_err(failed(format!("commit layer {name}")))?;
+    Ok(())
+}
+
+/// Define the attribute columns of a new layer.
+pub(crate) fn add_fields<L: LayerAccess>(
+    lyr: &L,
+    name: &str,
+    fields: &[(String, FieldType)],
+) -> Result<(), GdalWriteError> {
+    for (field, ty) in fields {
+        let ogr = match ty {
+            FieldType::Integer => OGRFieldType::OFTInteger64,
+            FieldType::Real => OGRFieldType::OFTReal,
+            FieldType::Text => OGRFieldType::OFTString,
+        };
+        let defn = FieldDefn::new(field, ogr).map_err(failed(format!("define field {name}.{field}")))?;
+        defn.add_to_layer(lyr).map_err(failed(format!("add field {name}.{field}")))?;
     }
     Ok(())
 }
 
-fn write_feature<L: LayerAccess>(lyr: &L, f: &PointFeature) -> Result<(), GdalError> {
+/// Write one feature: its geometry and its values in the layer's field order.
+pub(crate) fn write_values<L: LayerAccess>(
+    lyr: &L,
+    geometry: Geometry,
+    values: &[FieldValue],
+) -> Result<(), GdalError> {
     let mut feature = Feature::new(lyr.defn())?;
-    let mut point = Geometry::empty(OGRwkbGeometryType::wkbPoint)?;
-    point.add_point_2d((f.x, f.y));
-    feature.set_geometry(point)?;
-    for (k, value) in f.values.iter().enumerate() {
+    feature.set_geometry(geometry)?;
+    for (k, value) in values.iter().enumerate() {
         match value {
             FieldValue::Integer(v) => feature.set_field_integer64(k, *v)?,
             FieldValue::Real(v) => feature.set_field_double(k, *v)?,

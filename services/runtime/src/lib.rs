@@ -11,7 +11,7 @@
 //! - [`crs`] — [`CrsTransform`] between EPSG codes, [`meridian_convergence`].
 //! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding;
 //!   agency rasters open only through an allow-list of GDAL drivers, agency VRTs only as [`vrt::VrtMosaic`]s rewritten
-//!   to the files beside them.
+//!   to the files beside them; [`line_io`] — line layers read back from a GeoPackage and written as GeoJSON.
 //! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`InvalidInput`] (exit code 2).
 //! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
 //! - [`logging`] — [`init_tracing`], with OTLP span export through [`telemetry`]; [`progress`] — bars, log
@@ -25,6 +25,7 @@ pub mod files;
 pub mod gdal_messages;
 pub mod gdal_read;
 pub mod gdal_write;
+pub mod line_io;
 pub mod logging;
 pub mod progress;
 pub mod range_reader;

@@ -43,6 +43,8 @@ pub(crate) enum Timed {
     Triangulation,
     /// Aerial matching and triangulation (thread-seconds).
     Aerial,
+    /// Road-marking extraction from the ortho patches (thread-seconds).
+    Lines,
     /// The whole registration (wall time).
     Registration,
     /// Reading the depth images and the cadastre.
@@ -55,7 +57,7 @@ pub(crate) enum Timed {
 
 impl Timed {
     /// Every timed stage, in the order a tile output lists them.
-    pub(crate) const ALL: [Self; 12] = [
+    pub(crate) const ALL: [Self; 13] = [
         Self::Read,
         Self::Decode,
         Self::Ortho,
@@ -64,6 +66,7 @@ impl Timed {
         Self::Matching,
         Self::Triangulation,
         Self::Aerial,
+        Self::Lines,
         Self::Registration,
         Self::PolesRead,
         Self::Poles,
@@ -81,6 +84,7 @@ impl Timed {
             Self::Matching => "matching",
             Self::Triangulation => "triangulation",
             Self::Aerial => "aerial",
+            Self::Lines => "lines",
             Self::Registration => "registration",
             Self::PolesRead => "poles_read",
             Self::Poles => "poles",
@@ -259,6 +263,7 @@ async fn register(
         Timed::Matching.took(t.matching.as_secs_f64()),
         Timed::Triangulation.took(t.triangulation.as_secs_f64()),
         Timed::Aerial.took(t.aerial.as_secs_f64()),
+        Timed::Lines.took(t.lines.as_secs_f64()),
         Timed::Registration.took(t.total.as_secs_f64()),
     ];
     out.result = Some(result);

@@ -124,6 +124,12 @@ pub struct MmConfig {
     pub max_miss: f64,
     /// Largest height of a triangulated point above or below the ground plane, metres (kerbs, camber).
     pub max_height_offset: f64,
+    /// Road-marking extraction from the ortho patch of every owned panorama (`None`: off); its strokes go
+    /// into the panorama's diagnostic, in DG map coordinates, for the line product after the adjustment.
+    pub lines: Option<plumbline_lines::ExtractConfig>,
+    /// Strokes are kept within this horizontal distance of the camera, metres (cut there, the cut end
+    /// open): the panorama's ground resolution falls with range.
+    pub lines_max_distance: f64,
 }
 
 impl Default for MmConfig {
@@ -152,6 +158,8 @@ impl Default for MmConfig {
             min_ray_angle: 2f64.to_radians(),
             max_miss: 0.08,
             max_height_offset: 0.5,
+            lines: Some(plumbline_lines::ExtractConfig::default()),
+            lines_max_distance: 10.0,
         }
     }
 }

@@ -91,6 +91,10 @@ pub struct ImageDiagnostic {
     pub cross_check: Option<CrossCheck>,
     /// Why no aerial points came from this panorama (None = matched).
     pub discarded: Option<DiscardReason>,
+    /// Road markings extracted from the panorama's ortho patch, in DG map coordinates (placed with the
+    /// corrected trajectory after the adjustment); empty when the extraction is off or found none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub strokes: Vec<plumbline_lines::Stroke>,
 }
 
 /// A panorama's aerial offset: the median horizontal difference (aerial-derived − MM position) over its

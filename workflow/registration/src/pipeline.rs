@@ -78,6 +78,8 @@ pub struct StageTimings {
     pub triangulation: Duration,
     /// Steps 5–8, §3.6–§3.9.
     pub aerial: Duration,
+    /// Road-marking extraction from the ortho patches.
+    pub lines: Duration,
     /// Elapsed time of the `register_tile` call: the pairs (preparation, timed in `ortho` and `features`,
     /// happens before it, panorama by panorama).
     pub total: Duration,
@@ -90,6 +92,7 @@ impl StageTimings {
         self.matching += other.matching;
         self.triangulation += other.triangulation;
         self.aerial += other.aerial;
+        self.lines += other.lines;
     }
 }
 

@@ -40,6 +40,7 @@ pub fn render(report: &Report) -> String {
     plots(&mut s, report);
     stages_and_tiles(&mut s, report);
     height_biases(&mut s, report);
+    road_lines(&mut s, report);
     skipped(&mut s, report);
     events(&mut s, report);
     s.push_str("</body></html>\n");
@@ -161,7 +162,7 @@ fn plots(s: &mut String, r: &Report) {
         ));
     }
     s.push_str("<h2>Map</h2>");
-    s.push_str(&svg::map(1000.0, &r.map.track, &r.map.images, &r.map.poles));
+    s.push_str(&svg::map(1000.0, &r.map.track, &r.map.images, &r.map.poles, &r.map.lines));
     if !r.residuals.is_empty() {
         s.push_str("<h2>Normalised residuals</h2><p class=\"muted\">Residual / σ per component; red: N(0, 1).</p>");
     }
@@ -230,6 +231,30 @@ fn height_biases(s: &mut String, r: &Report) {
             b.sigma_m,
             b.prior_sigma_m,
             b.points
+        );
+    }
+    s.push_str("</table>");
+}
+
+/// One row per kind of road line: count, length, median vertex σ.
+fn road_lines(s: &mut String, r: &Report) {
+    if r.road_lines.is_empty() {
+        return;
+    }
+    s.push_str(
+        "<h2>Road lines</h2><p class=\"muted\">Road markings extracted from the panoramas' ortho-images and placed \
+         with the corrected trajectory (layer <code>road_lines</code> of observations.gpkg; the DG placement is \
+         <code>road_lines_dg</code>), drawn in grey on the map.</p><table><tr><th>kind</th><th>lines</th>\
+         <th>length [m]</th><th>median vertex σ [m]</th></tr>",
+    );
+    for k in &r.road_lines {
+        let _ = write!(
+            s,
+            "<tr><td>{}</td><td>{}</td><td>{:.1}</td><td>{:.3}</td></tr>",
+            escape(&k.kind),
+            k.lines,
+            k.length_m,
+            k.median_sigma_m
         );
     }
     s.push_str("</table>");

@@ -46,6 +46,9 @@ pub struct Report {
     /// The estimated height bias of each aerial frame set (absent in reports written before it existed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub height_biases: Vec<HeightBiasLine>,
+    /// The road lines extracted from the panoramas' ortho-images, by kind (absent when none was found).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub road_lines: Vec<RoadLineKind>,
     /// Inputs the manifest names that gave the adjustment no control at all (absent when every named input
     /// contributed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -251,6 +254,34 @@ pub struct MapData {
     pub images: Vec<MapMark>,
     /// Cadastre poles near the trajectory.
     pub poles: Vec<MapMark>,
+    /// Road markings extracted along the drive, placed with the corrected trajectory (absent in reports
+    /// written before the line product existed, or when none was found).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub lines: Vec<MapLine>,
+}
+
+/// A road line on the map.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct MapLine {
+    /// Its kind: `solid`, `dashed`, `stop_line`, `zebra_stripe`, `other`.
+    pub kind: String,
+    /// Vertices, easting/northing, metres.
+    pub points: Vec<[f64; 2]>,
+}
+
+/// The road lines of one kind.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RoadLineKind {
+    /// The kind: `solid`, `dashed`, `stop_line`, `zebra_stripe`, `other`.
+    pub kind: String,
+    /// Lines of this kind.
+    pub lines: usize,
+    /// Their total length, metres (a dashed line's from its first dash to its last).
+    pub length_m: f64,
+    /// The median over their vertices of the vertex σ, metres.
+    pub median_sigma_m: f64,
 }
 
 /// Normalised residuals of one observation kind.

@@ -3,7 +3,7 @@
 
 use std::fmt::Write as _;
 
-use crate::model::{MapMark, MarkState, TrackPoint};
+use crate::model::{MapLine, MapMark, MarkState, TrackPoint};
 
 /// Plot frame: outer size in pixels and axis labels.
 #[derive(Clone, Copy, Debug)]
@@ -274,9 +274,9 @@ pub fn ramp(value: f64, max: f64) -> String {
     format!("#{:02x}{:02x}{:02x}", r as u8, g as u8, b as u8)
 }
 
-/// An equal-aspect map: the track coloured by correction, images as circles, poles as squares (filled =
-/// used as control).
-pub fn map(width: f64, track: &[TrackPoint], images: &[MapMark], poles: &[MapMark]) -> String {
+/// An equal-aspect map: the track coloured by correction, road lines in dark grey (dashed lines dashed),
+/// images as circles, poles as squares (filled = used as control).
+pub fn map(width: f64, track: &[TrackPoint], images: &[MapMark], poles: &[MapMark], lines: &[MapLine]) -> String {
     let es = track.iter().map(|p| &p.e).chain(images.iter().map(|m| &m.e)).chain(poles.iter().map(|m| &m.e));
     let ns = track.iter().map(|p| &p.n).chain(images.iter().map(|m| &m.n)).chain(poles.iter().map(|m| &m.n));
     let (Some(er), Some(nr)) = (range(es), range(ns)) else {
@@ -300,6 +300,16 @@ pub fn map(width: f64, track: &[TrackPoint], images: &[MapMark], poles: &[MapMar
             px(pair[1].e),
             py(pair[1].n),
             ramp(pair[1].correction, max)
+        );
+    }
+    for l in lines {
+        let points: Vec<String> = l.points.iter().map(|p| format!("{:.1},{:.1}", px(p[0]), py(p[1]))).collect();
+        let dash = if l.kind == "dashed" { " stroke-dasharray=\"2,2\"" } else { "" };
+        let _ = write!(
+            s,
+            "<polyline points=\"{}\" fill=\"none\" stroke=\"#333\" stroke-width=\"1\"{dash}><title>{}</title></polyline>",
+            points.join(" "),
+            escape(&l.kind)
         );
     }
     let fill = |state: MarkState, color: &str| match state {
@@ -330,10 +340,11 @@ pub fn map(width: f64, track: &[TrackPoint], images: &[MapMark], poles: &[MapMar
     let _ = write!(
         s,
         "<text x=\"{pad}\" y=\"{:.1}\">correction 0 m <tspan fill=\"{}\">■</tspan> … {max:.2} m <tspan fill=\"{}\">■</tspan>; \
-         ○ panorama (filled: registered), □ pole (filled: matched); {:.0} m across</text></svg>",
+         ○ panorama (filled: registered), □ pole (filled: matched){}; {:.0} m across</text></svg>",
         height - 6.0,
         ramp(0.0, 1.0),
         ramp(1.0, 1.0),
+        if lines.is_empty() { "" } else { ", grey: road lines" },
         span
     );
     s

@@ -2,8 +2,8 @@
 
 use plumbline_geo::metrics::Stats;
 use plumbline_report::{
-    Accuracy, CampaignInfo, CorrectionSeries, Figures, HeightBiasLine, MapData, MapMark, MarkState,
-    RejectedObservation, Report, ReportDoc, Residuals, SkippedItem, Summary, TrackPoint, html,
+    Accuracy, CampaignInfo, CorrectionSeries, Figures, HeightBiasLine, MapData, MapLine, MapMark, MarkState,
+    RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, SkippedItem, Summary, TrackPoint, html,
 };
 
 fn stats(median: f64) -> Stats {
@@ -37,6 +37,7 @@ fn sample() -> Report {
             track: (0..20).map(|i| TrackPoint { e: f64::from(i), n: 0.0, correction: f64::from(i) / 20.0 }).collect(),
             images: vec![MapMark { id: "pano1".into(), e: 1.0, n: 0.5, state: MarkState::Used }],
             poles: vec![MapMark { id: "pole7".into(), e: 3.0, n: -1.0, state: MarkState::Unused }],
+            lines: Vec::new(),
         },
         residuals: vec![Residuals { kind: "pole".into(), normalised: vec![-1.0, 0.2, 0.5, 2.5] }],
         skipped: vec![
@@ -114,6 +115,31 @@ fn height_biases_are_in_the_json_and_in_a_table_of_the_page() {
     );
     assert!(page.contains("<tr><td>a02 + &lt;a03&gt;</td><td>-0.062</td><td>0.118</td><td>0.610</td><td>5</td></tr>"));
     assert!(!html::render(&sample()).contains("height biases"), "no table without biases");
+}
+
+#[test]
+fn road_lines_are_drawn_on_the_map_and_tabled_by_kind() {
+    let report = Report {
+        map: MapData {
+            lines: vec![
+                MapLine { kind: "dashed".into(), points: vec![[2.0, 0.0], [9.0, 0.5]] },
+                MapLine { kind: "<solid>".into(), points: vec![[1.0, 1.0], [5.0, 1.0], [8.0, 1.2]] },
+            ],
+            ..sample().map
+        },
+        road_lines: vec![RoadLineKind { kind: "dashed".into(), lines: 1, length_m: 7.02, median_sigma_m: 0.0123 }],
+        ..sample()
+    };
+    let ReportDoc::V1(back) = serde_json::from_slice::<ReportDoc>(&report.to_json()).unwrap();
+    assert_eq!(back, report);
+    let page = html::render(&report);
+    let drawn = "fill=\"none\" stroke=\"#333\"";
+    assert_eq!(page.matches(drawn).count(), 2, "one polyline per line");
+    assert_eq!(page.matches("stroke-dasharray").count(), 1, "the dashed line is drawn dashed");
+    assert!(page.contains("&lt;solid&gt;"), "kinds are escaped");
+    assert!(page.contains("<tr><td>dashed</td><td>1</td><td>7.0</td><td>0.012</td></tr>"), "{page}");
+    let plain = html::render(&sample());
+    assert!(!plain.contains(drawn) && !plain.contains("Road lines"), "nothing without lines");
 }
 
 /// Two rejections by the test and one tie point left undetermined by the first: counted apart on the card,

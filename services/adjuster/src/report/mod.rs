@@ -61,6 +61,7 @@ pub fn build_report(
         rejected: rejected(merged, result),
         flags: flags(solved),
         height_biases: height_biases(result),
+        road_lines: Vec::new(),
         warnings: input_warnings(&campaign.manifest, merged),
     }
 }

@@ -76,7 +76,7 @@ pub fn map(
         .filter_map(|&i| Some((records.get(i)?, horizontal.get(i)?)))
         .map(|(r, c)| TrackPoint { e: r.position.x(), n: r.position.y(), correction: *c })
         .collect();
-    MapData { track, images: images(panoramas, corrected, merged), poles: poles(merged) }
+    MapData { track, images: images(panoramas, corrected, merged), poles: poles(merged), lines: Vec::new() }
 }
 
 /// The panoramas at their corrected positions (the DG one where the corrected trajectory does not reach).

@@ -80,6 +80,7 @@ pub(crate) fn process(i: usize, tile: &TileInputs<'_>) -> PairOutcome {
         aerial_offset: None,
         cross_check: None,
         discarded: None,
+        strokes: tile.order[i].strokes.clone(),
     };
     let (mut timings, mut trace) = (StageTimings::default(), Vec::new());
     let ties = match run(i, tile, &mut diag, &mut timings, &mut trace) {

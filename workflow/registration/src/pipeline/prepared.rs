@@ -7,6 +7,7 @@ use std::time::Instant;
 use plumbline_geo::MapFromBody;
 use plumbline_imaging::kaze::KazeFeatures;
 use plumbline_imaging::{GrayImage, ImagePart};
+use plumbline_lines::Stroke;
 use rayon::prelude::*;
 
 use super::{PipelineConfig, StageTimings, pair};
@@ -45,6 +46,8 @@ pub struct PreparedPanorama {
     pub(crate) owned: bool,
     /// `None`: not prepared.
     pub(crate) patch: Option<Result<(OrthoPatch, KazeFeatures), MmError>>,
+    /// Road markings in its ortho patch (owned panoramas, when the extraction is on).
+    pub(crate) strokes: Vec<Stroke>,
     pub(crate) timings: StageTimings,
 }
 
@@ -60,7 +63,7 @@ impl PreparedPanorama {
             pose: info.pose,
             position_sigma: info.position_sigma,
         };
-        Self { pano, owned: info.owned, patch: None, timings: StageTimings::default() }
+        Self { pano, owned: info.owned, patch: None, strokes: Vec::new(), timings: StageTimings::default() }
     }
 
     /// Image id.
@@ -122,9 +125,42 @@ pub fn prepare_panorama(pano: &Panorama, owned: bool, rig: &PanoramaRig, config:
         f.map(|f| (patch, f))
     });
     let mut prepared = PreparedPanorama::unprepared(PanoramaInfo::of(pano, owned));
+    if let (true, Some(lines), Ok((patch, _))) = (owned, &config.lines, &patch) {
+        let t2 = Instant::now();
+        let camera = rig.mount.camera_pose(&pano.pose).translation;
+        let strokes = plumbline_lines::extract(&patch.image, &patch.valid, &patch.grid, lines);
+        prepared.strokes = within(strokes, [camera.x(), camera.y()], config.lines_max_distance);
+        timings.lines = t2.elapsed();
+    }
     prepared.patch = Some(patch);
     prepared.timings = timings;
     prepared
+}
+
+/// The strokes cut to the disc of `radius` around `centre`: each run of vertices inside becomes a stroke,
+/// its ends open where the cut made them.
+fn within(strokes: Vec<Stroke>, centre: [f64; 2], radius: f64) -> Vec<Stroke> {
+    let inside = |p: &[f64; 2]| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= radius;
+    let mut out = Vec::new();
+    for s in strokes {
+        let n = s.points.len();
+        let mut k = 0;
+        while k < n {
+            if !inside(&s.points[k]) {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k < n && inside(&s.points[k]) {
+                k += 1;
+            }
+            if k - start >= 2 {
+                let open = [s.open[0] || start > 0, s.open[1] || k < n];
+                out.push(Stroke { points: s.points[start..k].to_vec(), open, ..s.clone() });
+            }
+        }
+    }
+    out
 }
 
 /// Every panorama prepared and owned, in parallel (for callers that hold the whole tile anyway).

@@ -207,6 +207,7 @@ fn outcomes(street: &Street<'_>) -> (Vec<PreparedPanorama>, Vec<pair::PairOutcom
                 aerial_offset: matched.then_some(AerialOffset { offset, std: [0.02, 0.02], points: 3 }),
                 cross_check: None,
                 discarded: (!matched).then_some(DiscardReason::TooFewMmPoints { points: 4, needed: 10 }),
+                strokes: Vec::new(),
             };
             pair::PairOutcome { diagnostic, ties, timings: StageTimings::default(), trace: Vec::new() }
         })
