@@ -312,6 +312,17 @@ fn inspect(o: &Overlay, bytes: &[u8]) -> Vec<String> {
     vec!["cadastre".into(), "inspect".into(), o.path("x.gpkg")]
 }
 
+fn lines_export(o: &Overlay, gpkg: &[u8]) -> Vec<String> {
+    o.write("x.gpkg", gpkg);
+    ["lines", "export", &o.path("x.gpkg"), "--out", &o.path("lines.geojson")].into_iter().map(str::to_owned).collect()
+}
+
+fn lines_compare(o: &Overlay, gpkg: &[u8], markings: &str) -> Vec<String> {
+    o.write("x.gpkg", gpkg);
+    o.write("m.csv", markings);
+    ["lines", "compare", &o.path("x.gpkg"), &o.path("m.csv")].into_iter().map(str::to_owned).collect()
+}
+
 fn navigate(o: &Overlay, gnss: Option<&[u8]>, imu: Option<&[u8]>) -> Vec<String> {
     if let Some(g) = gnss {
         o.write("nav/gnss.csv", g);
@@ -471,6 +482,11 @@ fn cases() -> Vec<Case> {
         case("cadastre: epsg conflicting with the layer's SRS", INVALID, &["cadastres[0]", "poles.gpkg", "SrsConflict", "EPSG:31467"], |o| cadastre_section(o, "layers = [\"poles\", \"trees\"]", "layers = [\"poles\", \"trees\"]\nepsg = 31467")),
         case("cadastre: undecodable geometry blob is a warning", 0, &["cadastres[0]", "poles.gpkg", "BadGeometry", "warning"], |o| { cadastre_sql(o, &["UPDATE poles SET geom = X'47500001DEADBEEF' WHERE fid = (SELECT min(fid) FROM poles)"]); validate(o) }),
         case("cadastre: a 1 MB class value is a warning", 0, &["cadastres[0]", "poles.gpkg", "UnknownClass", "warning"], |o| { cadastre_sql(o, &["UPDATE poles SET class = hex(zeroblob(500000)) WHERE fid = (SELECT min(fid) FROM poles)"]); validate(o) }),
+        case("lines export: 0-byte file", INVALID, &["x.gpkg", "empty (0 bytes"], |o| lines_export(o, b"")),
+        case("lines export: garbage", INVALID, &["x.gpkg", "no SQLite header"], |o| lines_export(o, &garbage(8192))),
+        case("lines export: a GeoPackage without road lines", INVALID, &["x.gpkg", "no layer `road_lines`", "poles"], |o| lines_export(o, &o.original("cadastre/poles.gpkg"))),
+        case("lines compare: a bad WKT row", INVALID, &["m.csv", "line 3", "wkt"], |o| lines_compare(o, &o.original("cadastre/poles.gpkg"), "id,kind,width_m,wkt\na,solid,0.12,\"LINESTRING (0 0, 1 1)\"\nb,solid,0.12,\"LINESTRING (0 0, 1 y)\"\n")),
+        case("lines compare: no markings", INVALID, &["m.csv", "no markings"], |o| lines_compare(o, &o.original("cadastre/poles.gpkg"), "id,kind,width_m,wkt\n")),
         case("cadastre inspect: 0-byte file", INVALID, &["x.gpkg", "empty (0 bytes"], |o| inspect(o, b"")),
         case("cadastre inspect: text file", INVALID, &["x.gpkg", "no SQLite header"], |o| inspect(o, b"hello\n")),
         case("cadastre inspect: binary garbage", INVALID, &["x.gpkg", "no SQLite header"], |o| inspect(o, &garbage(8192))),

@@ -58,8 +58,7 @@ pub struct ReadLines {
 pub fn read_line_layer(file: &str, bytes: Vec<u8>, layer: &str) -> Result<ReadLines, LineReadError> {
     route_gdal_messages();
     let path = vsimem_path("gpkg");
-    let open_error = |message: String| LineReadError::Open { file: file.to_owned(), message };
-    gdal::vsi::create_mem_file(&path, bytes).map_err(|e| open_error(e.to_string()))?;
+    hold(file, &path, bytes)?;
     let result = read_from(file, &path, layer);
     let _ = gdal::vsi::unlink_mem_file(&path);
     result
@@ -135,8 +134,7 @@ fn text_of(v: GdalValue) -> String {
 pub fn read_points(file: &str, bytes: Vec<u8>, layer: &str) -> Result<Vec<[f64; 2]>, LineReadError> {
     route_gdal_messages();
     let path = vsimem_path("gpkg");
-    gdal::vsi::create_mem_file(&path, bytes)
-        .map_err(|e| LineReadError::Open { file: file.to_owned(), message: e.to_string() })?;
+    hold(file, &path, bytes)?;
     let result = open(file, &path).and_then(|ds| {
         let mut lyr = layer_of(file, &ds, layer)?;
         let points = lyr
@@ -153,6 +151,14 @@ pub fn read_points(file: &str, bytes: Vec<u8>, layer: &str) -> Result<Vec<[f64; 
     });
     let _ = gdal::vsi::unlink_mem_file(&path);
     result
+}
+
+/// Put `bytes` into GDAL's memory file system at `path` once they look like a GeoPackage (SQLite's header,
+/// at least one page: GDAL is never handed an empty or foreign file).
+fn hold(file: &str, path: &str, bytes: Vec<u8>) -> Result<(), LineReadError> {
+    let open_error = |message: String| LineReadError::Open { file: file.to_owned(), message };
+    crate::cadastre::sniff(&bytes[..bytes.len().min(100)], bytes.len() as u64).map_err(open_error)?;
+    gdal::vsi::create_mem_file(path, bytes).map_err(|e| open_error(e.to_string()))
 }
 
 fn open(file: &str, path: &str) -> Result<Dataset, LineReadError> {

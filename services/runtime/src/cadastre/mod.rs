@@ -231,7 +231,7 @@ fn read_head(path: &Path) -> std::io::Result<(Vec<u8>, u64)> {
 }
 
 /// Why the bytes that start a file (of `len` bytes) cannot be a GeoPackage, before GDAL is asked.
-fn sniff(head: &[u8], len: u64) -> Result<(), String> {
+pub(crate) fn sniff(head: &[u8], len: u64) -> Result<(), String> {
     if len == 0 {
         return Err("the file is empty (0 bytes; a failed upload or copy?)".into());
     }
