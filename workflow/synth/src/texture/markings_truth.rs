@@ -2,7 +2,7 @@
 //! coordinates: one element per dash, continuous solid line, stop line, zebra stripe and arrow shaft, each its
 //! painted centre line with the paint's width.
 //!
-//! The elements are laid out from the same definitions the texture paints from ([`super::markings`]), mapped
+//! The elements are laid out from the same definitions the texture paints from (`texture::markings`), mapped
 //! from street coordinates (station s, offset t) to the map the way the texture's place lookup inverts it: a
 //! point belongs to the nearest segment of its street's polyline, so a line at constant t is the polyline
 //! offset by t — trimmed where two offset segments cross on the inside of a bend, joined by an arc around the
