@@ -10,7 +10,7 @@ use std::sync::Mutex;
 
 use gdal::Dataset;
 use gdal::vector::LayerAccess;
-use plumbline_adjuster::{AdjusterConfig, LAYERS, finish};
+use plumbline_adjuster::{AdjusterConfig, LAYERS, LINE_LAYERS, finish};
 use plumbline_campaign::progress::Progress;
 use plumbline_geo::formats::{AttitudeConvention, parse_csv};
 use plumbline_geo::metrics::compare;
@@ -137,7 +137,7 @@ fn check_geopackage(
     let ds = Dataset::open(path).unwrap();
     let mut names: Vec<String> = ds.layers().map(|l| l.name()).collect();
     names.sort();
-    let mut want = LAYERS.map(String::from);
+    let mut want: Vec<String> = LAYERS.iter().chain(&LINE_LAYERS).map(|s| (*s).to_owned()).collect();
     want.sort();
     assert_eq!(names, want);
     let ties: usize = tiles.iter().map(|t| t.registration.as_ref().unwrap().ties.len()).sum();

@@ -155,7 +155,7 @@ mod tests {
         let names = Timed::ALL.map(Timed::name);
         let pinned = ["read", "decode", "ortho", "features", "prepare", "matching", "triangulation", "aerial"];
         assert_eq!(names[..8], pinned);
-        assert_eq!(names[8..], ["registration", "poles_read", "poles", "total"]);
+        assert_eq!(names[8..], ["lines", "registration", "poles_read", "poles", "total"]);
         for t in Timed::ALL {
             assert_eq!(Timed::of(t.name()), Some(t));
         }
