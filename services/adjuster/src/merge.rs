@@ -73,6 +73,7 @@ pub fn tile_name(tile: &TileId) -> String {
 /// Merge the tiles' results (see [`Merged`]).
 pub fn merge(tiles: &[TileOutputV1]) -> Merged {
     let mut out = Merged::default();
+    let mut stroked = HashSet::new();
     let mut tie_ids = HashSet::new();
     let mut motion_pairs = HashSet::new();
     let mut frame_sets: BTreeMap<Vec<String>, Vec<TiePointId>> = BTreeMap::new();
@@ -100,7 +101,7 @@ pub fn merge(tiles: &[TileOutputV1]) -> Merged {
             }
             images = reg.images.len();
             matched = reg.images.iter().filter(|d| d.discarded.is_none()).count();
-            add_images(&mut out, &t.tile, reg);
+            add_images(&mut out, &t.tile, reg, &mut stroked);
         }
         out.observations.poles.extend(t.poles.iter().cloned());
         out.pole_frames.extend(t.pole_frames.iter().map(|FrameReport::V1(f)| f.clone()));
@@ -133,8 +134,9 @@ fn frames_of(reg: &TileResultV1, tie: &TiePoint) -> Option<Vec<String>> {
     (!frames.is_empty()).then_some(frames)
 }
 
-/// The image diagnostics of one tile as outcomes, each discard also a skipped item.
-fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1) {
+/// The image diagnostics of one tile as outcomes, each discard also a skipped item; the strokes of a panorama
+/// not in `stroked` (ids whose strokes are already in) are taken.
+fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1, stroked: &mut HashSet<String>) {
     for d in &reg.images {
         let discarded = d.discarded.as_ref().map(|r| (r.key(), r.to_string()));
         if let Some((key, detail)) = &discarded {
@@ -146,7 +148,7 @@ fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1) {
             });
         }
         out.images.push(ImageOutcome { image: d.image.clone(), time: d.time, tile: *tile, discarded });
-        if !d.strokes.is_empty() && !out.strokes.iter().any(|s| s.image == d.image) {
+        if !d.strokes.is_empty() && stroked.insert(d.image.clone()) {
             out.strokes.push(PanoramaStrokes { image: d.image.clone(), time: d.time, strokes: d.strokes.clone() });
         }
     }

@@ -137,27 +137,48 @@ pub fn prepare_panorama(pano: &Panorama, owned: bool, rig: &PanoramaRig, config:
     prepared
 }
 
-/// The strokes cut to the disc of `radius` around `centre`: each run of vertices inside becomes a stroke,
-/// its ends open where the cut made them.
+/// The strokes cut to the disc of `radius` around `centre`: each part inside becomes a stroke, ending on the
+/// circle where the cut made it, that end open.
 fn within(strokes: Vec<Stroke>, centre: [f64; 2], radius: f64) -> Vec<Stroke> {
-    let inside = |p: &[f64; 2]| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= radius;
+    let inside = |p: [f64; 2]| (p[0] - centre[0]).hypot(p[1] - centre[1]) <= radius;
+    // The point of segment a–b on the circle (a and b on either side of it), by bisection.
+    let crossing = |a: [f64; 2], b: [f64; 2]| {
+        let (mut lo, mut hi) = (0.0, 1.0);
+        let at = |t: f64| [a[0] + (b[0] - a[0]) * t, a[1] + (b[1] - a[1]) * t];
+        for _ in 0..40 {
+            let mid = 0.5 * (lo + hi);
+            if inside(at(mid)) == inside(a) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        at(0.5 * (lo + hi))
+    };
     let mut out = Vec::new();
     for s in strokes {
-        let n = s.points.len();
-        let mut k = 0;
-        while k < n {
-            if !inside(&s.points[k]) {
-                k += 1;
-                continue;
+        let mut run: Vec<[f64; 2]> = Vec::new();
+        let mut open_start = s.open[0];
+        for (k, &p) in s.points.iter().enumerate() {
+            let previous = k.checked_sub(1).map(|j| s.points[j]);
+            match (inside(p), previous) {
+                (true, Some(q)) if !inside(q) => {
+                    run = vec![crossing(q, p), p];
+                    open_start = true;
+                }
+                (true, _) => run.push(p),
+                (false, Some(q)) if inside(q) => {
+                    run.push(crossing(q, p));
+                    if run.len() >= 2 {
+                        out.push(Stroke { points: std::mem::take(&mut run), open: [open_start, true], ..s.clone() });
+                    }
+                    run.clear();
+                }
+                (false, _) => {}
             }
-            let start = k;
-            while k < n && inside(&s.points[k]) {
-                k += 1;
-            }
-            if k - start >= 2 {
-                let open = [s.open[0] || start > 0, s.open[1] || k < n];
-                out.push(Stroke { points: s.points[start..k].to_vec(), open, ..s.clone() });
-            }
+        }
+        if run.len() >= 2 {
+            out.push(Stroke { points: run, open: [open_start, s.open[1]], ..s.clone() });
         }
     }
     out
@@ -208,4 +229,32 @@ pub fn panoramas_to_prepare_for(
         }
     }
     needed
+}
+
+#[cfg(test)]
+mod within_tests {
+    use super::*;
+
+    fn stroke(points: Vec<[f64; 2]>) -> Stroke {
+        Stroke { points, width_m: 0.12, sigma_m: 0.01, open: [false, false] }
+    }
+
+    #[test]
+    fn strokes_are_cut_on_the_circle_and_the_cut_ends_open() {
+        // Radius 10 around the origin: a line from x = −14 to 14 at y = 6 crosses it at x = ±8.
+        let line = stroke(vec![[-14.0, 6.0], [-4.0, 6.0], [4.0, 6.0], [14.0, 6.0]]);
+        let inside = stroke(vec![[1.0, 1.0], [2.0, 1.0]]);
+        let outside = stroke(vec![[20.0, 0.0], [30.0, 0.0]]);
+        let cut = within(vec![line, inside.clone(), outside], [0.0, 0.0], 10.0);
+        assert_eq!(cut.len(), 2, "{cut:?}");
+        let p = &cut[0].points;
+        assert_eq!(p.len(), 4, "{p:?}");
+        assert!((p[0][0] + 8.0).abs() < 1e-9 && (p[3][0] - 8.0).abs() < 1e-9, "{p:?}");
+        assert_eq!(cut[0].open, [true, true]);
+        assert_eq!(cut[1], inside, "a stroke inside stays as it was");
+        // A two-point dash with one end outside keeps its inside part, open there.
+        let dash = within(vec![stroke(vec![[9.0, 0.0], [12.0, 0.0]])], [0.0, 0.0], 10.0);
+        assert_eq!(dash.len(), 1);
+        assert!((dash[0].points[1][0] - 10.0).abs() < 1e-9 && dash[0].open == [false, true], "{dash:?}");
+    }
 }
