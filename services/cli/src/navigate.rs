@@ -16,12 +16,12 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, EpisodeEnd, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap, ImuGapModel,
-    ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility, Runaway,
-    STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, TimeOffsetMeasurement, VehicleConstraint, align,
-    angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_mounting,
-    measure_noise, measure_time_offset, screen_fixes, shift_samples, smooth, test_innovations, to_trajectory,
-    velocity_random_walk_m_per_s_per_sqrt_h,
+    Adaptation, AlignmentConfig, Earth, EpisodeEnd, FixNoise, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap,
+    ImuGapModel, ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility,
+    Runaway, STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, TimeOffsetMeasurement, VehicleConstraint,
+    align, angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_fix_noise,
+    measure_mounting, measure_noise, measure_time_offset, screen_fixes, shift_samples, smooth, test_innovations,
+    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -320,6 +320,34 @@ fn report_steps(steps: &StepScreen, name: &str) {
     }
 }
 
+/// How the fixes' scatter compares with their stated σ, on stderr; a warning where it exceeds them.
+fn report_fix_noise(noise: Option<&FixNoise>, name: &str) {
+    let Some(n) = noise else {
+        eprintln!("note: {name}: too few fixes used to compare their scatter with their σ");
+        return;
+    };
+    let [e, nn, u] = n.factor.map(f64::sqrt);
+    let excess = n.excess();
+    if !excess.contains(&true) {
+        eprintln!(
+            "{name}: the fixes scatter no more than their σ state (× {e:.2}/{nn:.2}/{u:.2} east/north/up, most \
+             likely over {} used fixes; no excess at {:.0} %)",
+            n.fixes,
+            100.0 * plumbline_navigation::NOISE_ALPHA
+        );
+        return;
+    }
+    let axes: Vec<&str> = ["east", "north", "up"].into_iter().zip(excess).filter(|(_, x)| *x).map(|(a, _)| a).collect();
+    eprintln!(
+        "warning: {name}: the fixes scatter more than their σ state: × {e:.2}/{nn:.2}/{u:.2} east/north/up, most \
+         likely over {} used fixes, significant ({:.0} %, correlation of consecutive fixes allowed for) {}; the \
+         innovation tests (flags.csv) judge them against the stated σ and flag more than their α",
+        n.fixes,
+        100.0 * plumbline_navigation::NOISE_ALPHA,
+        if axes.len() == 1 { format!("{} only", axes[0]) } else { format!("on {}", axes.join(", ")) }
+    );
+}
+
 /// A filter error about a fix, numbered as in the file.
 fn renumber(e: NavError, fix: usize) -> NavError {
     match e {
@@ -440,7 +468,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
     let time_offset = args.imu_time_offset;
-    let (forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset) =
+    let (forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset, fix_noise) =
         tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
             let Screened { kept: gnss, index, .. } = screened;
             let mut imu = imu;
@@ -485,6 +513,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
                 }
                 s
             });
+            // The fixes' scatter against their σ (numbered as the filter saw them).
+            let fix_noise = measure_fix_noise(&forward, &gnss);
             // Fix numbers back to the file's, past the fixes screened out.
             forward.innovations.iter_mut().for_each(|i| i.fix = index[i.fix]);
             for s in &mut forward.skipped {
@@ -510,7 +540,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             };
             let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
             let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-            Ok((forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset))
+            Ok((forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset, fix_noise))
         })
         .await
         .context("navigation task")??;
@@ -537,11 +567,13 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     }
     let consistency = output::consistency(&forward, &flags, args.alpha);
     report_consistency(&consistency, &args.imu_model);
+    report_fix_noise(fix_noise.as_ref(), &gnss_name);
     let mut summary = output::summary(&forward, &flags, &initial, integrity != Integrity::None);
     summary["integrity"] = output::integrity_name(integrity).into();
     summary["consistency"] = serde_json::to_value(consistency)?;
     summary["steps"] = serde_json::to_value(&steps)?;
     summary["screened_fixes"] = serde_json::to_value(&rejected)?;
+    summary["fix_noise"] = serde_json::to_value(fix_noise)?;
     summary["imu_gaps"] = serde_json::to_value(forward.imu_gaps())?;
     summary["mounting"] = serde_json::to_value(mounting)?;
     summary["imu_time_offset"] = serde_json::json!({

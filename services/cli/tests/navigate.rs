@@ -132,6 +132,11 @@ fn the_smoothed_trajectory_follows_the_truth_and_a_gnss_jump_is_excluded() {
     let consistency = &summary["consistency"];
     assert!(consistency["variance_factor"].as_f64().unwrap() < 3.0, "{consistency}");
     assert!(consistency["local_flagged_share"].as_f64().unwrap() < 0.01, "{consistency}");
+    // The simulator states its fixes' σ for their drift too, which the innovations of consecutive fixes do
+    // not see: they scatter less than stated, and nothing is reported as an excess.
+    assert!(r.stderr.contains("gnss_jumped.csv: the fixes scatter no more than their σ state"), "{}", r.stderr);
+    let factors = summary["fix_noise"]["factor"].as_array().unwrap();
+    assert!(factors.iter().all(|k| k.as_f64().unwrap() < 1.0), "{factors:?}");
     let screened = summary["screened_fixes"].as_array().unwrap();
     assert!(screened.iter().any(|s| s["fix"] == outlier), "{screened:?}");
     // The jump's onset is abrupt at 5 Hz: up to three fixes at each edge may be set aside as spikes instead

@@ -17,7 +17,8 @@ target/release/plumbline (build it with `cargo build --release -p plumbline-cli`
 Fault sets (seeded): clean; multipath (steps of 2-5 m for 10-30 s); outliers (isolated 10 m); outages of
 60 s at several placements, one over the IMU's filled dropouts at 236 and 279 s after the first fix; and all of
 them together. Printed per set and method: 2D RMSE and max against the clean fixes, overall and per fault
-class, the share of clean fixes the filter did not use, and the run time.
+class, the share of clean fixes the filter did not use, and the run time; for plumbline, the share of the
+used fixes its local innovation test flags and the fixes' scatter against the σ given (east/north/up).
 """
 
 import argparse
@@ -174,6 +175,18 @@ def run_plumbline(binary, imu_csv, gnss_csv, out, extra=()):
     return (rows, summary), elapsed, ""
 
 
+def consistency_note(summary):
+    """The local test's flagged share of the fixes used and the fixes' scatter against their stated σ."""
+    flagged = summary.get("consistency", {}).get("local_flagged_share")
+    noise = summary.get("fix_noise") or {}
+    parts = []
+    if flagged is not None:
+        parts.append(f"local test flags {100 * flagged:.1f} %")
+    if noise.get("factor"):
+        parts.append("scatter × " + "/".join(f"{k ** 0.5:.2f}" for k in noise["factor"]) + " the stated σ")
+    return "; ".join(parts)
+
+
 def interpolate(rows, t):
     lo, hi = 0, len(rows) - 1
     if t < rows[0][0] or t > rows[-1][0]:
@@ -301,6 +314,8 @@ def main():
         write_fixes(kept(faulted, classes), gnss_csv)
         out = os.path.join(args.work, f"out-{name}")
         result, elapsed, note = run_plumbline(args.plumbline, imu_csv, gnss_csv, out, args.navigate_args.split())
+        if result:
+            note = consistency_note(result[1])
         rows = [("plumbline navigate", result[0] if result else None, elapsed, note,
                  f"{100 * flagged_share(result[1], classes, len(fixes)):.1f} %" if result else "")]
         g_rows, g_elapsed, g_note = run_gtsam(imu, fixes, classes, faulted)

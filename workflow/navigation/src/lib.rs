@@ -24,6 +24,8 @@
 //!     driving, from a pass without the vehicle constraint) → VehicleConstraint::mounting
 //! measure_time_offset(…) → the IMU's time-tag lag behind the GNSS (the offset that minimises the
 //!     innovations' capped χ² sum, kept when a likelihood-ratio test finds it) → shift_samples
+//! measure_fix_noise(&forward, gnss) → FixNoise: per axis, the factor by which the fixes' scatter exceeds
+//!     the σ the receiver stated (most likely given the innovations; a likelihood-ratio test)
 //! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
@@ -44,6 +46,7 @@ mod guard;
 mod integrity;
 mod latency;
 mod mount;
+mod noise;
 mod passes;
 mod screen;
 mod smoother;
@@ -69,6 +72,7 @@ pub use latency::{
     shift_samples,
 };
 pub use mount::{Mounting, MountingMeasurement, measure_mounting};
+pub use noise::{ALPHA as NOISE_ALPHA, FixNoise, measure_fix_noise};
 pub use passes::{filter, filter_adaptive, filter_excluding};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};
 pub use smoother::{SmoothedEpoch, smooth, to_trajectory};

@@ -1,11 +1,13 @@
 #![allow(clippy::unwrap_used)]
 //! Innovation tests (paper 001 §3.1.2): nominal false-alarm rates on clean data, detection of injected
-//! faults (a 1 m GNSS jump for 10 s, a step in an accelerometer bias).
+//! faults (a 1 m GNSS jump for 10 s, a step in an accelerometer bias); the fixes' scatter measured against
+//! their stated σ.
 
 mod common;
 
-use plumbline_navigation::{Component, Flag, IntegrityConfig, TestKind, filter, test_innovations};
+use plumbline_navigation::{Component, Flag, IntegrityConfig, TestKind, filter, measure_fix_noise, test_innovations};
 use plumbline_synth::motion::imu::ImuErrors;
+use rand::SeedableRng;
 
 /// |count − n·p| within 4 binomial standard deviations (+1 for discreteness).
 fn within_binomial(count: usize, n: usize, p: f64) -> bool {
@@ -85,4 +87,36 @@ fn accelerometer_bias_step_is_flagged() {
     assert!(first.time - step_at < 5.0, "detected {} s after the step", first.time - step_at);
     let before = flags.iter().filter(|f| f.time <= step_at).count();
     assert!(before <= 6, "{before} flags before the step at α = 0.001");
+}
+
+#[test]
+fn fix_noise_is_measured_against_the_stated_sigma() {
+    for seed in [1, 2] {
+        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+        let fitting = measure_fix_noise(&fw, &s.gnss).unwrap();
+        println!("seed {seed}, σ as stated: {fitting:?}");
+        assert_eq!(fitting.fixes, s.gnss.len());
+        assert_eq!(fitting.excess(), [false; 3], "{fitting:?}");
+        assert!(fitting.factor.iter().all(|k| (0.6..1.5).contains(k)), "{fitting:?}");
+        // Twice the stated σ added on every axis while the stated σ stay: the scatter is √5 × the σ.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        for f in &mut s.gnss {
+            for a in 0..3 {
+                f.position.p[a] += 2.0 * f.std[a] * common::gauss(&mut rng);
+            }
+        }
+        let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
+        let optimistic = measure_fix_noise(&fw, &s.gnss).unwrap();
+        println!("seed {seed}, σ stated half the scatter: {optimistic:?}");
+        assert_eq!(optimistic.excess(), [true; 3], "{optimistic:?}");
+        assert!(optimistic.factor.iter().all(|k| (3.5..7.0).contains(k)), "{optimistic:?}");
+    }
+}
+
+#[test]
+fn fix_noise_needs_enough_fixes() {
+    let s = common::scenario(3, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let fw = filter(&s.imu, &s.gnss[..20], &s.initial, &s.config).unwrap();
+    assert!(measure_fix_noise(&fw, &s.gnss[..20]).is_none());
 }
