@@ -1,6 +1,6 @@
 //! The adjustment's accuracy on a finished campaign: the tiles of an earlier `plumbline run`/`demo` (its
 //! `tiles/*.json`) merged (tie points sharing an image point joined, as `finish` does) and adjusted again with the default settings and with single features switched
-//! off, each compared with the campaign's reference trajectory in the paper-002 form. Only the adjustment
+//! off, each compared with the campaign's reference trajectory in the form of Meyer et al. (2023). Only the adjustment
 //! runs (seconds), so variants can be compared on real-pipeline observations.
 //!
 //! Run: `cargo bench -p plumbline-adjuster --bench campaign -- DIR [VARIANT...]` with DIR a demo folder

@@ -3,7 +3,7 @@
 //! aerial coordinates from the same aerial frames and nearly the same aerial pixels. Kept apart, the
 //! feature's aerial position counts twice as if its errors were independent (they are almost the same), and
 //! each point has two rays only, so an error along the epipolar plane moves the point unseen instead of
-//! failing the w-test. Joined, the point has three rays (over-determined, paper 000 §3.5) and one aerial
+//! failing the w-test. Joined, the point has three rays (over-determined, Jende et al. 2017 §3.5) and one aerial
 //! observation.
 
 use std::collections::{BTreeMap, HashMap, HashSet};

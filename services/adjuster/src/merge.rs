@@ -116,7 +116,7 @@ pub fn merge(tiles: &[TileOutputV1]) -> Merged {
 
 /// The aerial frames a tie's coordinates were triangulated from, sorted: those the registration recorded for
 /// it (`aerial_frames` of its first panorama's diagnostic), or — in results written before that was recorded
-/// — the frames that gave correspondences to that panorama's patch (paper 000 §3.8). `None` without aerial
+/// — the frames that gave correspondences to that panorama's patch (Jende et al. 2017 §3.8). `None` without aerial
 /// coordinates or without such frames.
 fn frames_of(reg: &TileResultV1, tie: &TiePoint) -> Option<Vec<String>> {
     tie.aerial.as_ref()?;
@@ -163,9 +163,9 @@ fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
     }
 }
 
-/// The image-derived motions between neighbouring panoramas of a tile (paper 000 §3.3): each diagnostic's
+/// The image-derived motions between neighbouring panoramas of a tile (Jende et al. 2017 §3.3): each diagnostic's
 /// motion to its neighbour, where KAZE + RANSAC measured one and the registration's cross-panorama check
-/// (paper 000 §3.9) did not find it contradicted by the aerial offsets on both sides.
+/// (Jende et al. 2017 §3.9) did not find it contradicted by the aerial offsets on both sides.
 pub fn motions_of(result: &TileResultV1) -> Vec<ImageMotion> {
     result.images.iter().filter(|d| !d.motion_contradicted).filter_map(|d| d.motion).collect()
 }

@@ -54,7 +54,7 @@ pub fn normalised_residuals(
     let mut poles = Vec::new();
     for (_, p) in set.poles.iter().enumerate().filter(|(i, _)| !ex.whole.contains(&("pole", *i))) {
         let Some((pos, _, d)) = corrected_pose(dg, result, p.time) else { continue };
-        // paper 002 eq. (1): the observed pole moves with the corrected pose, σ = √(err_cam² + err_pole²)
+        // Meyer et al. 2023 eq. (1): the observed pole moves with the corrected pose, σ = √(err_cam² + err_pole²)
         let offset = Vector3::new(p.observed[0], p.observed[1], pos.z) - pos;
         let moved = pos + d.fixed_rows::<3>(0) + Rotation3::new(d.fixed_rows::<3>(3).into_owned()) * offset;
         poles.extend([(moved.x - p.cadastre[0]) / p.sigma(), (moved.y - p.cadastre[1]) / p.sigma()]);
@@ -96,7 +96,7 @@ fn tie_residuals(
         let Some((pos, r, d)) = corrected_pose(dg, result, ray.time) else { continue };
         let r_corr = Rotation3::new(d.fixed_rows::<3>(3).into_owned()).matrix() * r;
         let body = MapFromBody::new(Rotation::from_matrix(&r_corr), Point3::from_vector(pos + d.fixed_rows::<3>(0)));
-        // paper 003 eq. (1) inverted: the direction to the point in the camera frame
+        // Grejner-Brzezinska and Toth 2000 eq. (1) inverted: the direction to the point in the camera frame
         let u = mount.to_camera(&body, &Point3::from_vector(*x)).v.normalize();
         // across and elevation over their own σ, as the adjustment whitens them
         let ([b1, b2], [s1, s2]) = (ray.tangents().map(Vector3::from), ray.sigmas());

@@ -42,7 +42,7 @@ pub struct Solved {
     pub seconds: f64,
 }
 
-/// Check the DG trajectory against the image motions (paper 001 §4), weaken the flagged links, adjust
+/// Check the DG trajectory against the image motions (Cazzaniga et al. 2007 §4), weaken the flagged links, adjust
 /// (standstills as `config.standstills` says, the image motions as relative observations when
 /// `config.image_motions`) on rayon, and apply the corrections to every record.
 pub fn solve(

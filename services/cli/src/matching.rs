@@ -33,7 +33,7 @@ pub const DEFAULT_MIN_INLIER_RATIO: f64 = 0.05;
 /// similarity 10, affine 12, homography 16. A minimal sample fits itself exactly (a homography any four
 /// pairs), so its own points prove nothing; among random matches a hypothesis gathers chance inliers at
 /// rate p ≈ π t² / area of B per match (≈ 2·10⁻⁴ for 2 px on a 256² image), and over RANSAC's up to 10⁴
-/// hypotheses with a few hundred matches a handful of extras beyond the sample do occur (issue 18: a
+/// hypotheses with a few hundred matches a handful of extras beyond the sample do occur (observed: a
 /// homography "fitted" to 4–5 inliers). Eight or more extras at once stay improbable even if clustered
 /// keypoints make p ten times larger; a homography, which can also collapse a region of A onto a few
 /// points of B, needs twelve.
@@ -55,7 +55,7 @@ pub enum ModelArg {
 /// The feature detector.
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum DetectorArg {
-    /// KAZE with M-SURF descriptors (paper 000 §3.3).
+    /// KAZE with M-SURF descriptors (Jende et al. 2017 §3.3).
     Kaze,
     /// AKAZE with orientation.
     Akaze,

@@ -31,9 +31,9 @@ use crate::io::{Context, file_name};
 /// IMU grades `simulate` can generate (`plumbline_synth::motion::imu`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Grade {
-    /// Navigation grade (LN-100 class, paper 003 §2.1; `navigate --imu-model navigation`).
+    /// Navigation grade (LN-100 class, Grejner-Brzezinska and Toth 2000 §2.1; `navigate --imu-model navigation`).
     Tactical,
-    /// Consumer MEMS (BMI160 class, paper 002 §3.1.1; `navigate --imu-model consumer`).
+    /// Consumer MEMS (BMI160 class, Meyer et al. 2023 §3.1.1; `navigate --imu-model consumer`).
     Consumer,
 }
 
@@ -98,8 +98,8 @@ pub struct Args {
     pub window: usize,
     /// How fixes are judged before use: `steps` (GNSS steps found against the IMU's own acceleration,
     /// independent of the filter's drift; the default), `online` (the filter acting on its innovation tests,
-    /// paper 001 §3.2: excluding, re-opening, re-initialising; suits IMU data its model describes) or `none`
-    /// (every fix used).
+    /// Cazzaniga et al. 2007 §3.2: excluding, re-opening, re-initialising; suits IMU data its model describes) or
+    /// `none` (every fix used).
     #[arg(long, value_enum, default_value_t = Integrity::Steps)]
     pub integrity: Integrity,
     /// The smallest GNSS step the step test excludes fixes for, m.

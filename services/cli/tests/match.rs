@@ -84,7 +84,7 @@ fn match_prints_the_known_similarity_and_draws_the_matches() {
     assert!(report["inliers"].as_u64().unwrap() >= 16, "{}", run.stdout);
 }
 
-/// Issue 18: two independent noise images have no transform between them. RANSAC still finds a few
+/// Two independent noise images have no transform between them. RANSAC still finds a few
 /// chance inliers (a homography fits any four pairs exactly); `match` fails instead of printing a matrix.
 #[test]
 fn match_reports_no_solution_between_independent_images_and_prints_no_matrix() {
@@ -111,7 +111,7 @@ fn match_reports_no_solution_between_independent_images_and_prints_no_matrix() {
     }
 }
 
-/// Issue 18: a PNG whose header claims 20000 × 20000 px (68 bytes) and a real 12000² decompression bomb are
+/// A PNG whose header claims 20000 × 20000 px (68 bytes) and a real 12000² decompression bomb are
 /// invalid input (exit code 2) named with their size, refused on their header before any pixel is decoded.
 #[test]
 fn match_refuses_an_image_over_the_pixel_budget_naming_file_and_size() {

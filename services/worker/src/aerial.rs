@@ -1,4 +1,4 @@
-//! The aerial reference of a tile (paper 000 §3.6–§3.9): the frames of the block that see the tile, decoded
+//! The aerial reference of a tile (Jende et al. 2017 §3.6–§3.9): the frames of the block that see the tile, decoded
 //! with their interior and exterior orientation, or windows of the orthophoto and its terrain model.
 
 use std::time::Instant;
@@ -30,8 +30,9 @@ pub(crate) struct LoadedReference {
     pub decode_s: f64,
 }
 
-/// The pinhole model of the block's camera: the manifest's metric interior orientation (paper 003 Table 2)
-/// in pixels, as the simulator flies it (`plumbline_synth::aerial::small_format_distorted`).
+/// The pinhole model of the block's camera: the manifest's metric interior orientation
+/// (Grejner-Brzezinska and Toth 2000, Table 2) in pixels, as the simulator flies it
+/// (`plumbline_synth::aerial::small_format_distorted`).
 pub fn frame_camera(interior: &InteriorOrientation) -> anyhow::Result<Pinhole> {
     let metric = MetricInterior {
         focal_mm: interior.focal_length_mm,

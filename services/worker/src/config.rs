@@ -11,9 +11,9 @@ pub const DEFAULT_CONCURRENCY: usize = 8;
 /// Everything [`crate::process_tile`] needs besides the campaign.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct WorkerConfig {
-    /// Registration of the panoramas with each other and with the aerial reference (paper 000).
+    /// Registration of the panoramas with each other and with the aerial reference (Jende et al. 2017).
     pub registration: PipelineConfig,
-    /// Pole detection and cadastre matching (paper 002).
+    /// Pole detection and cadastre matching (Meyer et al. 2023).
     pub poles: PoleConfig,
     /// Files read at once (panoramas, depth images, aerial frames); at least 1.
     pub concurrency: usize,
@@ -34,15 +34,15 @@ impl WorkerConfig {
         let mut config = Self::default();
         let r = &manifest.parameters.registration;
         let registration = &mut config.registration;
-        registration.mm.gsd = r.mm_gsd_m; // paper 000 §3.2
-        registration.aerial.min_images = r.min_aerial_images as usize; // paper 000 §3.7
+        registration.mm.gsd = r.mm_gsd_m; // Jende et al. 2017 §3.2
+        registration.aerial.min_images = r.min_aerial_images as usize; // Jende et al. 2017 §3.7
         if !r.single_aerial_rays {
             registration.aerial.single_ray_sigma_m = None;
         }
-        registration.aerial.min_correspondences = r.min_correspondences as usize; // paper 000 §3.8
+        registration.aerial.min_correspondences = r.min_correspondences as usize; // Jende et al. 2017 §3.8
         // A patch with fewer triangulated points cannot reach the correspondences an image needs.
         registration.min_mm_points = r.min_correspondences as usize;
-        config.poles.detect.max_range_m = manifest.parameters.poles.max_range_m; // paper 002 §3.1.2
+        config.poles.detect.max_range_m = manifest.parameters.poles.max_range_m; // Meyer et al. 2023 §3.1.2
         config
     }
 }
@@ -83,7 +83,7 @@ mod tests {
     #[test]
     fn manifest_defaults_are_the_papers_values() {
         let c = WorkerConfig::from_manifest(&manifest(""));
-        assert_eq!(c.registration.mm.gsd, 0.03); // paper 000 §3.2: 3 cm
+        assert_eq!(c.registration.mm.gsd, 0.03); // Jende et al. 2017 §3.2: 3 cm
         assert_eq!(c.registration.aerial.min_images, 2); // §3.7: two aerial images
         assert_eq!(c.registration.aerial.min_correspondences, 10); // §3.8: ten correspondences
         assert_eq!(c.poles.detect.max_range_m, 10.0);

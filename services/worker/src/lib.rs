@@ -1,7 +1,7 @@
 //! The worker's logic, shared by `plumbline run` (in-process queue) and the worker service (NATS): process
 //! one tile of a planned campaign — read its panoramas, vehicle mask, aerial frames or orthophoto windows,
-//! depth images and cadastre objects; register the panoramas (paper 000) and match the poles (paper 002);
-//! write the versioned [`TileOutput`] under `{output}tiles/`.
+//! depth images and cadastre objects; register the panoramas (Jende et al. 2017) and match the poles
+//! (Meyer et al. 2023); write the versioned [`TileOutput`] under `{output}tiles/`.
 //!
 //! One broken input (a corrupt panorama, a missing depth image, a bad cadastre feature) is skipped, counted
 //! and listed in the tile's output; the tile goes on.

@@ -155,7 +155,7 @@ pub(crate) async fn camera_height(
         return Ok(h);
     }
     let missing = "panoramas.camera_height_m: not given, and needed for the ortho-projection of the panoramas \
-                   (paper 000 §3.2) unless [aerial.orthophoto] names a terrain model";
+                   (Jende et al. 2017 §3.2) unless [aerial.orthophoto] names a terrain model";
     let Some(ortho) = campaign.manifest.aerial.as_ref().and_then(|a| a.orthophoto.as_ref()) else {
         return Err(invalid(missing));
     };
@@ -275,7 +275,7 @@ mod tests {
         assert!(wrong.detail.contains("p7.jpg") && wrong.detail.contains("64 × 32"), "{}", wrong.detail);
         let garbage = decode(&p, b"no image", &ImagePart::whole(64, 32)).unwrap_err();
         assert_eq!(garbage.reason, "decode");
-        // Issue 18: a header claiming 20000² px is refused before any pixel is decoded, whatever size the tile
+        // A header claiming 20000² px is refused before any pixel is decoded, whatever size the tile
         // expects.
         let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
         for size in [(64, 32), (20_000, 20_000)] {

@@ -1,4 +1,4 @@
-//! The pole side of a tile (paper 002): its depth images read with their DG records, the cadastre objects
+//! The pole side of a tile (Meyer et al. 2023): its depth images read with their DG records, the cadastre objects
 //! around it, and a `plumbline_poles::PoleStream` per depth camera fed batch by batch; the point clouds'
 //! slices of the tile (module `clouds`) are matched against the same cadastre objects.
 

@@ -1,4 +1,4 @@
-//! A tile's panoramas streamed through step 1, the KAZE features (paper 000 §3.2–§3.3) and the registration,
+//! A tile's panoramas streamed through step 1, the KAZE features (Jende et al. 2017 §3.2–§3.3) and the registration,
 //! one stretch of the drive at a time: the owned panoramas are taken in time order, [`SEGMENT`] at a
 //! time; the segment's panoramas and their neighbours are read a few at a time, decoded and prepared (at
 //! most one rayon job per rayon thread, the full panorama dropped as soon as its ortho patch and features
@@ -247,7 +247,7 @@ mod tests {
         register(&tile, reference, &plumbline_campaign::progress::NoProgress).await.unwrap()
     }
 
-    /// Issue 18: among a tile's panoramas, a forged 20000² header and a real 12000² decompression bomb are
+    /// Among a tile's panoramas, a forged 20000² header and a real 12000² decompression bomb are
     /// skipped for their size (nothing allocated for their pixels) while the others are decoded and prepared.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn bomb_panoramas_are_skipped_with_their_reason_and_the_others_are_prepared() {
@@ -301,7 +301,7 @@ mod tests {
             .collect()
     }
 
-    /// Issue 25: a tile holds the prepared patches of about one segment whether it owns 40 or 160 panoramas
+    /// A tile holds the prepared patches of about one segment whether it owns 40 or 160 panoramas
     /// (a drive looping through a tile), and every owned panorama is still registered.
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn prepared_patches_held_do_not_grow_with_the_panoramas_of_a_tile() {

@@ -111,7 +111,7 @@ struct Registered {
 }
 
 /// Process one tile of a planned campaign: register its owned panoramas (with their context neighbours)
-/// against the aerial reference (paper 000) and match the poles of its depth images (paper 002).
+/// against the aerial reference (Jende et al. 2017) and match the poles of its depth images (Meyer et al. 2023).
 ///
 /// Broken inputs (a missing or corrupt panorama, frame or depth image, a bad cadastre feature) are skipped
 /// and listed in the output. Errors: a tile that is not in the plan, a campaign without panoramas, or one

@@ -90,7 +90,7 @@ pub struct AdjustmentConfig {
     pub jump_localization: Option<JumpLocalization>,
     /// One 2-D nuisance offset per cadastre object observed more than once (prior σ = its `sigma_pole`), the
     /// updates then weighted with `sigma_camera` alone: they share the object's cadastre error, so they must
-    /// not pull like independent control (`false`: every update weighted with paper 002 eq. (1)).
+    /// not pull like independent control (`false`: every update weighted with Meyer et al. 2023 eq. (1)).
     #[serde(default = "default_true")]
     pub pole_offsets: bool,
     /// Standstill detection on the DG trajectory and zero-velocity constraints (`None`: off).

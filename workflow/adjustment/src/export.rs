@@ -27,7 +27,7 @@ pub struct ExportedPole {
     pub observed: [f64; 3],
     /// Cadastre easting, northing.
     pub cadastre: [f64; 2],
-    /// σ per coordinate (paper 002 eq. (1)).
+    /// σ per coordinate (Meyer et al. 2023 eq. (1)).
     pub sigma: f64,
 }
 
@@ -48,7 +48,7 @@ pub struct ExportedProblem {
 
 /// Export the chain and the pole CUPTs of the problem [`crate::adjust`] would solve.
 pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> ExportedProblem {
-    // The export has no nuisance offsets: every CUPT carries paper 002 eq. (1)'s σ.
+    // The export has no nuisance offsets: every CUPT carries the σ of Meyer et al. 2023 eq. (1).
     let p = Problem::build(input, &AdjustmentConfig { pole_offsets: false, ..*config }, faer::Par::Seq);
     let nodes = p
         .nodes

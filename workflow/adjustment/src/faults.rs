@@ -1,6 +1,6 @@
 //! Where the DG trajectory may carry a jump offset, so its weak absolute prior must not hold it: the spans
 //! between detected DG breaks (flagged weak links, standstills over which the DG moves) that are short enough
-//! to be one fault — a multipath jump appears with one break and vanishes with the next (paper 001 §1.2).
+//! to be one fault — a multipath jump appears with one break and vanishes with the next (Cazzaniga et al. 2007 §1.2).
 //! There the reported DG σ says nothing about the offset (a solution blind to multipath reports its usual
 //! centimetres), so the prior's position σ is floored at the size of such jumps and the control decides. The
 //! offset is one for the whole span, so the floor counts once per span, not once per node: a node standing
@@ -14,7 +14,7 @@ use serde::{Deserialize, Serialize};
 #[serde(deny_unknown_fields)]
 pub struct FaultPrior {
     /// Floor on the prior's position σ (east, north, up) inside a possible fault, metres: the size of the jumps
-    /// to expect (paper 001 §1.2: "tens of cm and more").
+    /// to expect (Cazzaniga et al. 2007 §1.2: "tens of cm and more").
     pub sigma: f64,
     /// Longest span between two breaks taken as one fault, seconds (a jump persists longer at low speed).
     pub max_duration: f64,

@@ -1,5 +1,5 @@
 //! One height bias per aerial frame set: the aerial heights triangulated from the same frames share those
-//! frames' orientation error (paper 000 §3.9; [`crate::AerialFrameSet`]).
+//! frames' orientation error (Jende et al. 2017 §3.9; [`crate::AerialFrameSet`]).
 //!
 //! Nadir frames see a street point with a base-to-height ratio of a few per cent, so the triangulated height
 //! carries the frames' relative orientation error magnified by the height-to-base ratio (an angle error of

@@ -1,14 +1,14 @@
 //! DG jumps the consistency check did not flag, found by data snooping on the chain itself.
 //!
-//! The consistency check (paper 001 §4) sees a jump only where the images measured the motion between two
+//! The consistency check (Cazzaniga et al. 2007 §4) sees a jump only where the images measured the motion between two
 //! panoramas; where they did not (no KAZE similarity, a stop, no neighbour), the relative constraint across
 //! the jump stays as stiff as the DG σ says, and snooping then rejects the control after the jump one by one
 //! (the masking effect: the stiff link, not the control, is the outlier). So the position rows of every
 //! relative constraint x_{k+1} − x_k ~ N(0, σ²) are tested like observations: w = e / √r with
-//! r = 1 − (J Q_xx Jᵀ)/σ², J = [−I, I] on the two nodes (paper 001 §3.1's slippage test on the DG's own
-//! relative motion). A link whose |w| is the largest in its window and beyond the critical value is not
+//! r = 1 − (J Q_xx Jᵀ)/σ², J = [−I, I] on the two nodes (the slippage test of Cazzaniga et al. 2007 §3.1 on the DG's
+//! own relative motion). A link whose |w| is the largest in its window and beyond the critical value is not
 //! dropped but its position σ inflated by |w| / critical value (so it would just pass), at most to the size of the jumps to
-//! expect (σ_jump, paper 001 §1.2: "tens of cm and more"), and reported; it stays under test, so a jump
+//! expect (σ_jump, Cazzaniga et al. 2007 §1.2: "tens of cm and more"), and reported; it stays under test, so a jump
 //! larger than one inflation explains is widened again in the next round.
 
 use serde::{Deserialize, Serialize};

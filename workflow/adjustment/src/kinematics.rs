@@ -1,9 +1,9 @@
 //! DG jumps seen in the DG's own motion, wherever they happen. A road vehicle moves along its heading (the
-//! non-holonomic constraint: no sideways velocity, paper 001 §2's land-vehicle motion model) — up to the
-//! drive's crab angle, the heading's misalignment with the direction of travel, estimated robustly over the
+//! non-holonomic constraint: no sideways velocity, the land-vehicle motion model of Cazzaniga et al. 2007 §2) — up to
+//! the drive's crab angle, the heading's misalignment with the direction of travel, estimated robustly over the
 //! drive and subtracted ([`crate::vehicle::crab_angle`]); a multipath jump shifts the DG position within
-//! about a second (paper 001 §1.2) without turning the vehicle, so its cross-track part shows up as sideways
-//! motion of the DG beyond the crab. Where that sideways displacement exceeds `threshold` per `step`, the
+//! about a second (Cazzaniga et al. 2007 §1.2) without turning the vehicle, so its cross-track part shows up as
+//! sideways motion of the DG beyond the crab. Where that sideways displacement exceeds `threshold` per `step`, the
 //! correction gets nodes every `step` (so a jump the consistency check did not flag — before the first
 //! panorama, in a stop, between control — has short links of its own), and with `widen` those links follow
 //! the vehicle's kinematics instead of the DG (mean −e of the sideways displacement e, σ widened by |e|, as
@@ -62,7 +62,7 @@ impl Samples {
 
     /// The sideways displacement of sample interval i beyond the crab, metres (to the right).
     fn lateral(&self, i: usize) -> f64 {
-        // Land-vehicle model (paper 001 §2): sideways displacement = tan(crab) · along-track displacement.
+        // Land-vehicle model (Cazzaniga et al. 2007 §2): sideways displacement = tan(crab) · along-track displacement.
         self.motion.across[i] - self.crab * self.motion.along[i]
     }
 

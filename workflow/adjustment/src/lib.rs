@@ -11,7 +11,7 @@
 //!   prior per node, floored between DG breaks close enough to be one jump ([`FaultPrior`]): there the DG's
 //!   own σ says nothing about its offset.
 //! - **Cadastre objects**: the pole updates of one object share its cadastre error; an object seen more than
-//!   once gets a 2-D nuisance offset with prior σ_pole, its updates keep σ_cam (paper 002 eq. (1) split).
+//!   once gets a 2-D nuisance offset with prior σ_pole, its updates keep σ_cam (Meyer et al. 2023 eq. (1) split).
 //! - **Observations** ([`ObservationSet`]): pole CUPTs (2D), GNSS positions (3D, with antenna lever arm),
 //!   tie rays (spherical collinearity through [`plumbline_geo::dg::CameraMount`]), aerial coordinates, and
 //!   the image-derived motion between consecutive panoramas ([`RelativeMotion`]: east/north displacement and

@@ -89,7 +89,7 @@ pub(crate) fn anomalies(
     let excess: Vec<Vector3<f64>> = (0..m.len())
         .map(|i| {
             let (along, up) = (reference.at(&m.along, i), reference.at(&m.up, i));
-            // Excess over the land-vehicle model (paper 001 §2): no sideways motion beyond the crab.
+            // Excess over the land-vehicle model (Cazzaniga et al. 2007 §2): no sideways motion beyond the crab.
             m.to_world(i, m.along[i] - along, m.across[i] - tan * along, m.up[i] - up)
         })
         .collect();

@@ -51,8 +51,8 @@ fn moved_offset(dg: &DgPose, delta: &Vector6<f64>, offset_map: &Vector3<f64>) ->
     (dg.p + dp + rotated, j)
 }
 
-/// Pole CUPT (paper 002 §3.4.2): the observed pole moves with the corrected pose; residual against the
-/// cadastre position in easting/northing, σ from paper 002 eq. (1).
+/// Pole CUPT (Meyer et al. 2023 §3.4.2): the observed pole moves with the corrected pose; residual against the
+/// cadastre position in easting/northing, σ from Meyer et al. 2023 eq. (1).
 pub(crate) fn pole(
     dg: &DgPose,
     delta: &Vector6<f64>,
@@ -93,8 +93,8 @@ pub(crate) fn tangent_basis(d: &Vector3<f64>) -> (Vector3<f64>, Vector3<f64>) {
 }
 
 /// Spherical collinearity: the unit direction from the corrected camera to the point, expressed in the
-/// camera frame (inverse of paper 003 eq. (1) via [`CameraMount::to_camera`]), projected on the tangent
-/// plane of the observed ray along (across, elevation) of [`tangent_basis`]; residuals in radians over
+/// camera frame (inverse of Grejner-Brzezinska and Toth 2000 eq. (1) via [`CameraMount::to_camera`]), projected on the
+/// tangent plane of the observed ray along (across, elevation) of [`tangent_basis`]; residuals in radians over
 /// `sigma` = [σ across, σ elevation] (a diagonal covariance in that basis).
 pub(crate) fn ray(
     dg: &DgPose,
@@ -127,7 +127,7 @@ pub(crate) fn ray(
     out
 }
 
-/// Zero-velocity constraint over a standstill [s, e] (paper 002 §4.2.3: standstills are where the DG breaks):
+/// Zero-velocity constraint over a standstill [s, e] (Meyer et al. 2023 §4.2.3: standstills are where the DG breaks):
 /// with Δ = δ_e − δ_s (the node difference, built by interpolation weights −1 and +1), position
 /// p_e + δp_e = p_s + δp_s, i.e. Δp + (p_e − p_s) = 0 (`offset` = p_e − p_s, 3 rows); or heading:
 /// Exp(δθ_e) R_e = Exp(δθ_s) R_s about the vertical, to first order Δθ_up + Log(R_e R_sᵀ)_up = 0 (1 row;
@@ -151,10 +151,10 @@ pub(crate) fn wrap(a: f64) -> f64 {
     if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
 }
 
-/// Image-derived motion between two panoramas (paper 000 §3.3 as the observation of paper 001 §4.1): with
-/// Δ = δ_end − δ_start (interpolation weights − at the start, + at the end), the corrected displacement
-/// east, north is `dg` + Δp, and the corrected heading change `dg`_z − Δθ_up (a rotation about up is
-/// counter-clockwise, the heading clockwise from north); residuals against `measured` over σ.
+/// Image-derived motion between two panoramas (Jende et al. 2017 §3.3 as the observation of
+/// Cazzaniga et al. 2007 §4.1): with Δ = δ_end − δ_start (interpolation weights − at the start, + at the end), the
+/// corrected displacement east, north is `dg` + Δp, and the corrected heading change `dg`_z − Δθ_up (a rotation about
+/// up is counter-clockwise, the heading clockwise from north); residuals against `measured` over σ.
 pub(crate) fn motion(
     delta: &Vector6<f64>,
     dg: &Vector3<f64>,

@@ -44,7 +44,7 @@ pub struct ObservationSetV1 {
     /// existed parse unchanged, and their aerial heights are then weighted as independent.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub aerial_frame_sets: Vec<AerialFrameSet>,
-    /// The motion between consecutive panoramas measured by the images (MM↔MM registration, paper 000
+    /// The motion between consecutive panoramas measured by the images (MM↔MM registration, Jende et al. 2017
     /// §3.3), a relative observation of the corrected trajectory. Optional: older sets parse unchanged.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub motions: Vec<RelativeMotion>,
@@ -61,7 +61,7 @@ impl ObservationSetV1 {
     }
 }
 
-/// Tie points whose aerial coordinates were triangulated from one set of aerial frames (paper 000 §3.9).
+/// Tie points whose aerial coordinates were triangulated from one set of aerial frames (Jende et al. 2017 §3.9).
 /// With the base-to-height ratio of a few per cent of nadir frames, a small error in the frames' relative
 /// orientation moves every height triangulated from them by the same decimetres: the adjustment gives each
 /// set one height bias (a nuisance parameter) instead of trusting those heights as independent.
@@ -87,7 +87,7 @@ pub struct TiePoint {
     pub id: TiePointId,
     /// The rays, one per panorama (at least two).
     pub rays: Vec<TieRay>,
-    /// Coordinates from the aerial triangulation (paper 000 §3.9), if the point was matched in aerial images.
+    /// Coordinates from the aerial triangulation (Jende et al. 2017 §3.9), if the point was matched in aerial images.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub aerial: Option<AerialPoint>,
 }
@@ -151,7 +151,7 @@ pub struct AerialPoint {
     pub covariance: [[f64; 3]; 3],
 }
 
-/// A pole coordinate update (CUPT, paper 002 §3.4.2): a cadastre pole observed from the vehicle.
+/// A pole coordinate update (CUPT, Meyer et al. 2023 §3.4.2): a cadastre pole observed from the vehicle.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PoleUpdate {
@@ -172,7 +172,7 @@ pub struct PoleUpdate {
 impl PoleUpdate {
     /// err_{x,y} = √(err_cam² + err_pole²), per horizontal coordinate.
     pub fn sigma(&self) -> f64 {
-        // paper 002 eq. (1)
+        // Meyer et al. 2023 eq. (1)
         self.sigma_camera.hypot(self.sigma_pole)
     }
 
@@ -183,8 +183,8 @@ impl PoleUpdate {
 }
 
 /// The motion of the body origin between two panoramas as the images measured it (the ortho-projected
-/// neighbouring panoramas registered to each other, paper 000 §3.3): it observes the corrected trajectory's
-/// relative motion independently of the DG, so it bridges a DG jump between them (paper 001 §4.1).
+/// neighbouring panoramas registered to each other, Jende et al. 2017 §3.3): it observes the corrected trajectory's
+/// relative motion independently of the DG, so it bridges a DG jump between them (Cazzaniga et al. 2007 §4.1).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct RelativeMotion {

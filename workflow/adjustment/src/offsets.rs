@@ -1,4 +1,4 @@
-//! One nuisance offset per cadastre object seen more than once (paper 002 eq. (1) split into its shared and
+//! One nuisance offset per cadastre object seen more than once (Meyer et al. 2023 eq. (1) split into its shared and
 //! its per-update part).
 
 use std::collections::HashMap;
@@ -6,7 +6,7 @@ use std::collections::HashMap;
 use crate::observations::ObservationRef;
 use crate::problem::{Item, Kind, Obs};
 
-/// Updates of one cadastre object share its cadastre error (paper 002 eq. (1)'s err_pole): where an object is
+/// Updates of one cadastre object share its cadastre error (err_pole in Meyer et al. 2023 eq. (1)): where an object is
 /// observed more than once, it gets one 2-D nuisance offset with prior σ = err_pole and each update keeps
 /// only err_cam, so the updates together cannot pull harder than that one position allows. An object is its
 /// id together with its listed position. Returns the offsets' prior σ.

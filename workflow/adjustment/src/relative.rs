@@ -1,5 +1,5 @@
-//! The image-derived motion between consecutive panoramas ([`crate::RelativeMotion`], paper 001 §4 and
-//! paper 000 §3.3) as internal observations of the adjustment: each constrains the corrected east, north
+//! The image-derived motion between consecutive panoramas ([`crate::RelativeMotion`], Cazzaniga et al. 2007 §4 and
+//! Jende et al. 2017 §3.3) as internal observations of the adjustment: each constrains the corrected east, north
 //! displacement and heading change between its two epochs, with the DG's own counterpart read off the
 //! trajectory (model::motion), and enters the normal equations through the difference of the corrections
 //! interpolated at its ends.

@@ -1,5 +1,5 @@
 //! Standstill (zero-velocity) detection from the DG trajectory itself, robust to the DG jumps that happen
-//! while the vehicle stands still (paper 002 §4.2.3, Fig. 7: standstills of up to ~40 s at traffic lights).
+//! while the vehicle stands still (Meyer et al. 2023 §4.2.3, Fig. 7: standstills of up to ~40 s at traffic lights).
 //!
 //! The trajectory is sampled every `sample_step`; each sample gets a speed from the displacement over
 //! `baseline` seconds (long enough that the DG's millimetre white noise does not look like motion); a sample

@@ -4,7 +4,7 @@
 //! For whitened observations (weight I), Q_vv = I − J Q_xx Jᵀ, so the redundancy of row i is
 //! r_i = 1 − (J_i Q_xx J_iᵀ)_ii; J_i touches at most two nodes and one point, whose Q_xx entries all lie on
 //! the factor's pattern and come from the selected inverse. w_i = e_i / √r_i (σ0 = 1 a priori), the
-//! least-squares counterpart of paper 001 §3.1's slippage test.
+//! least-squares counterpart of the slippage test of Cazzaniga et al. 2007 §3.1.
 
 use nalgebra::{DMatrix, Matrix6};
 use serde::{Deserialize, Serialize};

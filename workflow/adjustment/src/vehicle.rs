@@ -1,11 +1,12 @@
 //! The DG's motion in the vehicle's own frame: along its heading, across it (to the right) and up, sampled
-//! finely. A road vehicle moves along its heading (the non-holonomic constraint of paper 001 §2's
-//! land-vehicle motion model: no sideways velocity) — up to a constant crab angle when the IMU's heading is
+//! finely. A road vehicle moves along its heading (the non-holonomic constraint of the land-vehicle motion model of
+//! Cazzaniga et al. 2007 §2: no sideways velocity) — up to a constant crab angle when the IMU's heading is
 //! misaligned with the direction of travel (a boresight or mounting error of a degree moves 17 cm/s sideways
-//! at 10 m/s), which [`crab_angle`] estimates robustly over the whole drive. A DG jump (paper 001 §1.2)
-//! shifts the position within about a second without turning the vehicle: its across-track part is sideways
-//! motion beyond the crab, its along-track part a bump in the along-track speed; neither disturbs the
-//! heading, so the vehicle-frame decomposition follows turns that a world-frame velocity median would smear.
+//! at 10 m/s), which [`crab_angle`] estimates robustly over the whole drive. A DG jump
+//! (Cazzaniga et al. 2007 §1.2) shifts the position within about a second without turning the vehicle: its
+//! across-track part is sideways motion beyond the crab, its along-track part a bump in the along-track speed;
+//! neither disturbs the heading, so the vehicle-frame decomposition follows turns that a world-frame velocity
+//! median would smear.
 
 use nalgebra::Vector3;
 use plumbline_geo::Trajectory;
@@ -81,7 +82,7 @@ impl Motion {
 /// heading. A jump or a turn spoils a minority of them; None when no sample moves.
 pub(crate) fn crab_angle(m: &Motion) -> Option<f64> {
     let min = MOVING_SPEED * m.h;
-    // Non-holonomic land vehicle (paper 001 §2): across / along = tan(crab) when no jump intervenes.
+    // Non-holonomic land vehicle (Cazzaniga et al. 2007 §2): across / along = tan(crab) when no jump intervenes.
     let mut angles: Vec<f64> =
         m.along.iter().zip(&m.across).filter(|(a, _)| a.abs() > min).map(|(a, x)| (x / a).atan()).collect();
     if angles.is_empty() {

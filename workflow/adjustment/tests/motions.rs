@@ -13,7 +13,7 @@ use plumbline_adjustment::{
 };
 use rand::{Rng, SeedableRng};
 
-/// Image-motion σ: east, north (m), heading (rad) (paper 000 §3.3).
+/// Image-motion σ: east, north (m), heading (rad) (Jende et al. 2017 §3.3).
 const STD: [f64; 3] = [0.02, 0.02, 1e-3];
 
 /// Smooth drift plus a 0.4 m jump to the left of the street (heading 30° east of north) over [50, 70) s.

@@ -1,5 +1,5 @@
 //! Plain values read from a cadastre: pole-like objects in the campaign CRS and the counted
-//! diagnostics of the features that could not be used as read (paper 002 §3.3.2, §4.1).
+//! diagnostics of the features that could not be used as read (Meyer et al. 2023 §3.3.2, §4.1).
 //!
 //! Pure data + serde so workers and reports use them without GDAL; `plumbline-runtime` fills them.
 
@@ -33,7 +33,7 @@ pub struct CadastreFeature {
     pub easting: f64,
     /// Northing in the campaign CRS, metres.
     pub northing: f64,
-    /// Standard deviation of the 2D position, metres (paper 002 §4.1: poles 0.10, trees 0.50).
+    /// Standard deviation of the 2D position, metres (Meyer et al. 2023 §4.1: poles 0.10, trees 0.50).
     pub accuracy_m: f64,
     /// Diameter, metres, when the manifest names a diameter attribute and the feature has a value.
     pub diameter_m: Option<f64>,

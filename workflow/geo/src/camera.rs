@@ -136,7 +136,7 @@ pub struct Pinhole {
     r_max: f64,
 }
 
-/// Interior orientation in the metric form of paper 003 Table 2.
+/// Interior orientation in the metric form of Grejner-Brzezinska and Toth (2000), Table 2.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct MetricInterior {
     /// Principal distance c, millimetres.
@@ -188,8 +188,8 @@ impl Pinhole {
         Ok(cam)
     }
 
-    /// Convert a metric calibration (paper 003 Table 2: c, xp, yp, K1, K2 in millimetres) to pixels and
-    /// normalised coefficients: K1_n = K1 · c², K2_n = K2 · c⁴. The metric K1/K2 are taken as the forward
+    /// Convert a metric calibration (Grejner-Brzezinska and Toth 2000, Table 2: c, xp, yp, K1, K2 in millimetres) to
+    /// pixels and normalised coefficients: K1_n = K1 · c², K2_n = K2 · c⁴. The metric K1/K2 are taken as the forward
     /// (ideal → image) model; a calibration in the correction form agrees with it to first order.
     pub fn from_metric(m: &MetricInterior) -> Result<Self, CameraError> {
         require(m.pixel_mm.is_finite() && m.pixel_mm > 0.0, "pixel_mm", m.pixel_mm, "must be positive")?;
@@ -295,7 +295,7 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
-    /// Paper 003 Table 2, calibration 1 (BigShot 4K×4K, 15 µm pixels).
+    /// Grejner-Brzezinska and Toth 2000, Table 2, calibration 1 (BigShot 4K×4K, 15 µm pixels).
     fn bigshot() -> Pinhole {
         Pinhole::from_metric(&MetricInterior {
             focal_mm: 51.568,
@@ -368,7 +368,8 @@ mod tests {
         let d = Vec3::<Camera>::new(0.5, 0.5, 1.2);
         let (pd, pi) = (cam.project(&d).unwrap(), ideal.project(&d).unwrap());
         assert!((pd.u - cam.cx) < (pi.u - cam.cx), "barrel distortion must shrink the radius");
-        // Principal point from paper 003: +0.314 mm right, +0.112 mm up = 20.9 px right, 7.5 px up.
+        // Principal point from Grejner-Brzezinska and Toth 2000: +0.314 mm right, +0.112 mm up
+        // = 20.9 px right, 7.5 px up.
         assert!((cam.cx - (2048.0 + 0.314 / 0.015)).abs() < 1e-9);
         assert!((cam.cy - (2048.0 - 0.112 / 0.015)).abs() < 1e-9);
     }

@@ -1,4 +1,5 @@
-//! The direct-georeferencing formula with lever arm and boresight (paper 003 eq. (1)) and its inverse.
+//! The direct-georeferencing formula with lever arm and boresight (Grejner-Brzezinska and Toth 2000 eq. (1))
+//! and its inverse.
 //!
 //! r_M = r_INS + R_B^M · (s · R_C^B · r_C + b), where r_INS and R_B^M come from the trajectory, b is the
 //! lever arm (camera projection centre in the body frame), R_C^B the boresight rotation, r_C the ray in the
@@ -62,7 +63,7 @@ impl CameraMount {
         body.then_from(&self.body_from_camera())
     }
 
-    /// Paper 003 eq. (1): the mapping-frame point at scale `s` along the camera-frame ray `r_c`.
+    /// Grejner-Brzezinska and Toth 2000 eq. (1): the mapping-frame point at scale `s` along the camera-frame ray `r_c`.
     pub fn georeference(&self, body: &MapFromBody, r_c: &Vec3<Camera>, s: f64) -> Point3<Map> {
         let in_body = self.boresight.apply(r_c) * s + self.lever_arm;
         body.translation + body.rotation.apply(&in_body)

@@ -1,6 +1,6 @@
 //! Quality measures used everywhere (tests, benchmarks, reports): along-track, cross-track and height
 //! differences of a trajectory against a reference, summarised as median / 95 % / 99 % / max of the absolute
-//! differences (paper 002 §3.5, Tables 3–7), plus 2D and 3D RMSE.
+//! differences (Meyer et al. 2023 §3.5, Tables 3–7), plus 2D and 3D RMSE.
 //!
 //! Differences are time-matched: the reference is interpolated (cubic) at each estimate epoch, and the
 //! difference estimate − reference is split along the reference's horizontal direction of travel
@@ -148,7 +148,7 @@ fn travel_direction(reference: &Trajectory, t: f64, heading: f64) -> (f64, f64) 
 }
 
 impl Comparison {
-    /// The paper-002 table (median, 95 %, 99 %, max of |d| per component) with RMSE, as aligned text.
+    /// The table of Meyer et al. 2023 (median, 95 %, 99 %, max of |d| per component) with RMSE, as aligned text.
     pub fn table(&self) -> String {
         let mut s = String::new();
         let _ =

@@ -1,4 +1,4 @@
-//! Corner operators: Förstner with subpixel location (paper 000 §3.4) and Harris (paper 001 §4.3).
+//! Corner operators: Förstner with subpixel location (Jende et al. 2017 §3.4) and Harris (Cazzaniga et al. 2007 §4.3).
 
 use nalgebra::{Matrix2, Vector2};
 
@@ -96,7 +96,7 @@ impl Foerstner {
         let interest = |c: usize, r: usize| {
             let [a, b, d] = [&sums[0], &sums[1], &sums[2]].map(|s| s.centred(c, r, self.half_window).sum);
             let (det, tr) = (a * d - b * b, a + d);
-            // paper 000 §3.4 (Förstner & Gülch 1987): w = det N / tr N, q = 4 det N / tr² N
+            // Jende et al. 2017 §3.4 (Förstner & Gülch 1987): w = det N / tr N, q = 4 det N / tr² N
             if tr > 1e-12 { (det / tr, 4.0 * det / (tr * tr)) } else { (0.0, 0.0) }
         };
         let wq: Vec<(f64, f64)> = (0..w * h).map(|i| interest(i % w, i / w)).collect();
@@ -132,7 +132,7 @@ impl Foerstner {
 }
 
 /// Förstner's point estimator: the point closest, in the least-squares sense, to the lines through every
-/// pixel centre p perpendicular to its gradient g: N x = Σ g gᵀ p (paper 000 §3.4, Förstner & Gülch 1987),
+/// pixel centre p perpendicular to its gradient g: N x = Σ g gᵀ p (Jende et al. 2017 §3.4, Förstner & Gülch 1987),
 /// solved a second time without the pixels around the first estimate.
 fn locate_with(g: &Gradients, col: usize, row: usize, half: usize) -> Option<Corner> {
     let first = solve_window(g, col, row, half, None)?;
@@ -196,7 +196,7 @@ impl Harris {
             .map(|p| crate::filter::convolve_columns(&crate::filter::convolve_rows(&p, &kernel), &kernel));
         let response = GrayImage::from_fn(img.width(), img.height(), |c, r| {
             let (a, b, d) = (a.get(c, r), b.get(c, r), d.get(c, r));
-            (a * d - b * b) - self.k as f32 * (a + d) * (a + d) // paper 001 §4.3 (Harris & Stephens 1987)
+            (a * d - b * b) - self.k as f32 * (a + d) * (a + d) // Cazzaniga et al. 2007 §4.3 (Harris & Stephens 1987)
         });
         let max = response.data().iter().fold(0.0f32, |m, &x| m.max(x));
         let thresholded = response.map(|x| if x > self.relative_threshold as f32 * max { x } else { 0.0 });

@@ -1,4 +1,4 @@
-//! Separable Gaussian blur and the Wallis filter (paper 000 §3.6–3.7).
+//! Separable Gaussian blur and the Wallis filter (Jende et al. 2017 §3.6–3.7).
 
 use rayon::prelude::*;
 
@@ -15,7 +15,7 @@ pub fn gaussian_kernel(sigma: f64) -> Vec<f32> {
 }
 
 /// Gaussian blur with standard deviation `sigma` pixels (separable, edges replicated, row-parallel).
-/// Paper 000 §3.6: blurring the MM ortho-image simulates the aerial camera's optical transfer function.
+/// Jende et al. 2017 §3.6: blurring the MM ortho-image simulates the aerial camera's optical transfer function.
 pub fn gaussian_blur(img: &GrayImage, sigma: f64) -> Result<GrayImage, ImagingError> {
     require(sigma.is_finite() && sigma >= 0.0, "sigma", sigma, "must be a finite, non-negative pixel count")?;
     if sigma < 1e-3 {
@@ -93,7 +93,7 @@ impl Default for Wallis {
 
 impl Wallis {
     /// Apply the filter: g' = (g − m)·c·s_f / (c·s + (1 − c)·s_f) + b·m_f + (1 − b)·m, with m, s the local
-    /// mean and standard deviation over the window. Paper 000 §3.7 (Wallis 1974, photogrammetric form).
+    /// mean and standard deviation over the window. Jende et al. 2017 §3.7 (Wallis 1976, photogrammetric form).
     pub fn apply(&self, img: &GrayImage) -> Result<GrayImage, ImagingError> {
         require(self.half_window > 0, "half_window", self.half_window as f64, "must be positive")?;
         require(self.target_std > 0.0, "target_std", self.target_std, "must be positive")?;
@@ -104,7 +104,7 @@ impl Wallis {
         Ok(GrayImage::from_fn(img.width(), img.height(), |col, row| {
             let st = ii.centred(col, row, self.half_window);
             let (m, s) = (st.mean(), st.std());
-            let gain = c * sf / (c * s + (1.0 - c) * sf); // paper 000 §3.7 (Wallis 1974)
+            let gain = c * sf / (c * s + (1.0 - c) * sf); // Jende et al. 2017 §3.7 (Wallis 1976)
             ((f64::from(img.get(col, row)) - m) * gain + b * mf + (1.0 - b) * m) as f32
         }))
     }

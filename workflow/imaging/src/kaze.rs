@@ -1,4 +1,4 @@
-//! KAZE features (Alcantarilla, Bartoli, Davison: KAZE features, ECCV 2012), as paper 000 §3.3 uses them:
+//! KAZE features (Alcantarilla, Bartoli, Davison: KAZE features, ECCV 2012), as Jende et al. 2017 §3.3 use them:
 //! a nonlinear scale space at full resolution evolved by additive operator splitting (AOS), the authors'
 //! scale-normalised Hessian detector with 3-D extrema, and the 64-float M-SURF descriptor, upright or
 //! oriented.
@@ -24,7 +24,7 @@ use descriptor::msurf;
 /// KAZE settings (defaults: the authors').
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct KazeConfig {
-    /// Octaves of the scale space (paper 000 §3.3 uses two for ortho-images).
+    /// Octaves of the scale space (Jende et al. 2017 §3.3 use two for ortho-images).
     pub octaves: u32,
     /// Levels per octave.
     pub sublevels: u32,

@@ -1,5 +1,5 @@
 //! Least-squares matching: affine geometry plus radiometric gain and offset, to subpixel precision
-//! (paper 000 §3.4, §3.8; Gruen's adaptive least-squares correlation).
+//! (Jende et al. 2017 §3.4, §3.8; Gruen's adaptive least-squares correlation).
 
 use nalgebra::{SMatrix, SVector};
 
@@ -109,7 +109,7 @@ fn normal_equations(
                 return Err(s.out_of_bounds("least-squares matching", a[0], a[3], t.width() / 2));
             };
             let (gu, gv) = (0.5 * (gr - gl), 0.5 * (gb - gt));
-            // paper 000 §3.4 (LSM): ∂/∂(a, r) of r0 + r1·S(u, v) with u, v affine in (x, y)
+            // Jende et al. 2017 §3.4 (LSM): ∂/∂(a, r) of r0 + r1·S(u, v) with u, v affine in (x, y)
             let j = [r1 * gu, r1 * gu * x, r1 * gu * y, r1 * gv, r1 * gv * x, r1 * gv * y, 1.0, g];
             let e = f64::from(t.get(col, row)) - r0 - r1 * g;
             for (p, line) in upper.iter_mut().enumerate() {

@@ -1,5 +1,6 @@
 //! Zero-mean normalised cross-correlation over a search window, with window sums from integral images
-//! (paper 000 §3.4, §3.8; paper 001 §4.3: accept a match when the coefficient exceeds a threshold, e.g. 0.7).
+//! (Jende et al. 2017 §3.4, §3.8; Cazzaniga et al. 2007 §4.3: accept a match when the coefficient exceeds a
+//! threshold, e.g. 0.7).
 
 use crate::error::ImagingError;
 use crate::image::GrayImage;
@@ -79,7 +80,7 @@ impl<'a> NccSearcher<'a> {
             })
             .sum();
         let s_ss = stats.centred_sum_sq();
-        (s_ss > 1e-9).then(|| cross / (t_ss * s_ss).sqrt()) // zero-mean NCC, paper 000 §3.4
+        (s_ss > 1e-9).then(|| cross / (t_ss * s_ss).sqrt()) // zero-mean NCC, Jende et al. 2017 §3.4
     }
 
     /// The best score with a parabolic subpixel refinement in u and v, and the runner-up.
@@ -129,7 +130,7 @@ pub fn ncc_patches(a: &GrayImage, b: &GrayImage) -> Option<f64> {
         da += x * x;
         db += y * y;
     }
-    (da > 1e-12 && db > 1e-12).then(|| num / (da * db).sqrt()) // zero-mean NCC, paper 000 §3.4
+    (da > 1e-12 && db > 1e-12).then(|| num / (da * db).sqrt()) // zero-mean NCC, Jende et al. 2017 §3.4
 }
 
 /// Vertex offset of the parabola through (−1, a), (0, b), (1, c); 0 when undefined.

@@ -1,5 +1,5 @@
-//! Ortho-projection of panoramas onto the ground (paper 000 §3.2) and rectification of pinhole images to
-//! the road plane (paper 001 §4.2), both by back-projection: every ground cell, given in mapping
+//! Ortho-projection of panoramas onto the ground (Jende et al. 2017 §3.2) and rectification of pinhole images to
+//! the road plane (Cazzaniga et al. 2007 §4.2), both by back-projection: every ground cell, given in mapping
 //! coordinates, is projected into the image through the camera model and sampled bilinearly.
 
 use nalgebra::{Matrix3, Vector3};
@@ -17,7 +17,7 @@ use crate::image::{GrayImage, ImagePart, Mask};
 pub struct GroundGrid {
     /// Easting and northing of the raster centre, metres.
     pub centre: [f64; 2],
-    /// Ground sampling distance, metres per pixel (0.03 for MM↔MM, 0.12 for MM↔aerial: paper 000 §3.2).
+    /// Ground sampling distance, metres per pixel (0.03 for MM↔MM, 0.12 for MM↔aerial: Jende et al. 2017 §3.2).
     pub gsd: f64,
     /// Width in pixels.
     pub width: usize,
@@ -152,7 +152,7 @@ impl SubCameras {
 }
 
 /// Back-project every cell of `grid` at ground height `height(e, n)` into `image` and sample it
-/// bilinearly (paper 000 §3.2). Cells whose bilinear footprint touches `vehicle_mask` (set = vehicle)
+/// bilinearly (Jende et al. 2017 §3.2). Cells whose bilinear footprint touches `vehicle_mask` (set = vehicle)
 /// or leaves the image are invalid.
 pub fn ortho_project<C: OrthoCamera>(
     image: &GrayImage,
@@ -270,7 +270,7 @@ fn sample<C: OrthoCamera>(img: &GrayImage, u: f64, v: f64) -> Option<f32> {
 }
 
 /// The homography from raster pixels of `grid` on the plane z = `height` to the ideal (undistorted)
-/// pixels of a pinhole camera: H = K · R_Cᵀ · [g1, g2, g0 − C] (paper 001 §4.2). Exact for K1 = K2 = 0;
+/// pixels of a pinhole camera: H = K · R_Cᵀ · [g1, g2, g0 − C] (Cazzaniga et al. 2007 §4.2). Exact for K1 = K2 = 0;
 /// with distortion, [`ortho_project`] applies the full camera model instead.
 pub fn plane_homography(exposure: &Exposure<'_, Pinhole>, grid: &GroundGrid, height: f64) -> Matrix3<f64> {
     let cam = exposure.camera;

@@ -1,4 +1,4 @@
-//! RANSAC (Fischler & Bolles 1981; paper 000 §3.3, §3.8) for similarity, affine and homography models:
+//! RANSAC (Fischler & Bolles 1981; Jende et al. 2017 §3.3, §3.8) for similarity, affine and homography models:
 //! adaptive iteration count, least-squares refit on the inliers, deterministic for a given seed.
 
 use nalgebra::Matrix3;

@@ -1,4 +1,4 @@
-//! Geometric resampling: scaling with anti-aliasing, rotation, and warps by a 3×3 matrix (paper 000 §3.6).
+//! Geometric resampling: scaling with anti-aliasing, rotation, and warps by a 3×3 matrix (Jende et al. 2017 §3.6).
 
 use nalgebra::{Matrix3, Vector3};
 
@@ -48,7 +48,7 @@ pub fn warp_forward(
 
 /// Scale by `factor` (> 1 enlarges): the output is round(W·factor) × round(H·factor) and the image corners
 /// stay at the corners. Before shrinking, a Gaussian of σ = ½·√(1/factor² − 1) removes what the coarser grid
-/// cannot hold (paper 000 §3.6: 3 cm → 12 cm).
+/// cannot hold (Jende et al. 2017 §3.6: 3 cm → 12 cm).
 pub fn resize(src: &GrayImage, factor: f64) -> Result<GrayImage, ImagingError> {
     require(factor.is_finite() && factor > 0.0, "factor", factor, "must be a positive scale")?;
     let w = ((src.width() as f64 * factor).round() as usize).max(1);
@@ -66,7 +66,7 @@ pub fn rotation_about(angle: f64, cu: f64, cv: f64) -> Matrix3<f64> {
     Matrix3::new(c, -s, cu - c * cu + s * cv, s, c, cv - s * cu - c * cv, 0.0, 0.0, 1.0)
 }
 
-/// Rotate the image content by `angle` radians about the image centre, keeping the size (paper 000 §3.6:
+/// Rotate the image content by `angle` radians about the image centre, keeping the size (Jende et al. 2017 §3.6:
 /// align the MM ortho-image with the aerial image). Pixels with no source sample are 0 and unset in `valid`.
 pub fn rotate(src: &GrayImage, angle: f64) -> Result<Warped, ImagingError> {
     require(angle.is_finite(), "angle", angle, "must be finite")?;

@@ -63,7 +63,7 @@ impl Scene {
     }
 }
 
-/// Mutually best zero-mean NCC matches (score ≥ 0.7, paper 001 §4.3) between corners of A and B.
+/// Mutually best zero-mean NCC matches (score ≥ 0.7, Cazzaniga et al. 2007 §4.3) between corners of A and B.
 fn match_corners(a: &GrayImage, b: &GrayImage) -> Vec<Correspondence> {
     let params = Foerstner::default();
     let patches = |img: &GrayImage| -> Vec<([f64; 2], GrayImage)> {
@@ -87,7 +87,7 @@ fn match_corners(a: &GrayImage, b: &GrayImage) -> Vec<Correspondence> {
         .collect()
 }
 
-/// Paper 000 §3.4: corners detected in A only, projected into B by the coarse transform, and matched there
+/// Jende et al. 2017 §3.4: corners detected in A only, projected into B by the coarse transform, and matched there
 /// by least-squares matching started from the transform's local affine.
 fn refine(a: &GrayImage, b: &GrayImage, h: &Matrix3<f64>) -> Vec<Correspondence> {
     Foerstner { half_window: 3, nms_radius: 4, min_weight_factor: 1.0, ..Foerstner::default() }

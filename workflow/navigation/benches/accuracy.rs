@@ -1,18 +1,18 @@
 //! Accuracy report of the global adjustment on `district`-sized synthetic drives (~2 km), one per GNSS
-//! profile (open / urban / canyon), in paper 002's table form: DG before and adjusted after, for
-//! (a) aerial tie points + pole CUPTs and (b) pole CUPTs only, the issue's targets beside the figures; each
+//! profile (open / urban / canyon), in the table form of Meyer et al. (2023): DG before and adjusted after, for
+//! (a) aerial tie points + pole CUPTs and (b) pole CUPTs only, the targets beside the figures; each
 //! also with the image-derived motion between consecutive panoramas as a relative observation ("+ image
 //! motion": measured by the MM↔MM registration, not control; simulated from the truth with σ 2 cm, 1 mrad).
-//! The rows without it are the paper-002 comparison.
+//! The rows without it are the comparison with Meyer et al. (2023).
 //!
 //! The observations are SIMULATED FROM THE TRUTH (`plumbline_synth::observations`), not produced by the
 //! registration and pole-detection pipelines (being built in parallel): tie rays from the true poses with
 //! 1 mrad noise, aerial coordinates with σ = 2 aerial pixels × 12 cm, pole CUPTs with σ = 8 % of depth
-//! (paper 002) against the cadastre (poles 10 cm, trees 50 cm). Each drive also carries an injected DG jump
+//! (Meyer et al. 2023) against the cadastre (poles 10 cm, trees 50 cm). Each drive also carries an injected DG jump
 //! (0.5 m north for 8 s, mid-drive; the consistency check of image motions against the DG must flag it and
 //! weaken the chain there) and one control point 1 m off (data snooping must reject it).
 //!
-//! The simulated DG jumps often happen while the vehicle stands still (paper 002 §4.2.3, Fig. 7), where no
+//! The simulated DG jumps often happen while the vehicle stands still (Meyer et al. 2023 §4.2.3, Fig. 7), where no
 //! image or pole observes; the adjustment detects standstills in the DG itself and constrains the corrected
 //! pose to stay put over them (`AdjustmentConfig::standstill`, on by default). The notes list, per run, the
 //! standstills found, how many survived data snooping, and the largest 2D error inside them; and where the
@@ -47,7 +47,7 @@ use plumbline_synth::route::Canyon;
 use plumbline_synth::sensors::{Mount, spaced_times};
 use plumbline_synth::world::{Preset, World, WorldConfig};
 
-/// Image-motion σ of consecutive panoramas: east, north (m), heading (rad) (paper 000 §3.3 at 3 cm GSD).
+/// Image-motion σ of consecutive panoramas: east, north (m), heading (rad) (Jende et al. 2017 §3.3 at 3 cm GSD).
 const IMAGE_STD: [f64; 3] = [0.02, 0.02, 1e-3];
 
 struct Case {
@@ -79,8 +79,8 @@ fn main() {
     if !without.is_empty() {
         println!("Ablation: without {}\n", without.join(", "));
     }
-    println!("Targets (issue 7): aerial + poles: 2D RMSE <= 0.05 m, max cross-track <= 0.15 m within 50 m of");
-    println!("control; poles only: 99 % cross-track <= 0.30 m (paper 002: 0.60 m). |values| in m.\n");
+    println!("Targets: aerial + poles: 2D RMSE <= 0.05 m, max cross-track <= 0.15 m within 50 m of");
+    println!("control; poles only: 99 % cross-track <= 0.30 m (Meyer et al. 2023: 0.60 m). |values| in m.\n");
     println!("Columns after the 2D RMSE: max cross-track where control lies within 50 m; the same outside DG faults");
     println!("(simulated multipath jumps and outages, and the injected jump) and outside the flagged image pairs;");
     println!("99 % cross-track inside the DG faults.\n");

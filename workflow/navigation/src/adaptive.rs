@@ -1,7 +1,7 @@
-//! The filter acting on its own tests (paper 001 §3.2: detect, identify, then remove or re-model): each
+//! The filter acting on its own tests (Cazzaniga et al. 2007 §3.2: detect, identify, then remove or re-model): each
 //! GNSS innovation is tested before it is used.
 //!
-//! - **Local overall test rejects** (paper 001 §3.1.2): the fix disagrees abruptly with the prediction — a
+//! - **Local overall test rejects** (Cazzaniga et al. 2007 §3.1.2): the fix disagrees abruptly with the prediction — a
 //!   GNSS jump is the hypothesis, the fix is excluded. While fixes keep being rejected, each rejected
 //!   innovation is compared with the episode's reference (the same χ² test on v_k − v_ref with covariance
 //!   C_v,k + C_v,ref): a GNSS jump shifts them all by the same amount once it has built up, and shrinks
@@ -168,7 +168,7 @@ impl Monitor {
         let Some(parts) = Parts::of(v, c) else {
             return Decision::Excluded;
         };
-        // paper 001 §3.1.2, local overall test
+        // Cazzaniga et al. 2007 §3.1.2, local overall test
         if parts.nis >= self.local {
             return self.rejected(time, v, c);
         }
@@ -190,7 +190,7 @@ impl Monitor {
             self.episode = Some(Episode { start: time, reference: *v, covariance: *c });
             return Decision::Excluded;
         };
-        // paper 001 §3.2: a GNSS jump is an additive bias of the fixes; an IMU fault grows with time.
+        // Cazzaniga et al. 2007 §3.2: a GNSS jump is an additive bias of the fixes; an IMU fault grows with time.
         let drift = Parts::of(&(v - episode.reference), &(c + episode.covariance)).map_or(f64::INFINITY, |p| p.nis);
         // Away from zero: compared in the metric of the current innovation covariance.
         let away =
@@ -209,7 +209,7 @@ impl Monitor {
         Decision::Excluded
     }
 
-    /// paper 001 §3.1.2, global overall and global slippage tests over the window.
+    /// Cazzaniga et al. 2007 §3.1.2, global overall and global slippage tests over the window.
     fn global_rejects(&self) -> bool {
         let total: f64 = self.window.iter().map(|p| p.nis).sum();
         let num: Vector3<f64> = self.window.iter().map(|p| p.weighted).sum();

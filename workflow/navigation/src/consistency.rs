@@ -1,12 +1,12 @@
 //! The consistency check of the DG trajectory's relative motion against the image-derived motion between
-//! consecutive panoramas (paper 001 §4.1, paper 000 §3.3): where they disagree beyond their combined
-//! precision, the DG solution jumped, and the adjustment's relative constraints there are weakened.
+//! consecutive panoramas (Cazzaniga et al. 2007 §4.1, Jende et al. 2017 §3.3): where they disagree beyond their
+//! combined precision, the DG solution jumped, and the adjustment's relative constraints there are weakened.
 //!
-//! The image side is the transformation between the ortho-projected neighbouring panoramas (paper 000
+//! The image side is the transformation between the ortho-projected neighbouring panoramas (Jende et al. 2017
 //! §3.3): a ground-plane displacement of the body origin and a heading change, with their σ. The DG side is
 //! the same motion read off the trajectory, with the σ of its relative accuracy between close epochs.
 //! Their difference d is tested with the overall χ² test T = Σ d_i² / (σ_img,i² + σ_dg,i²) against
-//! χ²_{3,α} (paper 001 §3.1.2 applied to the photogrammetric innovation of §4.1).
+//! χ²_{3,α} (Cazzaniga et al. 2007 §3.1.2 applied to the photogrammetric innovation of §4.1).
 
 use plumbline_adjustment::WeakLink;
 use plumbline_geo::{PositionInterpolation, Trajectory};
@@ -146,7 +146,7 @@ fn test_pair(
     let d = b.position - a.position;
     let turn = wrap(b.attitude.heading - a.attitude.heading);
     let disc = [m.displacement[0] - d.x(), m.displacement[1] - d.y(), wrap(m.heading_change - turn)];
-    // paper 001 §3.1.2: T = vᵀ C_v⁻¹ v with C_v = C_img + C_dg (independent, diagonal)
+    // Cazzaniga et al. 2007 §3.1.2: T = vᵀ C_v⁻¹ v with C_v = C_img + C_dg (independent, diagonal)
     let statistic = (0..3).map(|i| disc[i].powi(2) / (m.std[i].powi(2) + config.dg_relative_std[i].powi(2))).sum();
     Ok((disc, statistic))
 }

@@ -51,7 +51,7 @@ impl ImuClass {
     /// Typical 1σ figures of the class.
     pub fn datasheet(self) -> ImuDatasheet {
         match self {
-            // Litton LN-100 (the figures paper 003 quotes; the simulator's IMU).
+            // Litton LN-100 (the figures quoted in Grejner-Brzezinska and Toth 2000; the simulator's IMU).
             Self::Navigation => ImuDatasheet {
                 gyro_bias_deg_per_h: 0.003,
                 gyro_bias_instability_deg_per_h: 0.001,

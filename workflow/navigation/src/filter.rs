@@ -1,5 +1,5 @@
 //! The forward pass: strapdown prediction at the IMU rate, closed-loop GNSS position updates with the lever
-//! arm (paper 001 §2.1 prediction and update), and everything the RTS smoother needs.
+//! arm (Cazzaniga et al. 2007 §2.1 prediction and update), and everything the RTS smoother needs.
 
 use std::ops::AddAssign as _;
 
@@ -16,7 +16,7 @@ use crate::{NavError, check_fix};
 /// Smallest initial bias σ, so that the covariance stays invertible for a perfect IMU model.
 const MIN_BIAS_STD: f64 = 1e-12;
 
-/// One GNSS innovation (predicted residual, paper 001 §3.1) with its covariance.
+/// One GNSS innovation (predicted residual, Cazzaniga et al. 2007 §3.1) with its covariance.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Innovation {
     /// Time of the fix, s.
@@ -25,7 +25,7 @@ pub struct Innovation {
     pub fix: usize,
     /// Fix − predicted antenna position: east, north, up, m.
     pub residual: Vector3<f64>,
-    /// C_v = C_y + A·C_{k|k−1}·Aᵀ (paper 001 §3.1; the predicted covariance, as the innovation's
+    /// C_v = C_y + A·C_{k|k−1}·Aᵀ (Cazzaniga et al. 2007 §3.1; the predicted covariance, as the innovation's
     /// definition requires — the paper's C_{k|k} is a typo).
     pub covariance: Matrix3<f64>,
     /// What the filter did with the fix ([`Decision::Used`] always for [`filter`](crate::filter())).
@@ -179,7 +179,7 @@ impl<'a> Run<'a> {
         Self { config, imu, state, p, next_fix: 0, next_constraint, monitor, excluded: &[], pending: None, out }
     }
 
-    /// Prediction (paper 001 §2.1): mechanise the nominal state, propagate the error covariance.
+    /// Prediction (Cazzaniga et al. 2007 §2.1): mechanise the nominal state, propagate the error covariance.
     fn predict(&mut self, k: usize, s: &ImuSample) {
         let f = self.state.transition(s, self.config.imu.bias_correlation_time, &self.config.earth);
         self.p = predict_cov(&f, &self.p, &noise_of(self.config, &self.out.gap_noise, k, s));
@@ -234,7 +234,7 @@ impl<'a> Run<'a> {
         }
     }
 
-    /// Update (paper 001 §2.1) with one antenna position; returns the injected error-state estimate and the
+    /// Update (Cazzaniga et al. 2007 §2.1) with one antenna position; returns the injected error-state estimate and the
     /// covariance the adaptive filter added before the update.
     fn update(&mut self, index: usize, fix: &GnssFix) -> (Vec15, Mat15) {
         let c = self.state.attitude.to_rotation_matrix().into_inner();

@@ -1,8 +1,8 @@
-//! Innovation-based integrity tests (paper 001 §3.1.2): local overall χ² test, local slippage test, and their
-//! global versions over a moving window of N epochs.
+//! Innovation-based integrity tests (Cazzaniga et al. 2007 §3.1.2): local overall χ² test, local slippage test, and
+//! their global versions over a moving window of N epochs.
 //!
 //! The slippage tests blame one component of the GNSS fix (east, north or up): the one with the largest
-//! statistic. With GNSS and an IMU alone a failure cannot be pinned on either sensor for certain (paper 001
+//! statistic. With GNSS and an IMU alone a failure cannot be pinned on either sensor for certain (Cazzaniga et al. 2007
 //! §3.2); a jump in the fixes shows as an abrupt local rejection, an IMU bias step as a slow growth the
 //! global tests catch first. Each flag names the sensor that pattern points to ([`Sensor`]): a local
 //! rejection is *abrupt* when its innovation also differs significantly from the mean innovation of the
@@ -122,11 +122,11 @@ pub fn test_innovations(innovations: &[Innovation], config: &IntegrityConfig) ->
                 _ => Sensor::Imu,
             },
         };
-        // paper 001 §3.1.2, local overall test
+        // Cazzaniga et al. 2007 §3.1.2, local overall test
         if p.nis >= c3 {
             flags.push(flag(TestKind::LocalOverall, p.nis, c3, None, inn.time));
         }
-        // paper 001 §3.1.2, local slippage test
+        // Cazzaniga et al. 2007 §3.1.2, local slippage test
         let (i, t) = largest(&p.weighted, &p.inv_diag);
         if t >= c1 {
             flags.push(flag(TestKind::LocalSlippage, t, c1, Some(COMPONENTS[i]), inn.time));
@@ -134,12 +134,12 @@ pub fn test_innovations(innovations: &[Innovation], config: &IntegrityConfig) ->
         if k + 1 >= config.window {
             let w = &parts[k + 1 - config.window..=k];
             let start = innovations[k + 1 - config.window].time;
-            // paper 001 §3.1.2, global overall test
+            // Cazzaniga et al. 2007 §3.1.2, global overall test
             let total: f64 = w.iter().map(|p| p.nis).sum();
             if total >= cn {
                 flags.push(flag(TestKind::GlobalOverall, total, cn, None, start));
             }
-            // paper 001 §3.1.2, global slippage test
+            // Cazzaniga et al. 2007 §3.1.2, global slippage test
             let num: Vector3<f64> = w.iter().map(|p| p.weighted).sum();
             let den: Vector3<f64> = w.iter().map(|p| p.inv_diag).sum();
             let (i, t) = largest(&num, &den);

@@ -1,7 +1,7 @@
-//! GNSS/INS navigation for campaigns that supply raw GNSS positions and IMU increments (paper 001 §2–3):
+//! GNSS/INS navigation for campaigns that supply raw GNSS positions and IMU increments (Cazzaniga et al. 2007 §2–3):
 //! a loosely coupled 15-state error-state Kalman filter with strapdown mechanisation in the map frame, the
 //! RTS smoother, innovation-based integrity tests, and the consistency check of the DG trajectory against
-//! image-derived motion (paper 001 §4). Synchronous and I/O-free.
+//! image-derived motion (Cazzaniga et al. 2007 §4). Synchronous and I/O-free.
 //!
 //! The mechanisation runs in the east-north-up map frame on an [`Earth`]: flat with constant gravity along
 //! −z (the model `plumbline_synth::motion::imu` simulates), or WGS 84 at the campaign's latitude with Earth

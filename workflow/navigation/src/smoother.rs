@@ -1,4 +1,4 @@
-//! The Rauch–Tung–Striebel smoother over the forward pass (paper 001 §2.1, smoothing equations).
+//! The Rauch–Tung–Striebel smoother over the forward pass (Cazzaniga et al. 2007 §2.1, smoothing equations).
 //!
 //! The forward pass keeps the covariances only at update epochs. Between two of them (j, j+1) no fix was
 //! used, so the gain chain B_k···B_j collapses: x̂_{k|T} = x̂_{k|k} + C_{k|k}·Φ_{j+1,k}ᵀ·C_{j+1|j}⁻¹·(x̂_{j+1|T} −
@@ -74,7 +74,7 @@ struct Gains {
 
 /// Smooth epochs `from..to` (exclusive of `to`); returns the smoothed error and covariance at `from`.
 ///
-/// A re-initialisation re-opened the position at `to`: a fault the filter only noticed there (paper 001
+/// A re-initialisation re-opened the position at `to`: a fault the filter only noticed there (Cazzaniga et al. 2007
 /// §3.2 places it at the start of the window). Its position variance is spread as a position random walk
 /// over the interval, in proportion to each step's dt — the same C_{to|to−1} (position noise passes through
 /// the transition unchanged), but the smoothed trajectory bends over the interval instead of stepping.
@@ -105,7 +105,7 @@ fn interval(
     for (i, (f, p)) in steps.iter().enumerate().rev() {
         lambda = f.transpose() * lambda;
         big_lambda = f.transpose() * big_lambda * f;
-        // paper 001 §2.1: x̂_{k|T} = x̂_{k|k} + B_k(…), C_{k|T} = C_{k|k} + B_k(C_{k+1|T} − C_{k+1|k})B_kᵀ
+        // Cazzaniga et al. 2007 §2.1: x̂_{k|T} = x̂_{k|k} + B_k(…), C_{k|T} = C_{k|k} + B_k(C_{k+1|T} − C_{k+1|k})B_kᵀ
         let s = p * lambda;
         let ps = p + p * big_lambda * p;
         visit(from + i, &s, &ps);

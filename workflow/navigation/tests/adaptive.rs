@@ -309,7 +309,7 @@ fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
     }
 }
 
-/// Issue 19: agencies' raw GNSS is often logged at 1 Hz; the 2 s levelling window then holds two fixes.
+/// Agencies' raw GNSS is often logged at 1 Hz; the 2 s levelling window then holds two fixes.
 /// It widens to the fourth fix, and both a standing and a moving start align within their stated σ.
 #[test]
 fn one_hertz_gnss_aligns_standing_and_moving() {

@@ -1,6 +1,7 @@
 #![allow(clippy::unwrap_used)]
-//! The consistency check of DG relative motion against image-derived motion (paper 001 §4, paper 000 §3.3):
-//! a DG jump is flagged at exactly the pairs spanning its start and end; clean pairs pass at the nominal rate.
+//! The consistency check of DG relative motion against image-derived motion (Cazzaniga et al. 2007 §4,
+//! Jende et al. 2017 §3.3): a DG jump is flagged at exactly the pairs spanning its start and end; clean pairs pass
+//! at the nominal rate.
 
 mod common;
 

@@ -1,5 +1,5 @@
 #![allow(clippy::unwrap_used)]
-//! Innovation tests (paper 001 §3.1.2): nominal false-alarm rates on clean data, detection of injected
+//! Innovation tests (Cazzaniga et al. 2007 §3.1.2): nominal false-alarm rates on clean data, detection of injected
 //! faults (a 1 m GNSS jump for 10 s, a step in an accelerometer bias); the fixes' scatter measured against
 //! their stated σ.
 

@@ -1,6 +1,6 @@
 //! Pole benchmark (`cargo bench -p plumbline-poles`): detections per second from depth images (decode +
 //! back-projection + detection, the renderer excluded), points per second reading LAS and LAZ, and the
-//! issue-6 figures (recall, precision, χ²) on a `district` world, the same for the roof laser scanner's
+//! accuracy figures (recall, precision, χ²) on a `district` world, the same for the roof laser scanner's
 //! cloud (`cloud_accuracy`). Environment: POLE_BENCH_LENGTH (route
 //! metres, default 2000), POLE_BENCH_WIDTH (depth image width, default 640; height = width × 9/16),
 //! POLE_BENCH_RATE (Hz, default 1), POLE_BENCH_SEED (default 1), POLE_BENCH_CLOUD_ONLY (only the
@@ -206,7 +206,7 @@ impl AsRef<[u8]> for ArcBytes {
     }
 }
 
-/// Issue-20 figures: the roof laser scanner (`plumbline_synth::mls`) along the whole route, strip by strip
+/// Accuracy figures: the roof laser scanner (`plumbline_synth::mls`) along the whole route, strip by strip
 /// (30 s of scanning each) made, compressed to LAZ, streamed back through a `CloudSlicer` and matched like
 /// depth frames. Recall counts the world's poles within 15 m of the true drive (all of them, and those the
 /// scanner hit at least 10 times 1.0–1.6 m above ground); a detection is of the pole within 0.5 m of its

@@ -1,5 +1,5 @@
-//! Coordinate updates (CUPTs, paper 002 §3.4.2): per matched detection, the cadastre position minus the
-//! position observed with the DG pose, weighted with err = √(err_cam² + err_pole²) (paper 002 eq. (1)):
+//! Coordinate updates (CUPTs, Meyer et al. 2023 §3.4.2): per matched detection, the cadastre position minus the
+//! position observed with the DG pose, weighted with err = √(err_cam² + err_pole²) (Meyer et al. 2023 eq. (1)):
 //! err_cam from the detection's covariance (range error model), err_pole from the cadastre's class accuracy.
 
 use plumbline_adjustment::PoleUpdate;
@@ -66,7 +66,7 @@ pub fn coordinate_updates(
             if update_blocker(input, frame, m.detection, c).is_some() {
                 continue;
             }
-            // paper 002 eq. (1): err = √(err_cam² + err_pole²); `PoleUpdate::sigma` adds them.
+            // Meyer et al. 2023 eq. (1): err = √(err_cam² + err_pole²); `PoleUpdate::sigma` adds them.
             out.push(PoleUpdate {
                 cadastre_id: feature_key(&f.id),
                 time: input.time,

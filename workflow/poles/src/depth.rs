@@ -1,5 +1,5 @@
-//! Depth images (16-bit PNG, paper 002's RGB-D set-up) into mapping-frame points: pixel + depth → camera
-//! frame → map through the DG pose and the depth camera's mount (paper 003 eq. (1)).
+//! Depth images (16-bit PNG, the RGB-D set-up of Meyer et al. 2023) into mapping-frame points: pixel + depth → camera
+//! frame → map through the DG pose and the depth camera's mount (Grejner-Brzezinska and Toth 2000 eq. (1)).
 
 use image::{DynamicImage, ImageFormat};
 use nalgebra::Vector3;
@@ -143,7 +143,7 @@ fn check_intrinsics(image: &str, k: &DepthIntrinsics) -> Result<(), DepthError> 
 
 /// The pixels of a depth image as mapping-frame points, georeferenced with the vehicle pose `body` (the DG
 /// pose when processing) and the camera's `mount`; each carries its range error (σ = `range_error_share`
-/// × depth, paper 002 §3.1.2) as a displacement along its ray.
+/// × depth, Meyer et al. 2023 §3.1.2) as a displacement along its ray.
 pub fn depth_points(
     depth: &DepthImage,
     k: &DepthIntrinsics,
@@ -163,10 +163,11 @@ pub fn depth_points(
                 let x = (col as f64 + 0.5 - k.cx) / k.fx;
                 let ray = Vec3::<Camera>::new(x, y, 1.0);
                 let z = f64::from(z);
-                // paper 003 eq. (1): r_M = r_INS + R_B^M (s R_C^B r_C + b), with r_C at unit depth and s = z.
+                // Grejner-Brzezinska and Toth 2000 eq. (1): r_M = r_INS + R_B^M (s R_C^B r_C + b), with r_C at unit
+                // depth and s = z.
                 let position = mount.georeference(body, &ray, z).p;
                 let direction: Vector3<f64> = body.rotation.apply(&mount.boresight.apply(&ray)).v;
-                // paper 002 §3.1.2: σ_depth = share · depth, along the pixel's ray.
+                // Meyer et al. 2023 §3.1.2: σ_depth = share · depth, along the pixel's ray.
                 FramePoint { position, error: direction * (range_error_share * z), row: Some(row as u32) }
             })
         })
@@ -197,7 +198,7 @@ mod tests {
         }
     }
 
-    /// Issue 18: a depth image whose header claims 20000² px, or a real 12000² bomb, is refused on its header
+    /// A depth image whose header claims 20000² px, or a real 12000² bomb, is refused on its header
     /// (before decoding) whatever the intrinsics say, naming the image and the size.
     #[test]
     fn a_depth_image_over_the_budget_is_refused_before_decoding() {

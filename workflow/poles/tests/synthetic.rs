@@ -1,4 +1,4 @@
-//! Issue 6 "done when" on seeded synthetic `tiny` drives: depth images rendered with the true pose,
+//! Acceptance checks on seeded synthetic `tiny` drives: depth images rendered with the true pose,
 //! processed with the DG pose against the synthetic cadastre (position errors, missing and gone objects):
 //! detection recall, matching precision, and the χ² test of the CUPT residuals against the stated model.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
@@ -67,7 +67,7 @@ fn scored(seed: u64) -> common::eval::Score {
     s
 }
 
-/// The CUPT residuals against the truth are consistent with the stated error model (paper 002 eq. (1):
+/// The CUPT residuals against the truth are consistent with the stated error model (Meyer et al. 2023 eq. (1):
 /// range error share and cadastre class accuracy), and the same χ² test rejects the model scaled by 2 or 1/2.
 #[test]
 fn cupt_residuals_pass_chi2_and_reject_a_wrong_model() {
@@ -82,11 +82,11 @@ fn cupt_residuals_pass_chi2_and_reject_a_wrong_model() {
     }
 }
 
-/// Issue 6's targets: detection recall ≥ 90 % of the observable cadastre poles within 10 m, matching
-/// precision ≥ 99 %, on tiny seeds 1–5 at 1 Hz (`POLE_SEEDS` / `POLE_RATE` run others; seeds 6–8 and 2 Hz
-/// also meet them, see the issue report).
+/// Targets: detection recall ≥ 90 % of the observable cadastre poles within 10 m, matching
+/// precision ≥ 99 %, on tiny seeds 1–5 at 1 Hz (`POLE_SEEDS` / `POLE_RATE` run others, e.g. seeds 6–8 or
+/// 2 Hz).
 #[test]
-fn issue_targets_recall_and_precision() {
+fn recall_and_precision_meet_their_targets() {
     for seed in seeds(&[1, 2, 3, 4, 5]) {
         let s = scored(seed);
         assert!(s.recall() >= 0.90, "seed {seed}: recall {:.3}", s.recall());
@@ -94,7 +94,7 @@ fn issue_targets_recall_and_precision() {
     }
 }
 
-/// Issue 25: fed in batches of any size, the stream gives exactly the output of the whole drive at once, and it
+/// Fed in batches of any size, the stream gives exactly the output of the whole drive at once, and it
 /// holds the points of no more than the ground window's frames between pushes (a push adds its batch), however
 /// long the drive.
 #[test]

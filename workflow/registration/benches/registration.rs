@@ -1,8 +1,8 @@
-//! Registration accuracy and speed on a synthetic campaign, per GNSS profile, in paper 000 Table 1's form:
-//! images, images matched, correspondences, share correct (aerial position within 2 aerial pixels of the
-//! true point, horizontally), why images failed, where true correspondences were lost (module `losses`: every
-//! corner search of §3.8 scored against the truth), the points that are not correct, and the time per stage
-//! per panorama.
+//! Registration accuracy and speed on a synthetic campaign, per GNSS profile, in the form of Jende et al. (2017),
+//! Table 1: images, images matched, correspondences, share correct (aerial position within 2 aerial pixels of
+//! the true point, horizontally), why images failed, where true correspondences were lost (module `losses`:
+//! every corner search of §3.8 scored against the truth), the points that are not correct, and the time per
+//! stage per panorama.
 //!
 //! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
 //! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
@@ -298,7 +298,9 @@ fn print_split(rows: &[Row]) {
 }
 
 fn print_crosscheck(rows: &[Row]) {
-    println!("\nCross-panorama check (paper 000 §3.9) against the truth: a registration is truly wrong when its");
+    println!(
+        "\nCross-panorama check (Jende et al. 2017 §3.9) against the truth: a registration is truly wrong when its"
+    );
     println!("offset misses minus the true DG error by more than 2 aerial pixels ({:.2} m).", 2.0 * AERIAL_GSD);
     println!(
         "\n| profile | offsets checked | flagged | flagged truly wrong / right | kept truly wrong | kept unverified | motions contradicted: true error (m) | kept: max residual / bound, max residual (m) |"

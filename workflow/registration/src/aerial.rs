@@ -1,4 +1,4 @@
-//! Steps 5–8 of paper 000 §3: MM patch ↔ aerial images, from the initial transformation to the multi-image
+//! Steps 5–8 of Jende et al. 2017 §3: MM patch ↔ aerial images, from the initial transformation to the multi-image
 //! triangulation, and the same registration against a georeferenced orthophoto.
 //!
 //! [`register_patch`] takes one MM patch (the north-up 3 cm ortho-image of a panorama and its corners with
@@ -7,12 +7,15 @@
 //!
 //! Stages, each in its own module: `prepare` (§3.6 resampling, rotation, blur; §3.7 Wallis), `view`
 //! (projection into the block, local orientation and windows), `initial` (§3.7 KAZE + RANSAC and the
-//! plausibility check; `guided`: descriptor matching within the DG bound) with `correlate` (a whole-patch
-//! NCC fallback when KAZE finds no transformation), `correspond` (§3.8 NCC + LSM, RANSAC, cross-image
-//! consistency), `joint` (§3.8 RANSAC over all images of a patch), `triangulate` (§3.9), `points` (§3.9
-//! over a patch, or the orthophoto + terrain lookup), `trace` (what §3.8 did, for diagnosis), `image` (steps 5–7 for one aerial image; a DG-bounded corner search when no initial transformation
-//! passes) and `register` (the driver: overlapping images, one prepared MM patch per aerial orientation,
-//! images in parallel).
+//! plausibility check; `guided`: descriptor matching within the DG bound; `pooled`: one offset from the KAZE
+//! matches of all windows of a patch at once) with `correlate` (a whole-patch NCC fallback when KAZE finds no
+//! transformation), `correspond` (§3.8 NCC + LSM, RANSAC, cross-image consistency), `joint` (§3.8 RANSAC
+//! over all images of a patch), `triangulate` (§3.9), `points` (§3.9 over a patch, or the orthophoto +
+//! terrain lookup), `trace` (what §3.8 did, for diagnosis), `image` (steps 5–7 for one aerial image; a
+//! DG-bounded corner search when no initial transformation passes) and `register` (the driver: overlapping
+//! images, one prepared MM patch per aerial orientation, images in parallel). Beside them: `config` (the
+//! settings, with the paper's values where it gives them) and `diagnostics` (why an image or a patch was not
+//! used, typed, part of the tile result).
 //!
 //! Architecture invariant: I/O-free and deterministic (seeded RANSAC, no clocks); one broken aerial image
 //! or patch is reported in the outcome, never a panic or an error that sinks the tile.
@@ -100,7 +103,7 @@ pub enum AerialReference {
     Orthophoto(Orthophoto),
 }
 
-/// The MM side of one panorama: its north-up ortho-image at 3 cm (paper 000 §3.2) and the corners found in
+/// The MM side of one panorama: its north-up ortho-image at 3 cm (Jende et al. 2017 §3.2) and the corners found in
 /// it, each with the mapping coordinates triangulated from two panoramas with DG poses (§3.5).
 #[derive(Clone, Copy, Debug)]
 pub struct MmPatch<'a> {

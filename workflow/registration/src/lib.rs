@@ -1,4 +1,4 @@
-//! MM↔aerial registration, the pipeline of paper 000 §3: ortho-projected panoramas registered with each
+//! MM↔aerial registration, the pipeline of Jende et al. 2017 §3: ortho-projected panoramas registered with each
 //! other and with aerial nadir images, producing tie observations for the adjustment.
 //!
 //! Synchronous and I/O-free; rayon parallelism inside.

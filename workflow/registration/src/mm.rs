@@ -1,4 +1,4 @@
-//! Steps 1–4 of paper 000 §3: ortho-projection, MM↔MM transformation, corner matching and triangulation.
+//! Steps 1–4 of Jende et al. 2017 §3: ortho-projection, MM↔MM transformation, corner matching and triangulation.
 //!
 //! Inputs are decoded panoramas with their DG poses ([`Panorama`]) and the camera rig they share
 //! ([`PanoramaRig`]); every step is a pure function of them and of [`MmConfig`].
@@ -69,14 +69,14 @@ pub struct PanoramaRig {
     pub terrain: Option<Arc<Terrain>>,
 }
 
-/// Parameters of steps 1–4 (paper 000 §3.2–§3.5); `Default` gives the paper's values where it states them.
+/// Parameters of steps 1–4 (Jende et al. 2017 §3.2–§3.5); `Default` gives the paper's values where it states them.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MmConfig {
-    /// Ground sampling distance of the MM ortho-images, metres (paper 000 §3.2: 3 cm).
+    /// Ground sampling distance of the MM ortho-images, metres (Jende et al. 2017 §3.2: 3 cm).
     pub gsd: f64,
     /// Half the side of the square ortho-image around the camera, metres.
     pub half_extent: f64,
-    /// KAZE settings: two octaves, upright, threshold tuned for ortho-images (paper 000 §3.3).
+    /// KAZE settings: two octaves, upright, threshold tuned for ortho-images (Jende et al. 2017 §3.3).
     pub kaze: KazeConfig,
     /// Keypoints closer than this to an invalid ortho cell are dropped, pixels (their blobs see the mask edge).
     pub kaze_margin: usize,
@@ -89,17 +89,17 @@ pub struct MmConfig {
     /// Fewest RANSAC inliers for a feature-based transformation.
     pub min_kaze_inliers: usize,
     /// Largest disagreement, metres, between the feature-based and the orientation-based position of the
-    /// first image's centre in the second image (paper 000 §3.3's verification).
+    /// first image's centre in the second image (Jende et al. 2017 §3.3's verification).
     pub max_disagreement: f64,
     /// Largest deviation of the similarity's scale from 1 (both ortho-images have the same GSD).
     pub max_scale_deviation: f64,
-    /// σ added in quadrature to the image-derived motion's formal σ (paper 001 §4.1): displacement (m),
+    /// σ added in quadrature to the image-derived motion's formal σ (Cazzaniga et al. 2007 §4.1): displacement (m),
     /// heading change (rad). It covers the errors features of one marking share, which the inlier residuals
     /// do not show. Default 1 cm (a third of the 3 cm ortho pixel) and 1 mrad (1 cm over 10 m): the
     /// registration bench measured errors of 7–8 mm / 0.6–0.9 mrad median and 28–43 mm / 2.8–4.0 mrad at
     /// 95 % (tiny, three GNSS profiles, seeds 1 and 2), 93–96 % of pairs within 3σ.
     pub motion_std_floor: [f64; 2],
-    /// Förstner operator for the corners (paper 000 §3.4).
+    /// Förstner operator for the corners (Jende et al. 2017 §3.4).
     pub foerstner: Foerstner,
     /// Corners farther than this from the camera (horizontally, metres) are not matched: the panorama's
     /// ground resolution falls with range, and the patch beyond serves the aerial registration only.

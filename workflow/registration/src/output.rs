@@ -1,4 +1,4 @@
-//! Step 9 of paper 000 §3 (issue 5): the versioned per-tile result — tie observations for the adjustment
+//! Step 9 of Jende et al. 2017 §3: the versioned per-tile result — tie observations for the adjustment
 //! (`plumbline_adjustment::TiePoint`) and a diagnostic per panorama saying what each step found and why an
 //! image was discarded. Schema: `schemas/tile-result.v1.schema.json`.
 
@@ -38,7 +38,7 @@ impl TileResult {
 pub struct TileResultV1 {
     /// The tile.
     pub tile: TileId,
-    /// Tie points: rays from two panoramas, with aerial-derived coordinates when matched (paper 000 §3.9).
+    /// Tie points: rays from two panoramas, with aerial-derived coordinates when matched (Jende et al. 2017 §3.9).
     pub ties: Vec<TiePoint>,
     /// One diagnostic per panorama, in time order.
     pub images: Vec<ImageDiagnostic>,
@@ -54,38 +54,38 @@ pub struct ImageDiagnostic {
     pub image: String,
     /// Exposure time, seconds.
     pub time: f64,
-    /// The panorama it was paired with (paper 000 §3.3), if any.
+    /// The panorama it was paired with (Jende et al. 2017 §3.3), if any.
     pub neighbour: Option<String>,
     /// The MM↔MM transformation used and why (KAZE or the orientation-based fallback).
     pub transform: Option<TransformSource>,
     /// The vehicle's motion between this panorama and its neighbour (in time order) measured by the KAZE
-    /// similarity, also when it disagreed with the DG poses (paper 000 §3.3, paper 001 §4.1); None when
-    /// KAZE + RANSAC found no similarity with enough inliers and unit scale.
+    /// similarity, also when it disagreed with the DG poses (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1);
+    /// None when KAZE + RANSAC found no similarity with enough inliers and unit scale.
     #[serde(default)]
     pub motion: Option<ImageMotion>,
-    /// True when the cross-panorama check (paper 000 §3.9) found `motion` contradicted by the aerial offsets:
+    /// True when the cross-panorama check (Jende et al. 2017 §3.9) found `motion` contradicted by the aerial offsets:
     /// every comparison of matched panoramas across it disagreed by one shared residual. Not to be used as
     /// a relative observation.
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub motion_contradicted: bool,
     /// Corner counts through steps 3–4.
     pub corners: CornerCounts,
-    /// One entry per aerial image overlapping the recording location (paper 000 §3.7–§3.8).
+    /// One entry per aerial image overlapping the recording location (Jende et al. 2017 §3.7–§3.8).
     pub aerial_images: Vec<AerialImageDiagnostic>,
     /// Points with aerial-derived coordinates.
     pub aerial_points: usize,
     /// Ties left out because they failed the adjustment's checks (non-unit ray, covariance not SPD).
     #[serde(default)]
     pub dropped_ties: usize,
-    /// The aerial frames each of this panorama's aerial points was triangulated from (paper 000 §3.9), one
+    /// The aerial frames each of this panorama's aerial points was triangulated from (Jende et al. 2017 §3.9), one
     /// entry per tie with aerial coordinates; absent in results written before it existed.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub aerial_frames: Vec<TieFrames>,
-    /// The DG error measured here: where the aerial points put the panorama's MM points (paper 000 §3.9);
+    /// The DG error measured here: where the aerial points put the panorama's MM points (Jende et al. 2017 §3.9);
     /// absent when it has no aerial points (and in results written before it existed).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub aerial_offset: Option<AerialOffset>,
-    /// What the cross-panorama check (paper 000 §3.9) concluded about `aerial_offset`; absent when the
+    /// What the cross-panorama check (Jende et al. 2017 §3.9) concluded about `aerial_offset`; absent when the
     /// check did not run on this panorama (not matched, or the check is off).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub cross_check: Option<CrossCheck>,
@@ -112,7 +112,7 @@ pub struct AerialOffset {
     pub points: usize,
 }
 
-/// The cross-panorama check's verdict on one matched panorama's aerial offset (paper 000 §3.9).
+/// The cross-panorama check's verdict on one matched panorama's aerial offset (Jende et al. 2017 §3.9).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(tag = "status", rename_all = "snake_case")]
 pub enum CrossCheck {
@@ -129,7 +129,7 @@ pub enum CrossCheck {
     },
 }
 
-/// One partner whose aerial offset disagrees with a panorama's (paper 000 §3.9).
+/// One partner whose aerial offset disagrees with a panorama's (Jende et al. 2017 §3.9).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Disagreement {
@@ -142,7 +142,7 @@ pub struct Disagreement {
 }
 
 /// The aerial frames one tie point's aerial coordinates were triangulated from (the rays the multi-image
-/// triangulation kept, paper 000 §3.9), for the adjustment's per-frame-set height bias.
+/// triangulation kept, Jende et al. 2017 §3.9), for the adjustment's per-frame-set height bias.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TieFrames {
@@ -195,10 +195,10 @@ pub enum DiscardReason {
         /// Points required.
         needed: usize,
     },
-    /// The aerial registration discarded the patch (paper 000 §3.7–§3.9).
+    /// The aerial registration discarded the patch (Jende et al. 2017 §3.7–§3.9).
     Aerial(AerialDiscard),
     /// The aerial registration succeeded but its offset disagrees with the partners' offsets carried
-    /// through the image-derived motion chain (the cross-panorama check of paper 000 §3.9).
+    /// through the image-derived motion chain (the cross-panorama check of Jende et al. 2017 §3.9).
     Inconsistent {
         /// The partners it disagrees with and by how much.
         disagreements: Vec<Disagreement>,
@@ -243,7 +243,7 @@ impl fmt::Display for DiscardReason {
     }
 }
 
-/// Counts over a tile, in paper 000 Table 1's terms.
+/// Counts over a tile, in the terms of Jende et al. (2017), Table 1.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct TileSummary {

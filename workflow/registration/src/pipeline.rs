@@ -1,4 +1,4 @@
-//! The per-tile driver of paper 000 §3: panoramas in time order, each owned one paired with a neighbour
+//! The per-tile driver of Jende et al. 2017 §3: panoramas in time order, each owned one paired with a neighbour
 //! closer than a bound; per pair steps 1–4 (`crate::mm`), then steps 5–8 (`crate::aerial::register_patch`);
 //! the tie points and per-image diagnostics go into a versioned [`TileResult`].
 //!
@@ -42,11 +42,11 @@ pub struct PipelineConfig {
     pub max_pair_distance: f64,
     /// Smallest distance of a pair, metres (below it the rays are too close to parallel).
     pub min_pair_distance: f64,
-    /// Fewest triangulated MM points for an aerial registration (paper 000 §3.8 needs ten correspondences).
+    /// Fewest triangulated MM points for an aerial registration (Jende et al. 2017 §3.8 needs ten correspondences).
     pub min_mm_points: usize,
     /// Keep MM↔MM points without an aerial match as ties (they link neighbouring panoramas).
     pub keep_mm_only_ties: bool,
-    /// The cross-panorama check of the aerial offsets (paper 000 §3.9).
+    /// The cross-panorama check of the aerial offsets (Jende et al. 2017 §3.9).
     pub cross_check: CrossCheckConfig,
 }
 
@@ -108,7 +108,7 @@ pub struct TileRun {
     pub traces: Vec<Vec<ImageTrace>>,
 }
 
-/// Register every owned panorama of a tile with its neighbour and with the aerial reference (paper 000 §3).
+/// Register every owned panorama of a tile with its neighbour and with the aerial reference (Jende et al. 2017 §3).
 /// `panoramas` are the tile's panoramas prepared one at a time ([`prepare_panorama`]), owned and context, in
 /// any order; context panoramas serve only as neighbours and get no diagnostic. Bad panoramas (wrong size,
 /// no neighbour, failed steps) get a diagnostic; the others go on.
@@ -215,7 +215,7 @@ impl TileRegistration {
         self.outcomes.len()
     }
 
-    /// The cross-panorama check over everything registered (paper 000 §3.9) and the tile's result;
+    /// The cross-panorama check over everything registered (Jende et al. 2017 §3.9) and the tile's result;
     /// `panoramas` are the tile's readable panoramas as in the last [`TileRegistration::register`] (their
     /// patches may be released).
     pub fn finish(self, panoramas: &[PreparedPanorama], config: &PipelineConfig) -> TileRun {
@@ -251,7 +251,7 @@ impl TileRegistration {
     }
 }
 
-/// The cross-panorama check over the tile (paper 000 §3.9): the matched panoramas' aerial offsets compared
+/// The cross-panorama check over the tile (Jende et al. 2017 §3.9): the matched panoramas' aerial offsets compared
 /// through the image-derived motions; a flagged panorama is discarded as inconsistent and its ties keep
 /// their MM rays but lose their aerial coordinates. `owned[k]` is the place of `outcomes[k]` in `order`.
 fn cross_check(

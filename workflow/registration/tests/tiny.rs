@@ -40,7 +40,7 @@ fn tiny_junction_registers_with_correct_ties() {
     eprintln!("seed {seed}: {summary:?}; {:?}", run.timings);
     // Every image has a diagnostic; every discarded one says why.
     assert_eq!(result.images.len(), campaign.panoramas.len());
-    // Paper 000 reached 10–23 % of images at junction-rich areas; issue 5 asks ≥ 50 % where markings exist.
+    // Jende et al. (2017) reached 10–23 % of images at junction-rich areas; the target is ≥ 50 % where markings exist.
     assert!(summary.images_matched * 2 >= summary.images, "{summary:?}");
     // Correct: the aerial position within 2 aerial pixels of the true ground point, horizontally (two
     // nadir frames with a 1500 m flying height fix the height only to metres: checked against its σ).
@@ -54,7 +54,7 @@ fn tiny_junction_registers_with_correct_ties() {
     let consistent = errors.iter().filter(|(e, s)| e[2].abs() <= 3.0 * s[2]).count();
     assert!(consistent * 100 >= errors.len() * 99, "{consistent} of {} heights within 3σ", errors.len());
     // Every aerial tie records the ≥ 2 frames it was triangulated from, each one that gave its panorama's
-    // patch correspondences (paper 000 §3.9; for the adjustment's per-frame-set height bias).
+    // patch correspondences (Jende et al. 2017 §3.9; for the adjustment's per-frame-set height bias).
     for d in &result.images {
         let with_aerial = result.ties.iter().filter(|t| t.aerial.is_some() && t.id.0.starts_with(&d.image));
         assert_eq!(d.aerial_frames.len(), with_aerial.count(), "{}", d.image);
@@ -64,9 +64,9 @@ fn tiny_junction_registers_with_correct_ties() {
             assert!(f.frames.windows(2).all(|w| w[0] < w[1]), "sorted, distinct: {f:?}");
         }
     }
-    // Image-derived motion (paper 000 §3.3, paper 001 §4.1): most pairs have one; it agrees with the TRUE
-    // motion within 3σ for ≥ 90 % of them, with σ of centimetres and milliradians, whatever the DG motion's
-    // own error (printed beside it).
+    // Image-derived motion (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1): most pairs have one; it agrees
+    // with the TRUE motion within 3σ for ≥ 90 % of them, with σ of centimetres and milliradians, whatever the DG
+    // motion's own error (printed beside it).
     let motions = campaign.motion_checks(&result);
     for m in &motions {
         eprintln!("motion error {:?} σ {:?}; DG motion error {:?}", m.error, m.std, m.dg_error);

@@ -115,8 +115,8 @@ fn accuracy(s: &mut String, r: &Report) {
     let _ = write!(
         s,
         "<h2>Accuracy against the reference</h2><p class=\"muted\">Reference: {}. Absolute differences in metres \
-         (paper 002 table form).</p><table><tr><th>trajectory</th><th>difference</th><th>median</th><th>95 %</th>\
-         <th>99 %</th><th>max</th><th>RMS</th></tr>",
+         (table form of Meyer et al. 2023).</p><table><tr><th>trajectory</th><th>difference</th><th>median</th>\
+         <th>95 %</th><th>99 %</th><th>max</th><th>RMS</th></tr>",
         escape(&a.reference)
     );
     for (name, f) in [("DG (before)", &a.before), ("corrected (after)", &a.after)] {

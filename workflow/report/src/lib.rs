@@ -2,9 +2,9 @@
 //!
 //! [`Report`] is the data (`report.json`, versioned, schema in `schemas/report.v1.schema.json`);
 //! [`html::render`] turns it into one self-contained page (`report.html`: inline CSS and SVG plots, no
-//! network). The figures are the project's quality measures (DESIGN.md): the paper-002 table of
-//! along-track, cross-track and height differences before and after, registration counts in the form of
-//! paper 000 Table 1, and the reasons images or features were skipped.
+//! network). The figures are the project's quality measures (DESIGN.md): along-track, cross-track and height
+//! differences before and after in the table form of Meyer et al. (2023), registration counts in the form of
+//! Jende et al. (2017), Table 1, and the reasons images or features were skipped.
 //!
 //! Synchronous and I/O-free: the caller gathers the numbers and stores the bytes.
 

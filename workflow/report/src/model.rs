@@ -99,7 +99,7 @@ pub struct Summary {
     pub length_m: f64,
     /// Panoramas processed.
     pub images: usize,
-    /// Panoramas with aerial correspondences (paper 000 Table 1 "images matched").
+    /// Panoramas with aerial correspondences (Jende et al. 2017, Table 1 "images matched").
     pub images_matched: usize,
     /// Tie points used.
     pub ties: usize,
@@ -113,7 +113,7 @@ pub struct Summary {
     pub sigma0: f64,
 }
 
-/// Differences to a reference, summarised in the paper-002 table form.
+/// Differences to a reference, summarised in the table form of Meyer et al. (2023).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Figures {
@@ -148,7 +148,7 @@ pub struct Accuracy {
 }
 
 impl Accuracy {
-    /// The before/after table in paper 002's form (|difference| median, 95 %, 99 %, max per direction,
+    /// The before/after table in the form of Meyer et al. 2023 (|difference| median, 95 %, 99 %, max per direction,
     /// then the 2D RMSE), metres, as plain text.
     pub fn table(&self) -> String {
         use std::fmt::Write as _;

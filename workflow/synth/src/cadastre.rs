@@ -1,5 +1,5 @@
 //! A pole cadastre as an agency would deliver it for the synthetic world: every pole-like object's base
-//! with a seeded position error (poles σ ≈ 5–10 cm, trees σ ≈ 30–50 cm; paper 002 §4.1), and the defects
+//! with a seeded position error (poles σ ≈ 5–10 cm, trees σ ≈ 30–50 cm; Meyer et al. 2023 §4.1), and the defects
 //! of real registers: objects missing from the cadastre, and objects still listed but gone in reality.
 //! Plain values; the GeoPackage is written by the services.
 

@@ -66,7 +66,7 @@ pub struct CityBlock {
 impl CityBlock {
     /// The block flown with `cam` and `spec` over the city of `config` (strips anchored at its origin).
     pub fn new(config: &WorldConfig, cam: Pinhole, spec: &BlockSpec) -> Self {
-        // The geometry of `plan_block`: flying height above ground = GSD · focal length in pixels (paper 000
+        // The geometry of `plan_block`: flying height above ground = GSD · focal length in pixels (Jende et al. 2017
         // §3.2: 12 cm aerial GSD), air base and strip spacing from the 60 % / 30 % overlaps.
         let height = config.ground_height + spec.gsd * cam.fx;
         let size = [f64::from(cam.width) * spec.gsd, f64::from(cam.height) * spec.gsd];

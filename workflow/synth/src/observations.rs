@@ -2,12 +2,12 @@
 //! while those are built: pole coordinate updates (CUPTs) and tie points with aerial coordinates, with the
 //! error models the papers state. Plain values; the adjuster's message types are filled by the caller.
 //!
-//! - **Pole CUPTs** (paper 002 §3.4.2): at depth-image epochs, every listed cadastre object that exists and
+//! - **Pole CUPTs** (Meyer et al. 2023 §3.4.2): at depth-image epochs, every listed cadastre object that exists and
 //!   lies 3–15 m to the right of the vehicle (inside the side camera's ±45° view) is measured in the body
-//!   frame with σ = 8 % of its depth per horizontal axis (paper 002's depth-camera error), georeferenced
+//!   frame with σ = 8 % of its depth per horizontal axis (the depth-camera error of Meyer et al. 2023), georeferenced
 //!   with the DG pose; its cadastre position is the listed one (with the cadastre's own error), σ_pole the
 //!   class accuracy. Occlusion and detection failures are not modelled.
-//! - **Tie points** (paper 000 §3.4–3.9): at each panorama, road-surface points 3–8 m ahead and 2–6 m to
+//! - **Tie points** (Jende et al. 2017 §3.4–3.9): at each panorama, road-surface points 3–8 m ahead and 2–6 m to
 //!   either side, seen from that panorama and the next one as unit rays in the camera frame (true pose,
 //!   angular noise `ray_sigma`), with aerial-triangulated coordinates whose horizontal σ is
 //!   `aerial_pixels` × `aerial_gsd` (the matching precision in aerial pixels) and twice that in height.
@@ -29,7 +29,7 @@ pub struct ObservationConfig {
     pub depth_rate: f64,
     /// Nearest and farthest horizontal distance of a measured pole, m.
     pub pole_range: [f64; 2],
-    /// Depth-camera σ as a share of the depth (paper 002: 8 %).
+    /// Depth-camera σ as a share of the depth (Meyer et al. 2023: 8 %).
     pub depth_share: f64,
     /// Panorama spacing, m driven.
     pub panorama_spacing: f64,

@@ -5,7 +5,7 @@
 
 use serde::{Deserialize, Serialize};
 
-/// How enclosed the street is at a point: decides GNSS quality (paper 001 §1.2, paper 002 §3).
+/// How enclosed the street is at a point: decides GNSS quality (Cazzaniga et al. 2007 §1.2, Meyer et al. 2023 §3).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 pub struct Canyon {
     /// Distance between the building fronts on both sides, metres.

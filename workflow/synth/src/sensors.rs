@@ -21,7 +21,7 @@ pub struct Mount {
 impl Mount {
     /// The panoramic camera: 1.85 m above the IMU (≈ 2.85 m above the road), slightly misaligned.
     pub const PANORAMA: Mount = Mount { lever_arm_m: [0.4, 0.02, -1.85], boresight_deg: [0.12, -0.35, 0.8] };
-    /// The side-looking depth camera (paper 002 §3.1: right side, looking at the kerb), outside the van body.
+    /// The side-looking depth camera (Meyer et al. 2023 §3.1: right side, looking at the kerb), outside the van body.
     pub const DEPTH: Mount = Mount { lever_arm_m: [1.2, 1.0, -0.4], boresight_deg: [0.0, -5.0, 90.0] };
 
     /// The mount as the geometric core uses it.

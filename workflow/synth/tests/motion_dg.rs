@@ -158,7 +158,7 @@ fn dg_is_truth_plus_error_with_growing_sigma_in_outages() {
 
 #[test]
 fn jumps_persist_longer_when_they_begin_at_a_standstill() {
-    // A canyon street with a 30–40 s stop at each of 39 junctions (paper 002 Fig. 7).
+    // A canyon street with a 30–40 s stop at each of 39 junctions (Meyer et al. 2023, Fig. 7).
     let config = DriveConfig {
         rate_hz: 50.0,
         stop_probability: 1.0,

@@ -16,7 +16,7 @@ use plumbline_synth::world::Epoch;
 use render_common::{depth_mount, lonely_lights, pano_mount, world};
 
 fn depth_cam() -> Pinhole {
-    // Paper 002's D455 depth stream: 1280 × 720, ~87° horizontal field of view.
+    // The D455 depth stream of Meyer et al. (2023): 1280 × 720, ~87° horizontal field of view.
     Pinhole::new(1280, 720, 640.0, 640.0, 640.0, 360.0, 0.0, 0.0).unwrap()
 }
 

@@ -1,4 +1,4 @@
-//! The generated world: deterministic, with the street classes, objects and sizes the issue asks for, and
+//! The generated world: deterministic, with its street classes, objects and sizes, and
 //! geometrically sane (nothing stands on the carriageway, no building in a street), checked by brute force;
 //! the changes between the epochs (crowns spreading over the road in the aerial flight, pedestrians); the
 //! relief (hills, cross-fall, kerbs), rays landing on it, objects and the drive standing on it.

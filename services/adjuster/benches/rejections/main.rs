@@ -142,7 +142,7 @@ fn main() {
         scores.print_height_biases(&merged, &solved);
         rows.push(row(v.name, &compare(&solved.corrected, reference).unwrap(), Some(&solved)));
     }
-    println!("## against the reference (paper-002 form, metres)\n");
+    println!("## against the reference (form of Meyer et al. 2023, metres)\n");
     println!(
         "| variant | along 95 % | cross 95 % | cross max | height median | height 95 % | 2D RMSE | σ0 | rejected |"
     );

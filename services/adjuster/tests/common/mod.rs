@@ -92,7 +92,7 @@ pub fn scenario_of(preset: Preset, length_m: f64, rate_hz: f64, seed: u64) -> Sc
     Scenario { truth: drive.trajectory, dg, panoramas, motions, ties, poles }
 }
 
-/// Image-motion σ of consecutive panoramas: east, north (m), heading (rad) (paper 000 §3.3 at 3 cm GSD).
+/// Image-motion σ of consecutive panoramas: east, north (m), heading (rad) (Jende et al. 2017 §3.3 at 3 cm GSD).
 pub const IMAGE_STD: [f64; 3] = [0.02, 0.02, 1e-3];
 
 /// Motions between consecutive panoramas measured from the truth with [`IMAGE_STD`] noise.

@@ -26,7 +26,7 @@ use super::aerial::{FRAME_PX, TERRAIN_GSD_M, TERRAIN_NODATA, block_spec, ortho_r
 
 /// Frames are made that see ground this close to the drive, metres: the registration's ortho patch (14 m
 /// half side, `MmConfig::default`) plus DG errors of metres and the search around them; the worker picks the
-/// frames a panorama's recording location projects into (paper 000 §3.7), all of them made.
+/// frames a panorama's recording location projects into (Jende et al. 2017 §3.7), all of them made.
 const FRAME_REACH_M: f64 = 30.0;
 /// Orthophoto and terrain tiles are made this close to the drive, metres.
 const TILE_REACH_M: f64 = 30.0;

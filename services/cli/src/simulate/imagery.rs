@@ -160,7 +160,7 @@ pub(crate) fn pixel_truth(
     sink.put(format!("truth/pixels/{}_class.png", shot.id), class)
 }
 
-/// The depth camera: paper 002 §3.1.2's field of view (fx = width / 2, ≈ 90° horizontally).
+/// The depth camera: the field of view of Meyer et al. 2023 §3.1.2 (fx = width / 2, ≈ 90° horizontally).
 pub(crate) fn depth_camera(width: u32, height: u32) -> anyhow::Result<Pinhole> {
     let f = f64::from(width) / 2.0;
     Pinhole::new(width, height, f, f, f64::from(width) / 2.0, f64::from(height) / 2.0, 0.0, 0.0).context("depth camera")

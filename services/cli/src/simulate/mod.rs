@@ -222,10 +222,11 @@ pub enum Profile {
 /// IMU grades.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Grade {
-    /// Navigation grade, the LN-100 paper 003 §2.1 quotes (`tactical` is its former, wrong name).
+    /// Navigation grade, the LN-100 quoted in Grejner-Brzezinska and Toth 2000 §2.1 (`tactical` is its former,
+    /// wrong name).
     #[value(alias = "tactical")]
     Navigation,
-    /// Consumer MEMS (paper 002 §3.1.1).
+    /// Consumer MEMS (Meyer et al. 2023 §3.1.1).
     Consumer,
 }
 

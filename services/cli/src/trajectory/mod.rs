@@ -1,4 +1,5 @@
-//! `plumbline trajectory convert|compare`: CSV ↔ SBET conversion with CRS changes, and the paper-002 table.
+//! `plumbline trajectory convert|compare`: CSV ↔ SBET conversion with CRS changes, and the table of
+//! Meyer et al. (2023).
 
 use std::process::ExitCode;
 
@@ -18,7 +19,7 @@ pub enum Command {
     /// Convert a trajectory between CSV and SBET (+smrmsg) and between coordinate reference systems.
     Convert(ConvertArgs),
     /// Compare a trajectory with a reference: along-track, cross-track and height differences
-    /// (median, 95 %, 99 %, max; paper 002 Tables 3–7) and 2D/3D RMSE.
+    /// (median, 95 %, 99 %, max; Meyer et al. 2023, Tables 3–7) and 2D/3D RMSE.
     Compare(CompareArgs),
 }
 

@@ -1,4 +1,4 @@
-//! Cadastres of pole-like objects read from GeoPackages through GDAL (issue 6, item 1; paper 002 §3.3.2).
+//! Cadastres of pole-like objects read from GeoPackages through GDAL (Meyer et al. 2023 §3.3.2).
 //!
 //! [`read_cadastre`] reads the point layers a manifest's `[[cadastres]]` entry names, reprojects them
 //! into the campaign CRS, assigns class, accuracy and diameter, and filters by a tile's box. Messy

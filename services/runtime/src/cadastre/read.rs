@@ -222,7 +222,7 @@ impl Reader<'_> {
                 counts.outside_bbox += 1;
                 continue;
             }
-            let accuracy_m = self.spec.accuracy.of(p.class); // paper 002 §4.1
+            let accuracy_m = self.spec.accuracy.of(p.class); // Meyer et al. 2023 §4.1
             counts.used += 1;
             let feature =
                 CadastreFeature { id: p.id, class: p.class, easting, northing, accuracy_m, diameter_m: p.diameter_m };

@@ -322,7 +322,7 @@ mod tests {
         gray_from_bands(w, h, &cut, false).unwrap()
     }
 
-    /// Issue 25: a 16-bit 4-band tiled GeoTIFF frame is read as the window the tile needs — in place from a
+    /// A 16-bit 4-band tiled GeoTIFF frame is read as the window the tile needs — in place from a
     /// local file and with range requests from an S3 store, which transfer a fraction of the file — and both
     /// give the window's grey values (luma of RGB, NIR ignored, stretched to 0–255).
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

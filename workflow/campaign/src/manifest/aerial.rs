@@ -7,7 +7,7 @@ use serde::{Deserialize, Serialize};
 use crate::location::Location;
 use crate::problem::{Checker, FieldPath};
 
-/// Ground sampling distance of aerial images assumed when none is given, metres; paper 000 §3.2.
+/// Ground sampling distance of aerial images assumed when none is given, metres; Jende et al. 2017 §3.2.
 pub const DEFAULT_AERIAL_GSD_M: f64 = 0.12;
 
 /// Sane ground sampling distances of aerial images, metres.

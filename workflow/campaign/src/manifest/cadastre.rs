@@ -52,7 +52,7 @@ pub enum PoleClass {
     Tree,
 }
 
-/// 2D position standard deviation of cadastre objects by class, metres; paper 002 §4.1.
+/// 2D position standard deviation of cadastre objects by class, metres; Meyer et al. 2023 §4.1.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct ClassAccuracy {

@@ -37,7 +37,7 @@ pub struct Panoramas {
     /// Mask image hiding the vehicle (non-zero = vehicle), same size as the panoramas.
     pub vehicle_mask: Option<Location>,
     /// Height of the camera centre above the road surface, metres: the ground plane the panoramas are
-    /// ortho-projected onto (paper 000 §3.2). Required for aerial registration unless a terrain model
+    /// ortho-projected onto (Jende et al. 2017 §3.2). Required for aerial registration unless a terrain model
     /// is given.
     pub camera_height_m: Option<f64>,
     /// For panoramas stitched from a ring of cameras: the ring (each camera's own centre makes near ground
@@ -69,7 +69,7 @@ pub struct DepthCamera {
     pub intrinsics: DepthIntrinsics,
     /// The depth camera's mount.
     pub mount: CameraMount,
-    /// Standard deviation of a depth as a share of the depth (0.08 = 8 %); paper 002 §3.1.2.
+    /// Standard deviation of a depth as a share of the depth (0.08 = 8 %); Meyer et al. 2023 §3.1.2.
     #[serde(default = "default_range_error_share")]
     pub range_error_share: f64,
 }

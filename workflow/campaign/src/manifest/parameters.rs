@@ -11,10 +11,10 @@ use crate::problem::{Checker, FieldPath};
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Parameters {
-    /// Registration of street-level and aerial images (paper 000).
+    /// Registration of street-level and aerial images (Jende et al. 2017).
     #[serde(default)]
     pub registration: Registration,
-    /// Pole detection and cadastre matching (paper 002).
+    /// Pole detection and cadastre matching (Meyer et al. 2023).
     #[serde(default)]
     pub poles: PoleParameters,
     /// Global trajectory adjustment.
@@ -22,7 +22,7 @@ pub struct Parameters {
     pub adjustment: Adjustment,
 }
 
-/// Parameters of the MM↔MM and MM↔aerial registration; paper 000 §3.
+/// Parameters of the MM↔MM and MM↔aerial registration; Jende et al. 2017 §3.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct Registration {
@@ -47,7 +47,7 @@ pub struct Registration {
     pub min_correspondences: u32,
 }
 
-/// Parameters of pole detection; paper 002.
+/// Parameters of pole detection; Meyer et al. 2023.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct PoleParameters {
@@ -72,7 +72,7 @@ pub struct Adjustment {
     /// Gauss–Newton iterations at most.
     #[serde(default = "default_max_iterations")]
     pub max_iterations: u32,
-    /// Use the image-derived motion between consecutive panoramas (paper 000 §3.3) as relative observations
+    /// Use the image-derived motion between consecutive panoramas (Jende et al. 2017 §3.3) as relative observations
     /// of the trajectory, besides flagging DG jumps with it; `false` uses it for the flags only.
     #[serde(default = "default_image_motions")]
     pub image_motions: bool,

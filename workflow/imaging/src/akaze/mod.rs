@@ -29,7 +29,7 @@ pub struct AkazeConfig {
     pub threshold: f32,
     /// Percentile of the gradient histogram that sets the diffusion contrast k.
     pub contrast_percentile: f64,
-    /// Skip orientation (paper 000 §3.3: ortho-images need no rotational invariance).
+    /// Skip orientation (Jende et al. 2017 §3.3: ortho-images need no rotational invariance).
     pub upright: bool,
     /// Grey value that maps to 1 (255 for 8-bit images).
     pub grey_scale: f32,

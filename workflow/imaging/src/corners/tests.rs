@@ -86,7 +86,7 @@ fn harris_finds_checkerboard_junctions_at_their_subpixel_positions() {
     for p in expected.iter().filter(|p| p[0] > 15.0 && p[1] > 15.0) {
         let best = found.iter().map(|c| (c.u - p[0]).hypot(c.v - p[1])).fold(f64::INFINITY, f64::min);
         // Gradients cancel at the junction itself, so R has a flat top and the parabola overshoots by up to
-        // ~0.2 px: Harris selects points (paper 001 §4.3), Förstner or LSM locates them precisely.
+        // ~0.2 px: Harris selects points (Cazzaniga et al. 2007 §4.3), Förstner or LSM locates them precisely.
         assert!(best < 0.3, "junction {p:?}: nearest detection {best:.3} px away");
     }
 }

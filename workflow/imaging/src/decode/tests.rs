@@ -31,7 +31,7 @@ fn the_header_gives_size_and_format_without_decoding() {
     assert_eq!((h.width, h.height, h.format), (40, 30, ImageFormat::Jpeg));
 }
 
-/// Issue 18: a 20000² PNG of a few bytes. Its pixels cannot even be decoded (its data is empty), so the
+/// A 20000² PNG of a few bytes. Its pixels cannot even be decoded (its data is empty), so the
 /// refusal naming the budget proves that the header was checked before any decoding.
 #[test]
 fn a_forged_header_over_the_budget_is_refused_before_decoding_naming_file_size_and_budget() {

@@ -147,7 +147,7 @@ fn road_camera(k1: f64) -> Pinhole {
     Pinhole::new(640, 480, 520.0, 515.0, 322.0, 236.0, k1, 0.0).unwrap()
 }
 
-/// A forward camera pitched 25° down at 2.2 m, and a 4 m × 6 m strip of road ahead (paper 001 §4.2).
+/// A forward camera pitched 25° down at 2.2 m, and a 4 m × 6 m strip of road ahead (Cazzaniga et al. 2007 §4.2).
 fn road_setup() -> (MapFromBody, CameraMount, GroundGrid) {
     let pose = MapFromBody::new(Attitude::from_degrees(0.5, 1.0, -60.0).to_rotation(), Point3::new(500.2, 800.7, 0.4));
     let mount = CameraMount::new([1.5, 0.0, -1.8], &Boresight::from_degrees(0.0, -25.0, 0.0));

@@ -1,8 +1,8 @@
-//! Vertical-structure detection (paper 002's future work, done automatically): height slices above the local
+//! Vertical-structure detection (future work in Meyer et al. 2023, done automatically): height slices above the local
 //! ground, per slice a polar range profile around the sensor in which a pole is a narrow dip in front of its
 //! background, slices stacked into vertical structures, then per structure the shaft's points, a verticality
 //! test, the diameter from the angular width and the centre with its covariance from the range error model
-//! (paper 002 §3.1.2). Facades and cars are wide, kerbs low: none of them is a narrow dip over ≥ 4 slices.
+//! (Meyer et al. 2023 §3.1.2). Facades and cars are wide, kerbs low: none of them is a narrow dip over ≥ 4 slices.
 
 mod ground;
 mod profile;
@@ -94,7 +94,7 @@ pub struct Detection {
 }
 
 impl Detection {
-    /// √(trace / 2): the per-coordinate standard deviation of the centre (err_cam of paper 002 eq. (1)).
+    /// √(trace / 2): the per-coordinate standard deviation of the centre (err_cam of Meyer et al. 2023 eq. (1)).
     pub fn sigma(&self) -> f64 {
         (0.5 * (self.covariance[0][0] + self.covariance[1][1])).max(0.0).sqrt()
     }

@@ -1,4 +1,4 @@
-//! Matching detections to the cadastre (issue 6 item 3). All detections of a frame share one offset (the
+//! Matching detections to the cadastre. All detections of a frame share one offset (the
 //! DG position error), so the offset is estimated jointly: every detection–cadastre pair inside the DG gate
 //! proposes a translation, and the translation supported by the most pole tracks of the surrounding frames
 //! wins (RANSAC over the common translation, exhaustive since the candidates are few). A frame whose best

@@ -13,10 +13,10 @@ use super::Scenario;
 /// The figures of a run.
 #[derive(Debug, Default)]
 pub struct Score {
-    /// Observable / detected cadastre poles (lights, signs, traffic lights: paper 002's "poles").
+    /// Observable / detected cadastre poles (lights, signs, traffic lights: the "poles" of Meyer et al. 2023).
     pub observable: usize,
     pub detected: usize,
-    /// Observable / detected trees (paper 002 keeps them apart: no diameter, leaning, crowns).
+    /// Observable / detected trees (Meyer et al. 2023 keep them apart: no diameter, leaning, crowns).
     pub trees_observable: usize,
     pub trees_detected: usize,
     pub matched_poles: usize,

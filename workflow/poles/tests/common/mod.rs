@@ -19,7 +19,7 @@ use plumbline_synth::world::{Epoch, Preset, Surface, World, WorldConfig};
 pub mod eval;
 pub mod scene;
 
-/// The depth camera's range error share (paper 002 §3.1.2), as the synth renders it.
+/// The depth camera's range error share (Meyer et al. 2023 §3.1.2), as the synth renders it.
 pub const SHARE: f64 = 0.08;
 
 /// A drive with depth frames.

@@ -1,4 +1,4 @@
-//! The cross-panorama check (paper 000 §3.9) scored against the truth: per matched panorama, its aerial
+//! The cross-panorama check (Jende et al. 2017 §3.9) scored against the truth: per matched panorama, its aerial
 //! offset against minus its true DG error (the offset is aerial − MM, the MM points carry the DG error), so
 //! the bench shows whether the check flags wrong registrations or right ones, and which wrong ones it missed
 //! and why (no partner: the nearest matched panoramas and where the image-motion chain to them breaks), and

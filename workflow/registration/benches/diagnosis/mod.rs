@@ -1,6 +1,6 @@
-//! The registration bench's answer to issue 5: matched share split by whether road markings lie around the
+//! Why panoramas fail to match: matched share split by whether road markings lie around the
 //! panorama (ground truth), failure reasons per group, and what happened in each aerial image of the
-//! panoramas with markings that failed the initial transformation (paper 000 §3.7).
+//! panoramas with markings that failed the initial transformation (Jende et al. 2017 §3.7).
 
 pub mod crosscheck;
 pub mod wrong;
@@ -25,7 +25,7 @@ pub struct Group {
     pub reasons: BTreeMap<String, usize>,
 }
 
-/// Corner candidates, NCC matches and correspondences kept in one aerial image (paper 000 §3.8).
+/// Corner candidates, NCC matches and correspondences kept in one aerial image (Jende et al. 2017 §3.8).
 pub type Counts = (usize, usize, usize);
 
 /// What happened in the aerial images of the panoramas with markings discarded as too_few_plausible.

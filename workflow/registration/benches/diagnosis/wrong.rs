@@ -1,4 +1,4 @@
-//! Issue 5's diagnosis of the aerial points that are NOT correct: for each, what the MM ray truly hits, the
+//! A diagnosis of the aerial points that are NOT correct: for each, what the MM ray truly hits, the
 //! MM two-ray height against the ortho plane, the other points of its panorama, and per aerial frame the
 //! corner search (transfer, NCC peak and runner-up, accepted position) against the true pixel.
 

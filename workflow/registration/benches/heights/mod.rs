@@ -1,4 +1,4 @@
-//! The aerial points' height errors against the truth (paper 000 §3.9: two or three nadir rays from 1500 m
+//! The aerial points' height errors against the truth (Jende et al. 2017 §3.9: two or three nadir rays from 1500 m
 //! fix the height to metres): their median and spread, how much of it the points of one panorama share
 //! (the same frames, the same orientation errors), and how the reported σ_H compares.
 

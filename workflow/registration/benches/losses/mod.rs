@@ -1,4 +1,4 @@
-//! Where TRUE aerial correspondences are lost (issue 5): every corner search of paper 000 §3.8 scored against
+//! Where TRUE aerial correspondences are lost: every corner search of Jende et al. 2017 §3.8 scored against
 //! the ground truth (the corner's true ground point projected into the aerial frame) and followed through
 //! the NCC threshold, the per-image RANSAC, the cross-image consistency with the per-image minimum, and the
 //! multi-image triangulation, per panorama fate.

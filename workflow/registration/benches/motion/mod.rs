@@ -1,6 +1,6 @@
-//! The registration bench's image-derived motion table (paper 000 §3.3, paper 001 §4.1): the share of
-//! pairs with a motion, its error against the true motion (median and 95 % of the horizontal error and of
-//! the heading-change error), the share within 3σ, the median σ, and the DG motion's error beside it.
+//! The registration bench's image-derived motion table (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1): the
+//! share of pairs with a motion, its error against the true motion (median and 95 % of the horizontal error and
+//! of the heading-change error), the share within 3σ, the median σ, and the DG motion's error beside it.
 
 use plumbline_geo::{Attitude, Trajectory, TrajectoryRecord, ValidationLimits};
 use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};

@@ -1,11 +1,11 @@
-//! Settings of the MM ↔ aerial registration (paper 000 §3.6–3.9) with the paper's values where it gives them.
+//! Settings of the MM ↔ aerial registration (Jende et al. 2017 §3.6–3.9) with the paper's values where it gives them.
 
 use plumbline_imaging::filter::Wallis;
 use plumbline_imaging::kaze::KazeConfig;
 use plumbline_imaging::lsm::LsmConfig;
 use plumbline_imaging::ransac::RansacConfig;
 
-/// Bounds of the plausibility check on the initial transformation (paper 000 §3.7): the MM pose may be
+/// Bounds of the plausibility check on the initial transformation (Jende et al. 2017 §3.7): the MM pose may be
 /// wrong by a few metres, so only the translation's size (and a near-identity rotation and scale) is tested.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Plausibility {
@@ -14,8 +14,8 @@ pub struct Plausibility {
     /// Allowed ground offset added to `sigma_factor · σ` (covers AT and matching errors), metres.
     pub floor_m: f64,
     /// Smallest DG position σ the bound uses, metres: a GNSS/INS solution's reported σ is blind to multipath
-    /// jumps (paper 001 §1.2: shifts of tens of cm and more that the quality figures do not show), while MM
-    /// poses are wrong "in the low-metre range at most" (paper 000 §3.1). 0.5 m makes the bound 2 m, the 99 %
+    /// jumps (Cazzaniga et al. 2007 §1.2: shifts of tens of cm and more that the quality figures do not show), while MM
+    /// poses are wrong "in the low-metre range at most" (Jende et al. 2017 §3.1). 0.5 m makes the bound 2 m, the 99 %
     /// horizontal DG error in deep canyons (synth DG: 0.9–2.0 m) against a reported σ of 2.5 cm.
     pub min_position_sigma: f64,
     /// Largest rotation between the rotated MM patch and the aerial patch, radians.
@@ -37,7 +37,7 @@ impl Default for Plausibility {
 }
 
 impl Plausibility {
-    /// The largest ground offset (m) the check accepts for a reported DG position σ (paper 000 §3.7):
+    /// The largest ground offset (m) the check accepts for a reported DG position σ (Jende et al. 2017 §3.7):
     /// `sigma_factor · max(σ, min_position_sigma) + floor_m`.
     pub fn bound_m(&self, position_sigma: f64) -> f64 {
         self.sigma_factor * position_sigma.max(self.min_position_sigma).max(0.0) + self.floor_m
@@ -47,17 +47,17 @@ impl Plausibility {
 /// Settings of [`super::register_patch`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct AerialConfig {
-    /// σ of the aerial camera's optical point spread, aerial pixels (paper 000 §3.6: the Gaussian that
+    /// σ of the aerial camera's optical point spread, aerial pixels (Jende et al. 2017 §3.6: the Gaussian that
     /// simulates the aerial optics; added in quadrature to the anti-aliasing σ of the 3 cm → GSD resampling).
     pub optics_blur_px: f64,
-    /// Wallis filter applied to both patches (paper 000 §3.7), in aerial pixels.
+    /// Wallis filter applied to both patches (Jende et al. 2017 §3.7), in aerial pixels.
     pub wallis: Wallis,
-    /// KAZE for the initial transformation: upright, two octaves (paper 000 §3.3, §3.7).
+    /// KAZE for the initial transformation: upright, two octaves (Jende et al. 2017 §3.3, §3.7).
     pub kaze: KazeConfig,
     /// Distance-ratio test of the KAZE descriptor matching.
     pub match_ratio: f32,
     /// Match KAZE descriptors only among pairs the DG georeferencing allows (within the plausibility bound;
-    /// paper 000 §3.1), instead of over the whole window.
+    /// Jende et al. 2017 §3.1), instead of over the whole window.
     pub guided_matching: bool,
     /// Distance within which KAZE matches agree on the initial translation, aerial pixels (keypoint
     /// localisation at the coarser KAZE levels).
@@ -79,7 +79,7 @@ pub struct AerialConfig {
     pub min_correlation_margin: f64,
     /// When neither KAZE nor the whole-patch correlation finds a plausible initial transformation (none, or a
     /// wrong one the plausibility check rejected), search every corner over the whole plausibility bound
-    /// around its DG transfer (paper 000 §3.1: the DG pose bounds the search; the prepared patch already has
+    /// around its DG transfer (Jende et al. 2017 §3.1: the DG pose bounds the search; the prepared patch already has
     /// the aerial orientation and GSD, §3.6) and let the per-image RANSAC (§3.8) find the common
     /// transformation, which must pass the same plausibility check (§3.7).
     pub dg_search: bool,
@@ -87,16 +87,16 @@ pub struct AerialConfig {
     pub plausibility: Plausibility,
     /// The patch centre must project at least this far inside an aerial frame, pixels.
     pub frame_margin_px: f64,
-    /// Aerial frames that must pass the initial transformation and the matching (paper 000 §3.7: two) when
+    /// Aerial frames that must pass the initial transformation and the matching (Jende et al. 2017 §3.7: two) when
     /// `single_ray_sigma_m` is `None`; with single rays one frame is enough.
     pub min_images: usize,
     /// When a single frame keeps correspondences (a block flown at 60 % / 30 % overlap shows many street
     /// points in two frames only, and one of them may fail), its points are still output, each as its one
     /// aerial ray: the point where the ray meets the patch's ground height, with a covariance of the pixel σ
     /// across the ray and this σ (metres) along it, so the adjustment learns the two directions across the
-    /// ray and nothing along it. `None`: such patches are discarded (paper 000's two images).
+    /// ray and nothing along it. `None`: such patches are discarded (Jende et al. 2017: two images).
     pub single_ray_sigma_m: Option<f64>,
-    /// Half-size of the NCC/LSM template, aerial pixels (paper 000 §3.8: a small window).
+    /// Half-size of the NCC/LSM template, aerial pixels (Jende et al. 2017 §3.8: a small window).
     pub template_half: usize,
     /// NCC search radius around the transferred point, aerial pixels.
     pub search_radius: usize,
@@ -106,22 +106,22 @@ pub struct AerialConfig {
     pub lsm: LsmConfig,
     /// LSM results further than this from the NCC peak are not trusted (the NCC position is kept), pixels.
     pub lsm_max_shift_px: f64,
-    /// RANSAC over an image's correspondences (paper 000 §3.8); threshold in aerial pixels.
+    /// RANSAC over an image's correspondences (Jende et al. 2017 §3.8); threshold in aerial pixels.
     pub match_ransac: RansacConfig,
-    /// Fewest correspondences per aerial image (paper 000 §3.8: ten).
+    /// Fewest correspondences per aerial image (Jende et al. 2017 §3.8: ten).
     pub min_correspondences: usize,
     /// Ground intersections of one point's rays may differ from their median by this many aerial pixels
-    /// (paper 000 §3.8 consistency across aerial images).
+    /// (Jende et al. 2017 §3.8 consistency across aerial images).
     pub consistency_px: f64,
     /// A-priori σ of a matched aerial image coordinate, pixels (weights of the triangulation).
     pub pixel_sigma: f64,
     /// Smallest Förstner roundness q = 4 det N / tr² N of a point's template at the aerial GSD for the point
     /// to be output (module `points`; default [`edge_roundness`]`(pixel_sigma, search_radius)` = 0.039).
     pub min_roundness: f64,
-    /// A ray whose reprojection error exceeds this (pixels) is a blunder (paper 000 §3.9).
+    /// A ray whose reprojection error exceeds this (pixels) is a blunder (Jende et al. 2017 §3.9).
     pub max_reprojection_px: f64,
     /// A triangulated height further than `height_sigmas · σ_H + height_floor_m` from the patch's ground
-    /// height is a blunder (paper 000 §3.9; two nadir rays hide mismatches along their baseline).
+    /// height is a blunder (Jende et al. 2017 §3.9; two nadir rays hide mismatches along their baseline).
     pub height_sigmas: f64,
     /// See `height_sigmas`; covers the DG height error and objects above the ground, metres.
     pub height_floor_m: f64,

@@ -1,4 +1,4 @@
-//! A fallback for step 6 of paper 000 (§3.7) when KAZE finds no initial transformation: since the prepared
+//! A fallback for step 6 of Jende et al. 2017 (§3.7) when KAZE finds no initial transformation: since the prepared
 //! MM patch already has the aerial image's orientation and GSD (§3.6), the remaining transformation is
 //! close to a translation, which zero-mean NCC of the whole Wallis-filtered patch finds coarse to fine
 //! (first at a quarter of the resolution over the DG uncertainty, then at full resolution). The result goes

@@ -1,4 +1,4 @@
-//! Step 7 of paper 000 (§3.8): every MM corner transferred into each passing aerial image with its initial
+//! Step 7 of Jende et al. 2017 (§3.8): every MM corner transferred into each passing aerial image with its initial
 //! transformation, matched by NCC in a small window and refined by least-squares matching; RANSAC outlier
 //! removal per image; and the consistency of the same point across aerial images (ground intersections).
 
@@ -53,7 +53,7 @@ pub(crate) struct SlotAttempt {
 }
 
 /// Match the corners (`corners[slot]` in prepared pixels) into the Wallis-filtered aerial `window` around
-/// their transfer by `transform` within `radius` pixels (paper 000 §3.8: template in the MM patch, search
+/// their transfer by `transform` within `radius` pixels (Jende et al. 2017 §3.8: template in the MM patch, search
 /// window in the aerial one).
 pub(crate) fn match_corners(
     prepared: &Prepared,
@@ -84,7 +84,7 @@ pub(crate) fn match_corners(
             if m.score < config.min_ncc {
                 return attempt;
             }
-            // paper 000 §3.8: NCC, then least-squares matching to subpixel precision
+            // Jende et al. 2017 §3.8: NCC, then least-squares matching to subpixel precision
             let refined = least_squares_match(&template, window, translation(m.u, m.v), &config.lsm)
                 .ok()
                 .map(|l| [l.affine[0], l.affine[3]])
@@ -117,7 +117,7 @@ pub(crate) fn roundness(template: &GrayImage) -> f64 {
     if trace > 1e-12 { (4.0 * det / (trace * trace)).clamp(0.0, 1.0) } else { 0.0 }
 }
 
-/// RANSAC similarity over one image's matches (paper 000 §3.8); the inliers and the similarity (prepared →
+/// RANSAC similarity over one image's matches (Jende et al. 2017 §3.8); the inliers and the similarity (prepared →
 /// window pixels) if at least `config.min_correspondences` remain.
 pub(crate) fn remove_outliers(
     matches: Vec<PointMatch>,
@@ -135,7 +135,7 @@ pub(crate) fn remove_outliers(
     if kept.len() < needed { Err(too_few(kept.len())) } else { Ok((kept, fit.transform)) }
 }
 
-/// Paper 000 §3.8 consistency across aerial images: `grounds[k]` is where observation k of one point meets
+/// Jende et al. 2017 §3.8 consistency across aerial images: `grounds[k]` is where observation k of one point meets
 /// the ground; observations farther than `tolerance_m` from the component-wise median are flagged. With
 /// two observations that disagree neither can be trusted, so both are flagged.
 pub(crate) fn consistent(grounds: &[[f64; 2]], tolerance_m: f64) -> Vec<bool> {

@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 pub struct AerialImageDiagnostic {
     /// Frame (or orthophoto) id.
     pub frame: String,
-    /// Whether the initial transformation was found and passed the plausibility check (paper 000 §3.7).
+    /// Whether the initial transformation was found and passed the plausibility check (Jende et al. 2017 §3.7).
     pub passed: bool,
     /// Why the image contributed no correspondences (None = it did).
     pub rejection: Option<ImageRejection>,
@@ -24,7 +24,7 @@ pub struct AerialImageDiagnostic {
     pub candidates: usize,
     /// Candidates matched by NCC above the threshold (before RANSAC).
     pub matched: usize,
-    /// Correspondences kept after RANSAC and the consistency check (paper 000 §3.8).
+    /// Correspondences kept after RANSAC and the consistency check (Jende et al. 2017 §3.8).
     pub correspondences: usize,
 }
 
@@ -39,14 +39,14 @@ pub enum ImageRejection {
         /// Features in the aerial patch.
         aerial: usize,
     },
-    /// No similarity with enough KAZE inliers (paper 000 §3.7).
+    /// No similarity with enough KAZE inliers (Jende et al. 2017 §3.7).
     NoTransform {
         /// Descriptor matches tried.
         matches: usize,
         /// Inliers of the best transformation.
         inliers: usize,
     },
-    /// The initial transformation failed the plausibility check (paper 000 §3.7).
+    /// The initial transformation failed the plausibility check (Jende et al. 2017 §3.7).
     Implausible {
         /// Ground offset implied, metres.
         offset_m: f64,
@@ -57,7 +57,7 @@ pub enum ImageRejection {
         /// Scale against the expected one.
         scale: f64,
     },
-    /// Fewer corner correspondences than required (paper 000 §3.8: ten).
+    /// Fewer corner correspondences than required (Jende et al. 2017 §3.8: ten).
     TooFewCorrespondences {
         /// Correspondences left.
         found: usize,
@@ -111,7 +111,7 @@ pub enum AerialDiscard {
     },
     /// No aerial image covers the recording location.
     NoOverlap,
-    /// Fewer aerial images than required passed the initial transformation (paper 000 §3.7).
+    /// Fewer aerial images than required passed the initial transformation (Jende et al. 2017 §3.7).
     TooFewPlausible {
         /// Images that passed.
         passed: usize,
@@ -119,7 +119,7 @@ pub enum AerialDiscard {
         needed: usize,
     },
     /// Fewer aerial images than required kept correspondences, or fewer correspondences than required
-    /// remained in all images together (paper 000 §3.8).
+    /// remained in all images together (Jende et al. 2017 §3.8).
     TooFewCorrespondences {
         /// Images with correspondences.
         images: usize,
@@ -132,7 +132,7 @@ pub enum AerialDiscard {
         #[serde(default)]
         needed_correspondences: usize,
     },
-    /// Matching succeeded but no point survived the triangulation's blunder checks (paper 000 §3.9).
+    /// Matching succeeded but no point survived the triangulation's blunder checks (Jende et al. 2017 §3.9).
     NoTriangulatedPoints,
 }
 

@@ -1,6 +1,6 @@
-//! Descriptor matching for the initial transformation (paper 000 §3.7) guided by the DG georeferencing:
+//! Descriptor matching for the initial transformation (Jende et al. 2017 §3.7) guided by the DG georeferencing:
 //! MM poses are wrong "in the low-metre range at most, and can be thus used to constrain the search for
-//! correspondences" (paper 000 §3.1). A pair is a candidate only when the aerial keypoint lies within the
+//! correspondences" (Jende et al. 2017 §3.1). A pair is a candidate only when the aerial keypoint lies within the
 //! plausibility bound of where the DG georeferencing puts the MM keypoint, so the ratio test compares a
 //! keypoint with its look-alikes nearby, not with the same marking repeated further down the street, and no
 //! pair is proposed that the plausibility check would reject anyway.

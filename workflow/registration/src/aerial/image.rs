@@ -1,4 +1,4 @@
-//! Steps 5–7 of paper 000 (§3.6–3.8) for one aerial image: its window, the initial transformation from the
+//! Steps 5–7 of Jende et al. 2017 (§3.6–3.8) for one aerial image: its window, the initial transformation from the
 //! MM side prepared for its orientation and the corner matching. The matches of an image with an initial
 //! transformation go unfiltered to the patch's common RANSAC (module `joint`).
 //!
@@ -9,7 +9,7 @@
 //! corners are searched over the whole DG bound instead (`AerialConfig::dg_search`) and the image's own
 //! RANSAC (ten correspondences, §3.8) becomes its transformation; such an image reads `passed` with
 //! `initial_inliers` 0 and no `fallback_ncc`; its `offset_m` is that of the RANSAC similarity of the kept
-//! matches, which passes the same plausibility check (paper 000 §3.7) as a KAZE transformation.
+//! matches, which passes the same plausibility check (Jende et al. 2017 §3.7) as a KAZE transformation.
 
 use nalgebra::Matrix3;
 use plumbline_imaging::GrayImage;
@@ -104,7 +104,7 @@ pub(super) fn open_image<'a>(
         Err(r) => return Err(fail(diagnostic, r.clone())),
     };
     let prepared = &side.prepared;
-    // paper 000 §3.7: the aerial patch covers the MM patch plus the DG uncertainty
+    // Jende et al. 2017 §3.7: the aerial patch covers the MM patch plus the DG uncertainty
     let slack = config.plausibility.bound_m(patch.position_sigma) / local.gsd;
     let half = prepared.grid.width / 2 + slack.ceil() as usize + config.search_radius + config.template_half;
     let Some(window) = view.window(local.pixel, half) else {
@@ -167,11 +167,11 @@ pub(super) fn match_image(
     diagnostic.candidates = found.candidates;
     diagnostic.matched = found.matches.len();
     let trace = ImageTrace::of(&diagnostic.frame, config.search_radius, &found.attempts, origin);
-    // paper 000 §3.8: the outliers are removed over all images of the patch together (module `joint`)
+    // Jende et al. 2017 §3.8: the outliers are removed over all images of the patch together (module `joint`)
     finish(diagnostic, &found.matches, origin, trace)
 }
 
-/// The initial transformation under which most corners match (paper 000 §3.8's NCC and LSM in a small
+/// The initial transformation under which most corners match (Jende et al. 2017 §3.8's NCC and LSM in a small
 /// window), with its matches: a repeated marking matched one period off by KAZE agrees with the dashes but
 /// not with the rest of the patch. Ties keep the earlier candidate (the larger KAZE consensus).
 fn choose(
@@ -200,7 +200,7 @@ struct AerialSide<'a> {
 }
 
 /// Steps 6–7 without an initial transformation: every corner searched over the whole plausibility bound
-/// around its DG transfer (paper 000 §3.1: the DG pose bounds the search), §3.8's RANSAC for the common
+/// around its DG transfer (Jende et al. 2017 §3.1: the DG pose bounds the search), §3.8's RANSAC for the common
 /// transformation, which must pass §3.7's plausibility check like a KAZE one. `why` is kept as the rejection
 /// when too few corners agree.
 fn dg_bounded(
@@ -251,7 +251,7 @@ fn finish(
 }
 
 /// The translation the DG georeferencing implies: prepared pixels → window pixels, the patch centre to
-/// `predicted` (the prepared patch has the aerial orientation and GSD, paper 000 §3.6).
+/// `predicted` (the prepared patch has the aerial orientation and GSD, Jende et al. 2017 §3.6).
 pub(super) fn dg_transform(prepared: &Prepared, predicted: [f64; 2]) -> Matrix3<f64> {
     let (cu, cv) = (prepared.grid.width as f64 / 2.0, prepared.grid.height as f64 / 2.0);
     Matrix3::new(1.0, 0.0, predicted[0] - cu, 0.0, 1.0, predicted[1] - cv, 0.0, 0.0, 1.0)

@@ -1,4 +1,4 @@
-//! Step 6 of paper 000 (§3.7): the initial transformation between the prepared MM patch and one aerial
+//! Step 6 of Jende et al. 2017 (§3.7): the initial transformation between the prepared MM patch and one aerial
 //! patch — a translation, since §3.6 gave the patch the aerial orientation and GSD — by upright KAZE
 //! features and their consensus, and its plausibility check against the DG georeferencing (only the
 //! translation's size and a near-identity rotation and scale can be tested, since the MM pose is what is
@@ -37,7 +37,7 @@ pub struct PlausibilityCheck {
 
 /// Check a similarity `transform` (prepared MM pixels → aerial pixels, both at `gsd` metres per pixel):
 /// it moves the patch centre `centre` to a point that must lie within `bounds.bound_m(position_sigma)` of
-/// `predicted`, the aerial pixel the DG georeferencing projects the centre to (paper 000 §3.7).
+/// `predicted`, the aerial pixel the DG georeferencing projects the centre to (Jende et al. 2017 §3.7).
 pub fn check_plausibility(
     transform: &Matrix3<f64>,
     centre: [f64; 2],
@@ -49,7 +49,7 @@ pub fn check_plausibility(
     let t = transform;
     let u = t[(0, 0)] * centre[0] + t[(0, 1)] * centre[1] + t[(0, 2)];
     let v = t[(1, 0)] * centre[0] + t[(1, 1)] * centre[1] + t[(1, 2)];
-    let offset_m = (u - predicted[0]).hypot(v - predicted[1]) * gsd; // paper 000 §3.7: translation threshold
+    let offset_m = (u - predicted[0]).hypot(v - predicted[1]) * gsd; // Jende et al. 2017 §3.7: translation threshold
     let rotation = t[(1, 0)].atan2(t[(0, 0)]);
     let scale = t[(1, 0)].hypot(t[(0, 0)]);
     let bound_m = bounds.bound_m(position_sigma);
@@ -104,7 +104,7 @@ pub(crate) fn kaze_pairs(
     config: &AerialConfig,
 ) -> KazePairs {
     let shift = [predicted[0] - prepared.grid.width as f64 / 2.0, predicted[1] - prepared.grid.height as f64 / 2.0];
-    // paper 000 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
+    // Jende et al. 2017 §3.1: the DG pose constrains the search; a keypoint's own localisation adds a few pixels
     let radius = config.plausibility.bound_m(position_sigma) / prepared.grid.gsd + GUIDE_SLACK_PX;
     let prior = Prior { shift, radius };
     let aerial = kaze(window, &config.kaze).map_err(|e| ImageRejection::Imaging { message: e.to_string() })?;
@@ -126,7 +126,7 @@ pub(crate) fn kaze_pairs(
     Ok((pairs, prior))
 }
 
-/// The initial transformation of one aerial window (paper 000 §3.7): the translations its KAZE matches
+/// The initial transformation of one aerial window (Jende et al. 2017 §3.7): the translations its KAZE matches
 /// agree on (`kaze`, module docs), then `pooled` (translations all windows of the patch agree on, module
 /// `pooled`), the plausible ones in that order, the first as the transformation and the others as
 /// alternatives for the corner matching; failing all, the whole-patch correlation; each through the
@@ -198,7 +198,7 @@ pub(crate) fn initial_transform(
 /// The translations one window's KAZE matches agree on, with their inliers (module docs).
 ///
 /// A translation, not a similarity: the prepared patch already has the aerial image's orientation and GSD
-/// (paper 000 §3.6), and what remains is the DG position error (paper 000 §3.1); the DG heading error
+/// (Jende et al. 2017 §3.6), and what remains is the DG position error (Jende et al. 2017 §3.1); the DG heading error
 /// (milliradians) moves a corner 15 m from the centre by a few centimetres, a fraction of a pixel. A
 /// similarity fitted to the handful of matches a street patch gives has a poorly determined rotation and
 /// scale (5–14 % scale errors on district canyon seed 2 with 6–8 inliers), which fail the plausibility

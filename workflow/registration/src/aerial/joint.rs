@@ -1,7 +1,7 @@
-//! Paper 000 §3.8's RANSAC outlier removal over all aerial images of one MM patch at once.
+//! Jende et al. 2017 §3.8's RANSAC outlier removal over all aerial images of one MM patch at once.
 //!
 //! The corner matches of every aerial image pass through the same transformation: the patch's DG
-//! georeferencing error (a horizontal offset and a heading error, paper 000 §3.1), while the frames' AT errors
+//! georeferencing error (a horizontal offset and a heading error, Jende et al. 2017 §3.1), while the frames' AT errors
 //! (3 cm, 3″ ≈ 2 cm on the ground) are a fifth of an aerial pixel. So the correspondences of all images,
 //! brought to the ground plane the patch was matched in (MM: the corner's ortho-image cell, DG-georeferenced,
 //! as the per-image RANSAC saw it; aerial: the ray met at the patch height), share ONE offset. Estimating it

@@ -1,4 +1,4 @@
-//! Step 8 of paper 000 (§3.9) over a patch's correspondences: multi-image triangulation of every point seen
+//! Step 8 of Jende et al. 2017 (§3.9) over a patch's correspondences: multi-image triangulation of every point seen
 //! in at least two frames, single rays where only one frame kept correspondences, or the orthophoto +
 //! terrain lookup.
 
@@ -10,7 +10,7 @@ use super::triangulate::{Ray, triangulate};
 use super::view::View;
 use super::{AerialObservation, AerialPointResult, MmPatch, Orthophoto};
 
-/// Step 8: every point seen in at least two images, triangulated with blunder checks (paper 000 §3.9); a
+/// Step 8: every point seen in at least two images, triangulated with blunder checks (Jende et al. 2017 §3.9); a
 /// point whose template is an edge at the aerial GSD (roundness below `config.min_roundness`) voted in the
 /// common offset but is not output: its position along the edge was not measured.
 pub(super) fn triangulate_points(
@@ -116,7 +116,7 @@ fn roundness(results: &[ImageResult], slot: usize) -> f64 {
         .fold(1.0, f64::min)
 }
 
-/// Paper 000 §3.9 blunder check for narrow-baseline points: two nadir rays cannot reveal a mismatch along
+/// Jende et al. 2017 §3.9 blunder check for narrow-baseline points: two nadir rays cannot reveal a mismatch along
 /// their baseline, which moves the point vertically by about GSD · height / base per pixel; a height
 /// `z` (σ `sigma_z`) further than `height_sigmas · σ + height_floor_m` from the (DG) ground height at the
 /// point marks such a blunder.

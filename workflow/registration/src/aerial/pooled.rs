@@ -1,6 +1,6 @@
-//! Paper 000 §3.7's initial transformation from the KAZE matches of all aerial windows of one patch at once.
+//! Jende et al. 2017 §3.7's initial transformation from the KAZE matches of all aerial windows of one patch at once.
 //!
-//! Every window of a patch sees the same DG error (paper 000 §3.1; the frames' AT errors are a fifth of an
+//! Every window of a patch sees the same DG error (Jende et al. 2017 §3.1; the frames' AT errors are a fifth of an
 //! aerial pixel, module `joint`), so their KAZE matches, brought to the ground as displacements from where
 //! the DG georeferencing puts them, agree on ONE offset. A street patch gives each window a handful of
 //! matches (4–5 inliers where six are asked for); pooled, the windows support each other. Matches are

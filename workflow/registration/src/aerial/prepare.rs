@@ -1,4 +1,4 @@
-//! Step 5 of paper 000 (§3.6, with §3.7's Wallis filter): the 3 cm MM patch blurred to simulate the aerial
+//! Step 5 of Jende et al. 2017 (§3.6, with §3.7's Wallis filter): the 3 cm MM patch blurred to simulate the aerial
 //! optics, resampled to the aerial GSD and rotated into the aerial image's orientation in one warp, then
 //! Wallis-filtered; the aerial window is Wallis-filtered too.
 //!
@@ -38,11 +38,11 @@ pub(crate) struct Prepared {
 /// The σ (in MM pixels) of the Gaussian that turns the MM patch into an aerial-like image (module docs).
 pub(crate) fn blur_sigma_mm_px(mm_gsd: f64, aerial_gsd: f64, optics_px: f64) -> f64 {
     let r = (aerial_gsd / mm_gsd).max(1.0);
-    let anti_alias = 0.5 * (1.0 - 1.0 / (r * r)).sqrt(); // paper 000 §3.6, as in imaging::warp::resize
-    r * (optics_px * optics_px + anti_alias * anti_alias).sqrt() // paper 000 §3.6: simulated aerial optics
+    let anti_alias = 0.5 * (1.0 - 1.0 / (r * r)).sqrt(); // Jende et al. 2017 §3.6, as in imaging::warp::resize
+    r * (optics_px * optics_px + anti_alias * anti_alias).sqrt() // Jende et al. 2017 §3.6: simulated aerial optics
 }
 
-/// Blur the MM patch for an aerial GSD (paper 000 §3.6).
+/// Blur the MM patch for an aerial GSD (Jende et al. 2017 §3.6).
 pub(crate) fn blur_patch(
     image: &GrayImage,
     valid: &Mask,
@@ -80,7 +80,7 @@ fn erode(valid: &Mask, radius: usize) -> Mask {
 }
 
 /// Resample the blurred patch onto a square grid at `gsd` whose up direction has heading `up_heading`
-/// (paper 000 §3.6: resampling to the aerial GSD and rotation into the aerial image), then Wallis (§3.7).
+/// (Jende et al. 2017 §3.6: resampling to the aerial GSD and rotation into the aerial image), then Wallis (§3.7).
 pub(crate) fn prepare(
     patch: &BlurredPatch,
     up_heading: f64,

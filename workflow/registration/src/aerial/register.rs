@@ -1,4 +1,4 @@
-//! The driver of steps 5–8 (paper 000 §3.6–3.9) for one MM patch: overlapping aerial images, per image the
+//! The driver of steps 5–8 (Jende et al. 2017 §3.6–3.9) for one MM patch: overlapping aerial images, per image the
 //! prepared patch, the initial transformation and the corner matching (in parallel), the cross-image
 //! consistency, and the triangulation (frames) or the orthophoto + terrain lookup.
 
@@ -23,7 +23,7 @@ const SAME_HEADING: f64 = 0.01;
 /// Relative GSD difference for sharing a prepared MM patch.
 const SAME_GSD: f64 = 0.01;
 
-/// Register one MM patch against the aerial reference (paper 000 §3.6–3.9). Never fails: an unusable patch
+/// Register one MM patch against the aerial reference (Jende et al. 2017 §3.6–3.9). Never fails: an unusable patch
 /// or reference is reported in [`AerialOutcome::discarded`], each aerial image's fate in `images`.
 pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: &AerialConfig) -> AerialOutcome {
     let discard = |results: Vec<ImageResult>, why| {
@@ -39,7 +39,7 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
         AerialReference::Frames(frames) => (frames.iter().map(View::Frame).collect(), config.min_images),
         AerialReference::Orthophoto(o) => (vec![View::Ortho(o)], 1),
     };
-    // paper 000 §3.7: the recording location projected into the whole block
+    // Jende et al. 2017 §3.7: the recording location projected into the whole block
     let overlapping: Vec<(View<'_>, LocalGeometry)> = views
         .into_iter()
         .filter_map(|v| {
@@ -59,7 +59,7 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
         representatives.par_iter().map(|g| mm_side(&blurred, g, config)).collect();
     let opened: Vec<Result<Opened<'_>, Box<ImageResult>>> =
         overlapping.par_iter().zip(&group).map(|((v, g), &k)| open_image(patch, &sides[k], v, g, config)).collect();
-    // paper 000 §3.7 for all windows together: one DG error (module `pooled`)
+    // Jende et al. 2017 §3.7 for all windows together: one DG error (module `pooled`)
     let windows: Vec<WindowMatches<'_>> = opened
         .iter()
         .zip(&group)
@@ -90,7 +90,7 @@ pub fn register_patch(patch: &MmPatch<'_>, reference: &AerialReference, config: 
         return discard(results, AerialDiscard::TooFewPlausible { passed, needed });
     }
     let views: Vec<View<'_>> = overlapping.iter().map(|p| p.0).collect();
-    // paper 000 §3.8: RANSAC over the correspondences of all images (one DG error), then their consistency
+    // Jende et al. 2017 §3.8: RANSAC over the correspondences of all images (one DG error), then their consistency
     joint::keep_common(&mut results, &views, patch, height, gsd, config);
     if matches!(reference, AerialReference::Frames(_)) {
         enforce_consistency(&mut results, &views, patch, height, gsd, config);
@@ -189,7 +189,7 @@ fn split(results: Vec<ImageResult>) -> (Vec<AerialImageDiagnostic>, Vec<ImageTra
         .unzip()
 }
 
-/// Paper 000 §3.8: drop observations whose ground intersection (at the patch height `height` plus the
+/// Jende et al. 2017 §3.8: drop observations whose ground intersection (at the patch height `height` plus the
 /// ground's rise at the point) disagrees with the point's other observations.
 fn enforce_consistency(
     results: &mut [ImageResult],
@@ -223,7 +223,7 @@ fn enforce_consistency(
 
 /// Each image's count of kept correspondences, and a rejection for a passing image that kept none; the
 /// images with correspondences and the correspondences of all images. Fewer than `needed` in all images
-/// together (paper 000 §3.8: ten) leave every image without.
+/// together (Jende et al. 2017 §3.8: ten) leave every image without.
 fn settle(results: &mut [ImageResult], needed: usize) -> (usize, usize) {
     let total: usize = results.iter().map(|r| r.matches.len()).sum();
     if total < needed {

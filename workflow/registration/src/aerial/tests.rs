@@ -27,7 +27,7 @@ const PATCH_PX: usize = 700;
 /// σ = 3 cm per centre coordinate and 3″ (2.2 cm on the ground from 1500 m), so a point from two frames is
 /// off by about 2.6 cm per coordinate (1σ) in the mean; this is ≈ 3σ of the 2-D miss.
 const AT_TOLERANCE: f64 = 0.1;
-/// Two aerial pixels at 12 cm: the paper's correctness bound (issue 5).
+/// Two aerial pixels at 12 cm: the paper's correctness bound.
 const CORRECT_M: f64 = 0.24;
 
 /// A deterministic scatter in [−1, 1) for test data (`k`-th draw of stream `salt`).
@@ -170,7 +170,7 @@ impl Fixture {
         let correct = errors.iter().filter(|&&e| e < CORRECT_M).count();
         let worst = errors.iter().fold(0.0f64, |a, &b| a.max(b));
         assert!(outcome.points.len() >= min_points, "{} of {} points", outcome.points.len(), self.points.len());
-        // Issue 5 target: ≥ 99 % of the correspondences within two aerial pixels of the truth.
+        // Target: ≥ 99 % of the correspondences within two aerial pixels of the truth.
         assert!(
             correct as f64 >= 0.99 * errors.len() as f64,
             "{correct} of {} correct, worst {worst:.3} m",
@@ -215,7 +215,7 @@ fn one_frame_gives_single_rays_that_hold_the_position_across_the_ray() {
         sigmas.sort_by(f64::total_cmp);
         assert!(sigmas[1] < 0.05 && (sigmas[2] - 10.0).abs() < 1e-6, "σ across, across, along: {sigmas:?}");
     }
-    // Paper 000's rule, two frames at least: the patch is discarded.
+    // The rule of Jende et al. (2017), two frames at least: the patch is discarded.
     let two = AerialConfig { single_ray_sigma_m: None, ..AerialConfig::default() };
     let outcome = register_patch(&f.patch(), &one, &two);
     assert_eq!(outcome.discarded, Some(AerialDiscard::TooFewPlausible { passed: 1, needed: 2 }));
@@ -232,7 +232,7 @@ fn frames_with_their_true_orientations_recover_the_offset_to_a_centimetre() {
     let outcome = register_patch(&f.patch(), &AerialReference::Frames(frames), &AerialConfig::default());
     f.check_matched(&outcome, f.points.len() / 2, 0.01);
     // The height from two nadir frames is weak, and its σ says how weak: a parallax error of σ_px·√2
-    // pixels moves the point by that many GSDs times height / base (paper 000 §3.9: covariance from the
+    // pixels moves the point by that many GSDs times height / base (Jende et al. 2017 §3.9: covariance from the
     // normal matrix).
     assert_eq!(f.frames.len(), 2, "the expected σ below is for two frames");
     let (a, b) = (f.truth_poses[0].translation, f.truth_poses[1].translation);
@@ -303,7 +303,7 @@ fn a_patch_with_too_few_correspondences_in_all_images_together_is_discarded() {
 
 #[test]
 fn ten_correspondences_in_all_images_together_suffice_where_no_single_image_has_ten() {
-    // Paper 000 §3.8's ten correspondences stabilise the one transformation all images share (the patch's
+    // Jende et al. 2017 §3.8's ten correspondences stabilise the one transformation all images share (the patch's
     // DG error): asking for one more than the best image has, the images together still register.
     let f = fixture();
     let reference = AerialReference::Frames(f.frames.clone());
@@ -444,7 +444,7 @@ fn without_an_initial_transformation_the_dg_bounded_search_finds_the_offset_and_
     }
 }
 
-/// Issue 25: a frame held as the window around the patch (as the worker reads large frames) registers exactly
+/// A frame held as the window around the patch (as the worker reads large frames) registers exactly
 /// as the whole frame does: positions, observations and diagnostics in full-frame pixels.
 #[test]
 fn frame_windows_register_exactly_as_whole_frames() {

@@ -1,4 +1,4 @@
-//! What step 7 (paper 000 §3.8) did with every corner in one aerial image — the NCC peak of each candidate,
+//! What step 7 (Jende et al. 2017 §3.8) did with every corner in one aerial image — the NCC peak of each candidate,
 //! the RANSAC inliers, the correspondences left after the cross-image consistency — for diagnosing losses
 //! against ground truth (the registration bench). Not part of the wire result.
 

@@ -1,4 +1,4 @@
-//! Step 8 of paper 000 (§3.9): least-squares multi-image triangulation of one point from its aerial image
+//! Step 8 of Jende et al. 2017 (§3.9): least-squares multi-image triangulation of one point from its aerial image
 //! coordinates, minimising reprojection errors in pixels, with blunder checks (the worst ray is removed and
 //! the point re-solved while a reprojection error exceeds the bound) and the covariance from the normal
 //! matrix.
@@ -75,7 +75,7 @@ pub enum TriangulationError {
     },
 }
 
-/// Triangulate from `rays` (paper 000 §3.9): linear intersection, Gauss–Newton on the reprojection errors
+/// Triangulate from `rays` (Jende et al. 2017 §3.9): linear intersection, Gauss–Newton on the reprojection errors
 /// (weights 1/`pixel_sigma`²), and while a reprojection error exceeds `max_reprojection_px` the worst ray
 /// is removed and the point re-solved; two rays that still disagree are an error.
 pub fn triangulate(
@@ -99,7 +99,7 @@ pub fn triangulate(
         if active.len() == 2 {
             return Err(TriangulationError::Blunder { worst_px: residuals[worst], bound_px: max_reprojection_px });
         }
-        used[worst] = false; // paper 000 §3.9: blunder removal, then re-solve
+        used[worst] = false; // Jende et al. 2017 §3.9: blunder removal, then re-solve
     }
 }
 
@@ -176,7 +176,7 @@ fn finish(
     let redundancy = 2 * rays.len() - 3;
     let vtpv: f64 = res.iter().map(|r| (r[0] * r[0] + r[1] * r[1]) * weight).sum();
     let sigma0 = if redundancy > 0 { (vtpv / redundancy as f64).sqrt() } else { 0.0 };
-    let cov = inv * sigma0.powi(2).max(1.0); // paper 000 §3.9: covariance from the normal matrix
+    let cov = inv * sigma0.powi(2).max(1.0); // Jende et al. 2017 §3.9: covariance from the normal matrix
     let covariance = [0, 1, 2].map(|i| [0, 1, 2].map(|j| cov[(i, j)]));
     Ok(Triangulated { position: [x.x, x.y, x.z], covariance, used, residuals_px, sigma0 })
 }

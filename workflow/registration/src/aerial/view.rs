@@ -1,6 +1,6 @@
 //! One aerial image as the registration sees it: a frame (pinhole + exterior orientation) or an orthophoto
 //! (geotransform), with the projection of mapping points into it, its local orientation and pixel size at
-//! the recording location (paper 000 §3.6–3.7), windows around a point, and rays through its pixels.
+//! the recording location (Jende et al. 2017 §3.6–3.7), windows around a point, and rays through its pixels.
 
 use nalgebra::{Matrix2, Vector2};
 use plumbline_geo::camera::{CameraModel, Pixel};
@@ -109,7 +109,7 @@ impl<'a> View<'a> {
     }
 
     /// Local orientation and scale at a ground point, from the projections of 1 m steps east and north
-    /// (paper 000 §3.6: the MM patch is rotated into the aerial image's orientation).
+    /// (Jende et al. 2017 §3.6: the MM patch is rotated into the aerial image's orientation).
     pub fn local_geometry(&self, p: [f64; 3]) -> Option<LocalGeometry> {
         let p0 = self.project(p)?;
         let pe = self.project([p[0] + 1.0, p[1], p[2]])?;

@@ -1,4 +1,4 @@
-//! Step 3, paper 000 §3.4: Förstner corners at subpixel precision in ortho-image A, transferred into B with
+//! Step 3, Jende et al. 2017 §3.4: Förstner corners at subpixel precision in ortho-image A, transferred into B with
 //! the step-2 transformation, matched by NCC in a small window and refined by least-squares matching.
 
 use plumbline_imaging::GrayImage;
@@ -35,7 +35,7 @@ pub struct CornerMatches {
     pub matches: Vec<CornerMatch>,
 }
 
-/// Detect, transfer, correlate and refine (paper 000 §3.4). Corners whose windows leave the valid area of
+/// Detect, transfer, correlate and refine (Jende et al. 2017 §3.4). Corners whose windows leave the valid area of
 /// either image, whose NCC peak is weak, or whose LSM does not settle near the NCC peak are dropped.
 pub fn match_corners(
     a: &OrthoPatch,

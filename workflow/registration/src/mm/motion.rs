@@ -1,8 +1,8 @@
-//! The vehicle's motion between two neighbouring panoramas as their ortho-images measure it (paper 000 §3.3,
-//! paper 001 §4.1): the KAZE + RANSAC similarity between the ortho-images, read as the displacement of the
+//! The vehicle's motion between two neighbouring panoramas as their ortho-images measure it (Jende et al. 2017 §3.3,
+//! Cazzaniga et al. 2007 §4.1): the KAZE + RANSAC similarity between the ortho-images, read as the displacement of the
 //! body origin and the heading change, with σ, independently of the DG trajectory's relative accuracy.
 //!
-//! Derivation (paper 000 §3.3, paper 001 §4.1). Over flat ground, an ortho-image made with a pose P
+//! Derivation (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1). Over flat ground, an ortho-image made with a pose P
 //! (horizontal camera centre c, yaw θ counter-clockwise from east) of a panorama taken at the true pose P*
 //! shows the ground point g at
 //!     x = c + R(θ − θ*) (g − c*) = P ∘ P*⁻¹ (g),   with P(l) = c + R(θ) l.
@@ -63,7 +63,7 @@ pub fn image_motion(
     let origin = Vector2::new(oa.x(), oa.y());
     let rows = weighted_rows(origin, (a.1, b.1), &fit.inliers, camera_height)?;
     let similarity = fit_similarity(&rows)?;
-    // paper 001 §4.1: displacement = (o_B − o_A) − (M(o_A) − o_A); Δψ = (ψ_B − ψ_A) + rot(M).
+    // Cazzaniga et al. 2007 §4.1: displacement = (o_B − o_A) − (M(o_A) − o_A); Δψ = (ψ_B − ψ_A) + rot(M).
     let shift = similarity.shift;
     let displacement = [ob.x() - oa.x() - shift.x, ob.y() - oa.y() - shift.y];
     let heading = |p: &Panorama| Attitude::from_rotation(&p.pose.rotation).heading;

@@ -1,4 +1,4 @@
-//! Step 1, paper 000 §3.2: a north-up ortho-image of the ground plane around the panorama's camera, made
+//! Step 1, Jende et al. 2017 §3.2: a north-up ortho-image of the ground plane around the panorama's camera, made
 //! by back-projection with the DG pose (so it carries the DG error, which step 5 onwards measures).
 //!
 //! With a terrain model the ground is not a plane: each cell's height is the plane's (the DG camera height
@@ -57,7 +57,7 @@ impl OrthoPatch {
 }
 
 /// Ortho-project `pano` at `gsd` onto a north-up square of half-side `half_extent` metres around its DG
-/// camera centre, on the plane `camera_height` below that centre (paper 000 §3.2), vehicle masked. A
+/// camera centre, on the plane `camera_height` below that centre (Jende et al. 2017 §3.2), vehicle masked. A
 /// panorama stitched from a ring of cameras (`rig.sub_cameras`) first has the exposure steps between its
 /// cameras levelled (`plumbline_imaging::seams`), and each ground point is seen from its camera's centre.
 pub fn ortho_patch(pano: &Panorama, rig: &PanoramaRig, gsd: f64, half_extent: f64) -> Result<OrthoPatch, MmError> {

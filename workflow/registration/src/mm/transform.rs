@@ -1,4 +1,4 @@
-//! Step 2, paper 000 §3.3: the transformation between two adjacent MM ortho-images from upright KAZE
+//! Step 2, Jende et al. 2017 §3.3: the transformation between two adjacent MM ortho-images from upright KAZE
 //! features and RANSAC, verified against the DG relative orientation; the orientation-based transformation
 //! replaces it when no transformation is found or it disagrees.
 
@@ -76,7 +76,7 @@ pub struct FeatureFit {
     pub inliers: Vec<Correspondence>,
 }
 
-/// Upright KAZE features of an ortho-image (paper 000 §3.3), without those whose blob reaches an invalid
+/// Upright KAZE features of an ortho-image (Jende et al. 2017 §3.3), without those whose blob reaches an invalid
 /// cell (they describe the vehicle's or the panorama's edge, not the ground).
 pub fn features(patch: &OrthoPatch, image_id: &str, config: &MmConfig) -> Result<KazeFeatures, MmError> {
     let all = kaze(&patch.image, &config.kaze).map_err(|source| MmError::Imaging {
@@ -98,7 +98,7 @@ pub fn orientation_transform(a: &OrthoPatch, b: &OrthoPatch) -> Matrix3<f64> {
     b_from_map * a.grid.map_from_pixel()
 }
 
-/// KAZE matches → RANSAC similarity → verification by the image centre (paper 000 §3.3); falls back to
+/// KAZE matches → RANSAC similarity → verification by the image centre (Jende et al. 2017 §3.3); falls back to
 /// [`orientation_transform`] when any of them fails.
 pub fn pair_transform(
     a: &OrthoPatch,
@@ -126,7 +126,7 @@ pub fn pair_transform(
     }
     let inliers = pairs.iter().zip(&fit.inliers).filter(|&(_, &keep)| keep).map(|(c, _)| *c).collect();
     let measured = Some(FeatureFit { matrix: h, inliers });
-    // paper 000 §3.3: project A's centre with both transformations and compare metric distances.
+    // Jende et al. 2017 §3.3: project A's centre with both transformations and compare metric distances.
     let disagreement_m = centre_disagreement(a, &h, &oriented) * a.grid.gsd;
     if disagreement_m > config.max_disagreement {
         let source = TransformSource::Orientation(FallbackReason::Disagrees { disagreement_m });
@@ -136,7 +136,7 @@ pub fn pair_transform(
     PairTransform { matrix: h, source, fit: measured }
 }
 
-/// Descriptor matches constrained by the DG relative orientation (paper 000 §3.1: the MM orientation may
+/// Descriptor matches constrained by the DG relative orientation (Jende et al. 2017 §3.1: the MM orientation may
 /// be off by metres at most, and far less between neighbours): each keypoint of A is compared only with
 /// B's keypoints within `radius` pixels of where `oriented` puts it; nearest neighbour with the ratio
 /// test, kept when it is also A's best candidate from B's side.

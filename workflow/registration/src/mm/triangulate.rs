@@ -1,4 +1,4 @@
-//! Step 4, paper 000 §3.5: matched ortho pixels → ground-plane points → directions in each panorama's
+//! Step 4, Jende et al. 2017 §3.5: matched ortho pixels → ground-plane points → directions in each panorama's
 //! camera frame (the inverse of the ortho-projection) → least-squares intersection of the two rays with
 //! the DG poses.
 
@@ -40,7 +40,7 @@ pub enum RayError {
     },
 }
 
-/// Minimise Σ |(I − d dᵀ)(X − c)|² over X (paper 000 §3.5): (Σ I − d dᵀ) X = Σ (I − d dᵀ) c.
+/// Minimise Σ |(I − d dᵀ)(X − c)|² over X (Jende et al. 2017 §3.5): (Σ I − d dᵀ) X = Σ (I − d dᵀ) c.
 /// Rejects ray bundles whose largest pairwise angle is below `min_angle` and points behind a ray.
 pub fn intersect_rays(rays: &[(Point3<Map>, Vec3<Map>)], min_angle: f64) -> Result<RayIntersection, RayError> {
     let dirs: Vec<Vector3<f64>> = rays.iter().filter_map(|(_, d)| d.v.try_normalize(1e-12)).collect();
@@ -107,7 +107,7 @@ fn direction(patch: &OrthoPatch, pano: &Panorama, rig: &PanoramaRig, uv: [f64; 2
     rig.mount.to_camera(&pano.pose, &patch.ground_point(uv[0], uv[1])).normalize()
 }
 
-/// Triangulate every match of the pair (A, B) (paper 000 §3.5) and keep the points that pass the checks.
+/// Triangulate every match of the pair (A, B) (Jende et al. 2017 §3.5) and keep the points that pass the checks.
 pub fn triangulate(
     (a, pano_a): (&OrthoPatch, &Panorama),
     (b, pano_b): (&OrthoPatch, &Panorama),

@@ -1,9 +1,9 @@
-//! The cross-panorama consistency check of paper 000 §3.9: "the same object coordinate derived from aerial
+//! The cross-panorama consistency check of Jende et al. 2017 §3.9: "the same object coordinate derived from aerial
 //! images may be returned more than once. This is used for outlier removal as well." Every matched panorama
 //! measures the DG error at its place (its aerial offset: aerial − MM position in its DG ortho-image).
 //! Between two matched panoramas the DG error changes by what the DG trajectory moved minus what the vehicle
-//! truly moved, and the image-derived motion (paper 001 §4.1, `crate::mm::image_motion`) measures the latter
-//! without the DG trajectory. So two matched panoramas joined by a chain of image motions must agree:
+//! truly moved, and the image-derived motion (Cazzaniga et al. 2007 §4.1, `crate::mm::image_motion`) measures the
+//! latter without the DG trajectory. So two matched panoramas joined by a chain of image motions must agree:
 //!     o_k − o_i = Σ (image displacement − DG displacement)     over the chain's links,
 //! and a registration that is wrong as a whole (all its points on the wrong dash, consistent across aerial
 //! frames, invisible inside the patch) stands out against its partners.
@@ -29,7 +29,7 @@ pub struct CrossCheckConfig {
     pub z: f64,
     /// Metres added to the bound for errors the σ do not carry, per pair: each panorama's offset shares
     /// its aerial frames' AT error (3 cm in position, 3″ ≈ 2 cm on the ground in the synthetic block, as in
-    /// paper 000's) and a matching bias its points share (up to a quarter of a 12 cm aerial pixel, 3 cm),
+    /// Jende et al. 2017) and a matching bias its points share (up to a quarter of a 12 cm aerial pixel, 3 cm),
     /// ≈ 5 cm summed, and the DG heading error times the lever from the body origin to its points (0.05° ×
     /// 7.5 m ≈ 7 mm); two panoramas, ≈ 0.12 m — one aerial pixel. Half the 0.24 m "correct" bound of the
     /// accuracy report, so a registration off by a wrong dash (≥ 1.5 m) cannot hide in it. Road slope needs
@@ -79,7 +79,7 @@ impl Link {
     /// `crate::mm::image_motion` reports it) and the two DG body-origin positions (east, north) it joins:
     /// the DG error changes by (DG − image) displacement, the offset (minus the DG error) by the opposite.
     pub fn of(motion: &ImageMotion, dg_earlier: [f64; 2], dg_later: [f64; 2]) -> Self {
-        // paper 001 §4.1: Δe = (DG displacement) − (image displacement); the offset is −e.
+        // Cazzaniga et al. 2007 §4.1: Δe = (DG displacement) − (image displacement); the offset is −e.
         let change = [0, 1].map(|c| motion.displacement[c] - (dg_later[c] - dg_earlier[c]));
         Self { change, std: [motion.std[0], motion.std[1]] }
     }
@@ -207,7 +207,7 @@ fn comparisons(offsets: &[Option<Offset>], links: &[Option<Link>], config: &Cros
             (0..2).for_each(|c| sum[c] += link.change[c]);
             variance += horizontal(link.std);
             let Some(ob) = ob else { continue };
-            // paper 000 §3.9: both offsets measure the DG error; the chain carries one to the other.
+            // Jende et al. 2017 §3.9: both offsets measure the DG error; the chain carries one to the other.
             let r = [0, 1].map(|c| ob.value[c] - oa.value[c] - sum[c]);
             let sigma = (horizontal(oa.std) + horizontal(ob.std) + variance).sqrt();
             let tolerance_m = config.z * sigma + config.floor_m;

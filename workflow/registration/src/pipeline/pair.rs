@@ -112,7 +112,7 @@ fn run(
     let t0 = Instant::now();
     let transform = pair_transform(patch, fa, patch_b, fb, mm);
     diag.transform = Some(transform.source.clone());
-    // paper 001 §4.1: the motion whenever KAZE measured it, also when it disagreed with the DG poses.
+    // Cazzaniga et al. 2007 §4.1: the motion whenever KAZE measured it, also when it disagreed with the DG poses.
     let measure = |fit| image_motion((pano, patch), (other, patch_b), fit, rig.camera_height, mm);
     diag.motion = transform.fit.as_ref().and_then(measure);
     let corners = match_corners(patch, patch_b, &transform, &pano.id, mm);
@@ -188,7 +188,7 @@ fn patch_points(points: &[MmPoint], patch: &OrthoPatch) -> Vec<PatchPoint> {
         .collect()
 }
 
-/// The panorama's aerial offset (paper 000 §3.9): the median of (aerial − MM) east and north over its
+/// The panorama's aerial offset (Jende et al. 2017 §3.9): the median of (aerial − MM) east and north over its
 /// aerial points, σ = max(1.4826 · MAD, `point_std`) / √n per axis (a MAD of two or three points means
 /// little), at least the points' median own σ (they share frames and blur, so their errors do not all
 /// average out). The MM position is where A's DG ortho-image shows the point (its corner on the ortho

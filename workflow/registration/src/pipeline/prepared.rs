@@ -1,4 +1,4 @@
-//! Step 1 (paper 000 §3.2) and the KAZE features (§3.3) of one panorama at a time, so that a caller can
+//! Step 1 (Jende et al. 2017 §3.2) and the KAZE features (§3.3) of one panorama at a time, so that a caller can
 //! decode a panorama, prepare it and drop its pixels before the next: a tile's memory then holds ortho
 //! patches, not full panoramas. Which panoramas need preparing follows from their DG poses alone.
 
@@ -111,7 +111,7 @@ impl PreparedPanorama {
     }
 }
 
-/// Step 1 and the KAZE features of one panorama (paper 000 §3.2–§3.3). The result holds no pixels of the
+/// Step 1 and the KAZE features of one panorama (Jende et al. 2017 §3.2–§3.3). The result holds no pixels of the
 /// panorama: the caller may drop it at once.
 pub fn prepare_panorama(pano: &Panorama, owned: bool, rig: &PanoramaRig, config: &MmConfig) -> PreparedPanorama {
     let mut timings = StageTimings::default();

@@ -74,7 +74,7 @@ fn pairs_neighbours_reports_bad_and_lonely_images_and_writes_ties_consistent_wit
 
 /// A DG jump between two panoramas: the feature transformation disagrees with the DG poses (and the
 /// orientation fallback serves the corners), yet the image-derived motion reports the TRUE displacement,
-/// and the consistency check of paper 001 §4.1 flags exactly the pairs across the jump.
+/// and the consistency check of Cazzaniga et al. 2007 §4.1 flags exactly the pairs across the jump.
 #[test]
 fn a_dg_jump_leaves_the_image_motion_true_and_the_consistency_check_flags_it() {
     let ground = Ground::markings(23, [5.0, 0.0], 14.0);

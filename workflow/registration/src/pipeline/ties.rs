@@ -1,4 +1,4 @@
-//! Tie observations from one panorama pair (paper 000 §3.9 → `plumbline_adjustment` ObservationSet v1):
+//! Tie observations from one panorama pair (Jende et al. 2017 §3.9 → `plumbline_adjustment` ObservationSet v1):
 //! one ray per panorama in its camera frame, and the aerial-derived coordinates when the point was matched,
 //! with the aerial frames those coordinates were triangulated from.
 

@@ -8,7 +8,7 @@ use super::MotionError;
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct DriveConfig {
-    /// Output rate, Hz (100–200 Hz like a POS, paper 001 §1.1). Default 200.
+    /// Output rate, Hz (100–200 Hz like a POS, Cazzaniga et al. 2007 §1.1). Default 200.
     pub rate_hz: f64,
     /// Time of the first epoch, seconds (GPS seconds of week). Default 345 600 (Monday 00:00).
     pub start_time: f64,
@@ -28,7 +28,7 @@ pub struct DriveConfig {
     pub stop_probability: f64,
     /// Shortest standstill at a junction, s. Default 5.
     pub standstill_min: f64,
-    /// Longest standstill at a junction, s (paper 002 Fig. 7: ~38 s at a traffic light). Default 40.
+    /// Longest standstill at a junction, s (Meyer et al. 2023, Fig. 7: ~38 s at a traffic light). Default 40.
     pub standstill_max: f64,
     /// Where the vehicle stops before the junction's centre (the stop line), metres. Default 6.
     pub stop_before_junction: f64,

@@ -61,8 +61,9 @@ impl ImuErrors {
         bias_correlation_time: 3600.0,
     };
 
-    /// Navigation grade, Litton LN-100 class (paper 003 §2.1 calls it tactical): gyro bias 0.003°/h,
-    /// accelerometer bias 25 µg (paper 003 §2.1); ARW 0.001°/√h, VRW 5 µg/√Hz, instabilities 0.001°/h and 5 µg over 1 h, scale factors 5 and 50 ppm
+    /// Navigation grade, Litton LN-100 class (Grejner-Brzezinska and Toth 2000 §2.1 call it tactical): gyro bias
+    /// 0.003°/h, accelerometer bias 25 µg (Grejner-Brzezinska and Toth 2000 §2.1); ARW 0.001°/√h, VRW 5 µg/√Hz,
+    /// instabilities 0.001°/h and 5 µg over 1 h, scale factors 5 and 50 ppm
     /// (typical ring-laser values, not from the paper).
     pub const NAVIGATION: Self = Self {
         gyro_bias: 0.003 * DEG / HOUR,
@@ -76,7 +77,7 @@ impl ImuErrors {
         bias_correlation_time: 3600.0,
     };
 
-    /// Consumer MEMS, Bosch BMI160 class (paper 002 §3.1.1; Bosch datasheet): zero-rate offset ±3°/s and
+    /// Consumer MEMS, Bosch BMI160 class (Meyer et al. 2023 §3.1.1; Bosch datasheet): zero-rate offset ±3°/s and
     /// zero-g offset ±40 mg taken as 3σ, noise densities 0.007°/s/√Hz and 180 µg/√Hz, sensitivity tolerance
     /// ±1 % as 3σ; bias instability 10°/h and 0.1 mg over 5 min (typical MEMS, not in the datasheet).
     pub const CONSUMER: Self = Self {

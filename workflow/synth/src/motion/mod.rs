@@ -2,13 +2,15 @@
 //!
 //! 1. [`Drive::simulate`]: the true motion along a [`Route`](crate::route::Route) at 100–200 Hz — speed
 //!    profile with limits, curve speed, bounded acceleration and braking, stops at junctions with standstills
-//!    up to ~40 s (paper 002 §4.2.3, Fig. 7), attitude from the path. Parameters: [`DriveConfig`].
+//!    up to ~40 s (Meyer et al. 2023 §4.2.3, Fig. 7), attitude from the path. Parameters: [`DriveConfig`].
 //! 2. [`dg`]: the direct-georeferencing (GNSS/INS) error process driven by the urban canyon: drift,
-//!    multipath jumps, outages, optimistic standard deviations in canyons (paper 001 §1.2, paper 002 §4.2).
+//!    multipath jumps, outages, optimistic standard deviations in canyons
+//!    (Cazzaniga et al. 2007 §1.2, Meyer et al. 2023 §4.2).
 //! 3. [`gnss`] and [`imu`]: the raw sensor data the DG solution would come from — GNSS fixes at 1–10 Hz with
-//!    the same canyon process, IMU increments at the trajectory rate for a navigation-grade (LN-100 class, paper 003
-//!    §2.1) or consumer (BMI160 class, paper 002 §3.1.1) grade. For drives made in legs (`city`),
-//!    [`dg::DgStream`], [`gnss::GnssStream`] and [`imu::ImuStream`] carry every process across the joins.
+//!    the same canyon process, IMU increments at the trajectory rate for a navigation-grade (LN-100 class,
+//!    Grejner-Brzezinska and Toth 2000 §2.1) or consumer (BMI160 class, Meyer et al. 2023 §3.1.1) grade. For drives
+//!    made in legs (`city`), [`dg::DgStream`], [`gnss::GnssStream`] and [`imu::ImuStream`] carry every process across
+//!    the joins.
 //! 4. [`files`]: the bytes of the GNSS, IMU and error-series CSV files; [`overview_png`]: a map of the drive
 //!    coloured by the DG error.
 //!

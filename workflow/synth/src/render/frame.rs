@@ -212,7 +212,7 @@ pub fn render_panorama_with(
     }
 }
 
-/// Depth-camera error model (paper 002 §3.1.2: about 8 % of the depth; range 0.4–10 m).
+/// Depth-camera error model (Meyer et al. 2023 §3.1.2: about 8 % of the depth; range 0.4–10 m).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DepthNoise {
     /// Standard deviation as a share of the depth.
@@ -226,7 +226,7 @@ pub struct DepthNoise {
 }
 
 impl DepthNoise {
-    /// Paper 002's sensor: 8 %, 0.4–10 m.
+    /// The sensor of Meyer et al. (2023): 8 %, 0.4–10 m.
     pub fn realsense(seed: u64) -> Self {
         Self { share: 0.08, min: 0.4, max: 10.0, seed }
     }
@@ -249,7 +249,7 @@ pub fn render_depth(
             let Some(hit) = world.trace(&pose.translation.p, &d, noise.max * 3.0, epoch) else { continue };
             let z = hit.t * d.dot(&axis);
             let idx = i64::from(row as u32) * i64::from(w) + i64::from(col);
-            // paper 002 §3.1.2: depth error ≈ 8 % of the depth (σ = share · z).
+            // Meyer et al. 2023 §3.1.2: depth error ≈ 8 % of the depth (σ = share · z).
             let noisy = z * (1.0 + noise.share * gaussian(noise.seed, idx));
             if (noise.min..=noise.max).contains(&z) && noisy > 0.0 {
                 line[col as usize] = (noisy * 1000.0).round().min(65535.0) as u16;

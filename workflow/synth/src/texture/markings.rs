@@ -145,7 +145,7 @@ fn arrow(place: &Place, end: f64, near_from: bool, fp: f64) -> f32 {
 }
 
 /// Paint strength of an element: mostly fresh at the mobile epoch; a quarter worn and some missing
-/// (repainted since, or removed) at the aerial epoch (paper 000 §4.2, Figure 8).
+/// (repainted since, or removed) at the aerial epoch (Jende et al. 2017 §4.2, Figure 8).
 fn strength(seed: u64, street: i64, element: i64, epoch: Epoch) -> f32 {
     let r = unit(seed ^ 51, street, element);
     match epoch {

@@ -97,7 +97,7 @@ impl World {
     }
 
     /// Street width between the building fronts across `tangent` and their mean height, by horizontal probes
-    /// 2 m above the road (the enclosure that decides GNSS quality, paper 001 §1.2, paper 002 §3).
+    /// 2 m above the road (the enclosure that decides GNSS quality, Cazzaniga et al. 2007 §1.2, Meyer et al. 2023 §3).
     pub fn canyon(&self, p: P2, tangent: P2) -> Canyon {
         let o = Vector3::new(p[0], p[1], self.ground_at(p[0], p[1]) + 2.0);
         let mut width = 0.0;

@@ -56,7 +56,7 @@ pub struct Street {
     pub kerb: f64,
     /// Sidewalk width on each side, metres.
     pub sidewalk: f64,
-    /// Whether lane lines and crossings are painted (paper 000 test area 1 has a street without).
+    /// Whether lane lines and crossings are painted (test area 1 of Jende et al. 2017 has a street without).
     pub markings: bool,
     /// Stable identity for texture choices: `id` in a preset world, the lattice edge's key in a city window.
     pub key: u32,

@@ -21,7 +21,7 @@ pub fn pano_mount() -> CameraMount {
     CameraMount::new([0.6, 0.05, -1.9], &Boresight::from_degrees(0.3, -0.2, 0.4))
 }
 
-/// Side-looking depth camera, 1 m above the IMU, looking right (paper 002: the right-hand camera).
+/// Side-looking depth camera, 1 m above the IMU, looking right (Meyer et al. 2023: the right-hand camera).
 pub fn depth_mount() -> CameraMount {
     CameraMount::new([0.2, 0.9, -1.0], &Boresight::from_degrees(0.0, 0.5, 90.0))
 }

@@ -42,7 +42,7 @@ fn shot(rig: &PanoramaRig, at: [f64; 2], heading: f64, err: [f64; 4], time: f64)
 }
 
 /// Where the ortho-projection of `s` puts the true ground point `g`: its ray from the TRUE pose, cast from
-/// the DG pose onto the DG ground plane (paper 000 §3.2).
+/// the DG pose onto the DG ground plane (Jende et al. 2017 §3.2).
 fn ortho_pixel(rig: &PanoramaRig, s: &Shot, g: &Point3<Map>) -> [f64; 2] {
     let direction = rig.mount.to_camera(&s.truth, g);
     let cam = rig.mount.camera_pose(&s.pano.pose);

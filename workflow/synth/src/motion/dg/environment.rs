@@ -53,7 +53,7 @@ impl Environment {
 pub struct EnvironmentParameters {
     /// Stationary σ of the slow horizontal drift (Gauss–Markov), per axis, m.
     pub drift_horizontal: f64,
-    /// Stationary σ of the slow height drift, m (paper 001 §1.2: ~40 cm in height).
+    /// Stationary σ of the slow height drift, m (Cazzaniga et al. 2007 §1.2: ~40 cm in height).
     pub drift_height: f64,
     /// Stationary σ of the roll and pitch error, rad.
     pub drift_roll_pitch: f64,
@@ -76,7 +76,8 @@ pub struct EnvironmentParameters {
 }
 
 impl EnvironmentParameters {
-    /// Open sky: only a centimetre-level drift; reported σ matches it (paper 003 §2.1: 1–4 cm, 5–10″).
+    /// Open sky: only a centimetre-level drift; reported σ matches it
+    /// (Grejner-Brzezinska and Toth 2000 §2.1: 1–4 cm, 5–10″).
     pub const OPEN: Self = Self {
         drift_horizontal: 0.015,
         drift_height: 0.03,
@@ -91,7 +92,7 @@ impl EnvironmentParameters {
         reported_height: 0.03,
     };
 
-    /// Inner-city streets: jumps of decimetres for seconds (paper 001 §1.2), short outages.
+    /// Inner-city streets: jumps of decimetres for seconds (Cazzaniga et al. 2007 §1.2), short outages.
     pub const URBAN: Self = Self {
         drift_horizontal: 0.03,
         drift_height: 0.08,

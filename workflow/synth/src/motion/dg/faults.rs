@@ -2,13 +2,13 @@
 //!
 //! At most one fault is active at a time. While idle, a jump begins with probability `jump_rate · dt` and an
 //! outage with `outage_rate · dt` (both 0 in the open). A jump is a constant offset that appears and vanishes
-//! within `jump_transition` (1 s, a smoothstep: the smoother converging to the shifted GNSS fix; paper 001
+//! within `jump_transition` (1 s, a smoothstep: the smoother converging to the shifted GNSS fix; Cazzaniga et al. 2007
 //! §1.2: the shift "may last for some time and finally vanish with a new jump"); its holding time is counted in driving time, which runs at `0.2 + 0.8 · min(v / 5 m/s, 1)` of the
-//! clock, so a jump persists longer at slow speed and standstill (paper 002 §4.2.3, Fig. 7), and it ends at
+//! clock, so a jump persists longer at slow speed and standstill (Meyer et al. 2023 §4.2.3, Fig. 7), and it ends at
 //! once when the street opens up. An outage lasts an exponential time with mean
 //! `outage_seconds_per_ratio · ratio`; the smoothed solution bridges it with an error bump
 //! `peak · sin²(π u)` (u = 0…1 across the outage) whose per-axis σ grows with the duration,
-//! `outage_growth · (D / 60 s)²` (paper 003 §2.1: 10–20 cm after 60 s for an LN-100).
+//! `outage_growth · (D / 60 s)²` (Grejner-Brzezinska and Toth 2000 §2.1: 10–20 cm after 60 s for an LN-100).
 
 use plumbline_geo::{Map, Vec3};
 

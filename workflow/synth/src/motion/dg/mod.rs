@@ -3,14 +3,14 @@
 //! The error of every epoch (east, north, up; roll, pitch, heading) is the sum of
 //! - a **slow drift**: Gauss–Markov per axis (knots every `knot_interval` = 1 s,
 //!   correlation time `drift_correlation_time` = 300 s) whose σ follows the street's environment — open
-//!   1.5 cm / 3 cm (horizontal per axis / height), urban 3 / 8 cm, canyon 5 / 15 cm (paper 001 §1.2: a slow
+//!   1.5 cm / 3 cm (horizontal per axis / height), urban 3 / 8 cm, canyon 5 / 15 cm (Cazzaniga et al. 2007 §1.2: a slow
 //!   drift of ~40 cm in height); attitude: roll/pitch 0.0015° / 0.0025° / 0.004°, heading 0.003° / 0.006° /
-//!   0.01° (paper 003 §2.1: 5–10″ in good conditions);
+//!   0.01° (Grejner-Brzezinska and Toth 2000 §2.1: 5–10″ in good conditions);
 //! - **faults** ([`Fault`]): multipath jumps (urban: 1 per 90 s, 0.1–0.5 m for 3–20 s; canyon: 1 per 45 s,
 //!   0.2–1.5 m for 5–40 s; never in the open; rising and falling within `jump_transition` = 1 s; height offset `jump_height_factor` = 1.0 × size × N(0, 1))
 //!   and outages (urban 1 per 240 s, canyon 1 per 60 s; mean duration 10 s × ratio, at most `max_outage` =
-//!   120 s; bump σ per axis `outage_growth` × (D / 60 s)², default 0.15 m for a navigation-grade IMU, paper 003 §2.1)
-//!   — see [`faults`] for the exact rules;
+//!   120 s; bump σ per axis `outage_growth` × (D / 60 s)², default 0.15 m for a navigation-grade IMU,
+//!   Grejner-Brzezinska and Toth 2000 §2.1) — see [`faults`] for the exact rules;
 //! - **white noise** of `white_horizontal` = 0.5 mm and `white_height` = 1 mm, so consecutive epochs differ by
 //!   millimetres except while a jump rises or falls (centimetres per epoch then).
 //!
@@ -54,8 +54,9 @@ pub struct DgConfig {
     pub jump_transition: f64,
     /// Height offset of a jump relative to its horizontal size (σ of the factor). Default 1.0.
     pub jump_height_factor: f64,
-    /// Per-axis σ of the outage bump after a 60 s outage, m. Default 0.15 (navigation-grade IMU, paper 003 §2.1);
-    /// a consumer MEMS IMU (paper 002's BMI160 class) is nearer 1.5.
+    /// Per-axis σ of the outage bump after a 60 s outage, m. Default 0.15 (navigation-grade IMU,
+    /// Grejner-Brzezinska and Toth 2000 §2.1); a consumer MEMS IMU (the BMI160 class of Meyer et al. 2023) is
+    /// nearer 1.5.
     pub outage_growth: f64,
     /// Longest outage, s. Default 120.
     pub max_outage: f64,
