@@ -145,11 +145,7 @@ pub(crate) fn standstill(delta: &Vector6<f64>, offset: &Vector3<f64>, sigma: f64
     out
 }
 
-/// An angle in (−π, π].
-pub(crate) fn wrap(a: f64) -> f64 {
-    let t = a.rem_euclid(std::f64::consts::TAU);
-    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
-}
+pub(crate) use plumbline_geo::angle::wrap;
 
 /// Image-derived motion between two panoramas (Jende et al. 2017 §3.3 as the observation of
 /// Cazzaniga et al. 2007 §4.1): with Δ = δ_end − δ_start (interpolation weights − at the start, + at the end), the

@@ -1,6 +1,7 @@
 //! Geometric core of plumbline: frames, poses, the direct-georeferencing formula, camera models,
 //! trajectories and their formats, quality measures and tile planning. Synchronous and I/O-free.
 
+pub mod angle;
 pub mod attitude;
 pub mod camera;
 pub mod dg;

@@ -9,6 +9,7 @@
 //! χ²_{3,α} (Cazzaniga et al. 2007 §3.1.2 applied to the photogrammetric innovation of §4.1).
 
 use plumbline_adjustment::WeakLink;
+use plumbline_geo::angle::wrap;
 use plumbline_geo::{PositionInterpolation, Trajectory};
 use serde::{Deserialize, Serialize};
 
@@ -149,10 +150,4 @@ fn test_pair(
     // Cazzaniga et al. 2007 §3.1.2: T = vᵀ C_v⁻¹ v with C_v = C_img + C_dg (independent, diagonal)
     let statistic = (0..3).map(|i| disc[i].powi(2) / (m.std[i].powi(2) + config.dg_relative_std[i].powi(2))).sum();
     Ok((disc, statistic))
-}
-
-/// An angle in (−π, π].
-fn wrap(a: f64) -> f64 {
-    let t = a.rem_euclid(std::f64::consts::TAU);
-    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
 }

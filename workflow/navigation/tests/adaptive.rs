@@ -10,6 +10,7 @@ mod common;
 
 use nalgebra::Vector3;
 use plumbline_geo::Vec3;
+use plumbline_geo::angle::wrap;
 use plumbline_navigation::{
     Adaptation, AlignmentConfig, Decision, EpisodeEnd, Flag, ForwardPass, GnssFix, ImuSample, InitialState,
     IntegrityConfig, NavConfig, NavError, Sensor, SmoothedEpoch, StepTest, VehicleConstraint, align, filter,
@@ -155,8 +156,7 @@ fn coarse_alignment_recovers_the_start_pose_and_the_filter_converges() {
         let lever = Vec3::new(common::LEVER[0], common::LEVER[1], common::LEVER[2]);
         let init = align(&s.imu, &s.gnss, &lever, &AlignmentConfig::default()).unwrap();
         let truth = &s.drive.trajectory.records()[0];
-        let d =
-            |a: f64, b: f64| (a - b + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+        let d = |a: f64, b: f64| wrap(a - b);
         let (dr, dp) = (d(init.attitude.roll, truth.attitude.roll), d(init.attitude.pitch, truth.attitude.pitch));
         let dh = d(init.attitude.heading, truth.attitude.heading);
         println!("seed {seed}: alignment errors roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad");
@@ -254,7 +254,7 @@ fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
 fn attitude_errors(init: &InitialState, s: &common::Scenario) -> [f64; 3] {
     let records = s.drive.trajectory.records();
     let truth = &records[records.partition_point(|r| r.time < init.time - 1e-9)];
-    let d = |a: f64, b: f64| (a - b + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU) - std::f64::consts::PI;
+    let d = |a: f64, b: f64| wrap(a - b);
     let (a, t) = (&init.attitude, &truth.attitude);
     [d(a.roll, t.roll), d(a.pitch, t.pitch), d(a.heading, t.heading)]
 }

@@ -3,12 +3,13 @@
 //! into tile outputs the way workers deliver them, and a `Campaign` around the DG trajectory.
 #![allow(dead_code, clippy::unwrap_used)]
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::TAU;
 
 use plumbline_adjustment::{AerialPoint, PoleUpdate, TiePoint, TiePointId, TieRay};
 use plumbline_campaign::Manifest;
 use plumbline_campaign::plan::plan_campaign;
 use plumbline_campaign::tables::IndexRow;
+use plumbline_geo::angle::wrap;
 use plumbline_geo::formats::Horizontal;
 use plumbline_geo::tiling::{TileId, TilingParams};
 use plumbline_geo::{PositionInterpolation, Trajectory};
@@ -104,7 +105,7 @@ fn image_motions(truth: &Trajectory, times: &[f64], seed: u64) -> Vec<ImageMotio
         .map(|w| {
             let (a, b) = (at(w[0]), at(w[1]));
             let d = b.position - a.position;
-            let turn = (b.attitude.heading - a.attitude.heading + PI).rem_euclid(TAU) - PI;
+            let turn = wrap(b.attitude.heading - a.attitude.heading);
             let mut g = || gauss(&mut rng);
             ImageMotion {
                 start: w[0],

@@ -7,6 +7,7 @@
 //! then θ from the rotation of the x–z components.
 
 use nalgebra::{UnitQuaternion, Vector3};
+use plumbline_geo::angle::wrap;
 
 use crate::config::ImuSample;
 
@@ -26,12 +27,6 @@ pub(crate) fn mean_specific_force(imu: &[ImuSample], from: f64, until: f64) -> O
 /// Roll and pitch at a standstill-like first guess: w = g·up, no heading needed.
 pub(crate) fn static_level(u: &Vector3<f64>) -> (f64, f64) {
     ((-u.y).atan2(-u.z), u.x.atan2(u.y.hypot(u.z)))
-}
-
-/// Wrap an angle into (−π, π].
-fn wrap(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
 }
 
 /// Roll and pitch from the body mean specific force `u` and its map-frame (east-north-up) counterpart `w`,

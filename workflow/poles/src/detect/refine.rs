@@ -1,9 +1,10 @@
 //! From a stacked structure to a detection: the shaft's points (its bearing bins, within 3σ of its range),
 //! the verticality test, the diameter from the angular width and the centre with its covariance.
 
-use std::f64::consts::{PI, TAU};
+use std::f64::consts::PI;
 
 use nalgebra::{Matrix2, Vector2};
+use plumbline_geo::angle::wrap;
 
 use super::profile::Polar;
 use super::stack::Stack;
@@ -134,7 +135,7 @@ fn estimate(
     let range = to_surface.norm().max(1e-6);
     let u = to_surface / range;
     let mid = u.y.atan2(u.x);
-    let offsets: Vec<f64> = band.iter().map(|s| (s.bearing - mid + PI).rem_euclid(TAU) - PI).collect();
+    let offsets: Vec<f64> = band.iter().map(|s| wrap(s.bearing - mid)).collect();
     let mean = offsets.iter().sum::<f64>() / n;
     let var = offsets.iter().map(|a| (a - mean).powi(2)).sum::<f64>() / n;
     // Uniform across the angular width w: var = w²/12; one step of sampling added in quadrature.

@@ -2,6 +2,7 @@
 //! prepared patch, the initial transformation and the corner matching (in parallel), the cross-image
 //! consistency, and the triangulation (frames) or the orthophoto + terrain lookup.
 
+use plumbline_geo::angle::wrap;
 use rayon::prelude::*;
 
 use super::config::AerialConfig;
@@ -124,8 +125,7 @@ fn orientation_groups(views: &[(View<'_>, LocalGeometry)]) -> (Vec<usize>, Vec<L
         .iter()
         .map(|(_, g)| {
             let same = |r: &LocalGeometry| {
-                let turn = (g.up_heading - r.up_heading + std::f64::consts::PI).rem_euclid(std::f64::consts::TAU);
-                (turn - std::f64::consts::PI).abs() < SAME_HEADING && (g.gsd / r.gsd - 1.0).abs() < SAME_GSD
+                wrap(g.up_heading - r.up_heading).abs() < SAME_HEADING && (g.gsd / r.gsd - 1.0).abs() < SAME_GSD
             };
             reps.iter().position(same).unwrap_or_else(|| {
                 reps.push(*g);

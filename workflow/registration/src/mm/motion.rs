@@ -35,6 +35,7 @@
 
 use nalgebra::{Matrix3, Matrix4, Vector2, Vector3, Vector4};
 use plumbline_geo::Attitude;
+use plumbline_geo::angle::wrap;
 use plumbline_imaging::models::Correspondence;
 use plumbline_navigation::ImageMotion;
 
@@ -172,10 +173,4 @@ fn fit_similarity(rows: &[Row]) -> Option<MapSimilarity> {
 fn apply(h: &Matrix3<f64>, p: Vector2<f64>) -> Option<Vector2<f64>> {
     let r = h * Vector3::new(p.x, p.y, 1.0);
     (r.z.abs() > 1e-12).then(|| Vector2::new(r.x / r.z, r.y / r.z))
-}
-
-/// An angle in (−π, π].
-fn wrap(a: f64) -> f64 {
-    let t = a.rem_euclid(std::f64::consts::TAU);
-    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
 }

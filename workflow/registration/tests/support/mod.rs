@@ -10,6 +10,7 @@ pub mod markings;
 
 use std::sync::Arc;
 
+use plumbline_geo::angle::wrap;
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{MapFromBody, Point3};
@@ -270,11 +271,6 @@ impl MotionCheck {
     pub fn within(&self, k: f64) -> bool {
         (0..3).all(|i| self.error[i].abs() <= k * self.std[i])
     }
-}
-
-fn wrap(a: f64) -> f64 {
-    let t = a.rem_euclid(std::f64::consts::TAU);
-    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
 }
 
 /// Body-origin displacement (east, north) and heading change from pose `a` to pose `b`.

@@ -219,11 +219,7 @@ fn shape_at(shape: &Shape, u: f64) -> (f64, f64, f64, f64) {
     }
 }
 
-/// Angle into (−π, π].
-pub(crate) fn wrap(a: f64) -> f64 {
-    let t = a.rem_euclid(std::f64::consts::TAU);
-    if t > std::f64::consts::PI { t - std::f64::consts::TAU } else { t }
-}
+pub(crate) use plumbline_geo::angle::wrap;
 
 fn check_route(route: &Route) -> Result<(), MotionError> {
     let w = &route.waypoints;
