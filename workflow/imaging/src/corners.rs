@@ -196,7 +196,7 @@ impl Harris {
             .map(|p| crate::filter::convolve_columns(&crate::filter::convolve_rows(&p, &kernel), &kernel));
         let response = GrayImage::from_fn(img.width(), img.height(), |c, r| {
             let (a, b, d) = (a.get(c, r), b.get(c, r), d.get(c, r));
-            (a * d - b * b) - self.k as f32 * (a + d) * (a + d) // Cazzaniga et al. 2007 §4.3 (Harris & Stephens 1987)
+            (a * d - b * b) - self.k as f32 * (a + d) * (a + d) // Cazzaniga et al. 2007 §4.3 (Harris & Stephens 1988)
         });
         let max = response.data().iter().fold(0.0f32, |m, &x| m.max(x));
         let thresholded = response.map(|x| if x > self.relative_threshold as f32 * max { x } else { 0.0 });
