@@ -1,4 +1,4 @@
-//! KAZE features (Alcantarilla, Bartoli, Davison: KAZE features, ECCV 2012), as Jende et al. 2017 §3.3 use them:
+//! KAZE features (Alcantarilla et al. 2012), as Jende et al. 2017 §3.3 use them:
 //! a nonlinear scale space at full resolution evolved by additive operator splitting (AOS), the authors'
 //! scale-normalised Hessian detector with 3-D extrema, and the 64-float M-SURF descriptor, upright or
 //! oriented.
@@ -63,7 +63,7 @@ pub struct KazeFeatures {
     pub descriptors: Vec<SurfDescriptor>,
 }
 
-/// The derivative spacing of a level: the authors' σ_i rounded (ECCV 2012 §4.1).
+/// The derivative spacing of a level: the authors' σ_i rounded (Alcantarilla et al. 2012 §4.1).
 fn spacing(sigma: f64) -> usize {
     (sigma.round() as usize).max(1)
 }
@@ -80,7 +80,7 @@ fn scale_space(img: &GrayImage, config: &KazeConfig) -> Vec<Derivatives> {
     let mut ders = vec![level_derivatives(&blur(&image), spacing(config.sigma0))];
     for i in 1..(config.octaves * config.sublevels) {
         let smooth = blur(&image);
-        let tau = 0.5 * (sigma(i).powi(2) - sigma(i - 1).powi(2)); // ECCV 2012 §3.1: t_i = σ_i²/2
+        let tau = 0.5 * (sigma(i).powi(2) - sigma(i - 1).powi(2)); // Alcantarilla et al. 2012 §3.1: t_i = σ_i²/2
         let (next, d) = rayon::join(
             || aos_step(&image, &conductance_of(&smooth, k), tau as f32),
             || level_derivatives(&smooth, spacing(sigma(i))),

@@ -61,9 +61,9 @@ fn scharr_y(n: &Neighbourhood, inv: f32) -> f32 {
     smooth(n[2][0] - n[0][0], n[2][1] - n[0][1], n[2][2] - n[0][2]) * inv
 }
 
-/// Scharr-type first derivatives (Lx, Ly) at spacing `s` (BMVC 2013 §4.2; the authors' kernels dilated to
-/// spacing s): central difference across 2s, smoothed with weights 3/16, 10/16, 3/16 across; borders
-/// replicated.
+/// Scharr-type first derivatives (Lx, Ly) at spacing `s` (Alcantarilla et al. 2013 §4.2; the authors'
+/// kernels dilated to spacing s): central difference across 2s, smoothed with weights 3/16, 10/16, 3/16
+/// across; borders replicated.
 pub(crate) fn scharr_pair(img: &GrayImage, s: usize) -> (GrayImage, GrayImage) {
     let s = s.max(1);
     let inv = 1.0 / (2.0 * s as f32);
@@ -75,20 +75,20 @@ pub(crate) fn scharr_pair(img: &GrayImage, s: usize) -> (GrayImage, GrayImage) {
 }
 
 /// Perona–Malik g2 conductance 1 / (1 + |∇L_σ|²/k²) of an already smoothed image, with the gradient by
-/// the 3×3 Scharr-type operator (BMVC 2013 eq. (2)), in one pass.
+/// the 3×3 Scharr-type operator (Alcantarilla et al. 2013 eq. (2)), in one pass.
 pub(crate) fn conductance_of(smoothed: &GrayImage, k: f32) -> GrayImage {
     let inv_k2 = 1.0 / (k * k);
     rows(smoothed.width(), smoothed.height(), |r, out| {
         stencil_row(smoothed, r, 1, out, |n| {
             let (lx, ly) = (scharr_x(n, 0.5), scharr_y(n, 0.5));
-            1.0 / (1.0 + (lx * lx + ly * ly) * inv_k2) // BMVC 2013 eq. (2), g2
+            1.0 / (1.0 + (lx * lx + ly * ly) * inv_k2) // Alcantarilla et al. 2013 eq. (2), g2
         });
     })
 }
 
 /// The scale-normalised Hessian determinant s⁴ (Lxx Lyy − Lxy²) from first derivatives `lx`, `ly` (not yet
-/// normalised) at spacing `s` (BMVC 2013 eq. (6); ECCV 2012 §4.1): Lxx and Lxy from `lx`, Lyy from `ly`,
-/// row by row through two scratch rows.
+/// normalised) at spacing `s` (Alcantarilla et al. 2013 eq. (6); Alcantarilla et al. 2012 §4.1): Lxx and
+/// Lxy from `lx`, Lyy from `ly`, row by row through two scratch rows.
 pub(crate) fn hessian_det(lx: &GrayImage, ly: &GrayImage, s: usize) -> GrayImage {
     let s = s.max(1);
     let inv = 1.0 / (2.0 * s as f32);
@@ -106,7 +106,7 @@ pub(crate) fn hessian_det(lx: &GrayImage, ly: &GrayImage, s: usize) -> GrayImage
             stencil_row(lx, r, s, lxy, |n| scharr_y(n, inv));
             stencil_row(ly, r, s, o, |n| scharr_y(n, inv));
             for ((o, &xx), &xy) in o.iter_mut().zip(lxx.iter()).zip(lxy.iter()) {
-                *o = (xx * *o - xy * xy) * s4; // BMVC 2013 eq. (6)
+                *o = (xx * *o - xy * xy) * s4; // Alcantarilla et al. 2013 eq. (6)
             }
         },
     );

@@ -1,4 +1,4 @@
-//! The upright and oriented M-LDB binary descriptor of AKAZE (BMVC 2013 §4.3): means of intensity and of
+//! The upright and oriented M-LDB binary descriptor of AKAZE (Alcantarilla et al. 2013 §4.3): means of intensity and of
 //! both derivatives over 2×2, 3×3 and 4×4 grids, compared pairwise (6 + 36 + 120 pairs × 3 channels = 486 bits).
 //! The three grids cover the same 21×21 samples, so each sample is read once; and the SURF orientation.
 

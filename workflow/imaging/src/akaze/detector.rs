@@ -1,5 +1,5 @@
 //! AKAZE's detector: scale-normalised Hessian determinant per level, 3×3 maxima above a threshold,
-//! subpixel refinement by a quadratic fit, and suppression across neighbouring levels (BMVC 2013 §4.2).
+//! subpixel refinement by a quadratic fit, and suppression across neighbouring levels (Alcantarilla et al. 2013 §4.2).
 
 use nalgebra::{Matrix2, Vector2};
 use rayon::prelude::*;
@@ -34,7 +34,7 @@ pub(crate) fn derivatives(levels: &[Level], factor: f64) -> Vec<Derivatives> {
 /// First derivatives and Hessian determinant of `image` at spacing `s`, all scale-normalised.
 pub(crate) fn level_derivatives(image: &GrayImage, s: usize) -> Derivatives {
     let (mut lx, mut ly) = scharr_pair(image, s);
-    // BMVC 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
+    // Alcantarilla et al. 2013 eq. (6): det H = σ⁴ (Lxx Lyy − Lxy²), σ the derivative scale in level pixels
     let det = hessian_det(&lx, &ly, s);
     let sf = s as f32;
     lx.data_mut().iter_mut().chain(ly.data_mut().iter_mut()).for_each(|x| *x *= sf);
@@ -120,7 +120,7 @@ fn refine(det: &GrayImage, c: usize, r: usize) -> Option<(f64, f64)> {
 }
 
 /// Keep the strongest of candidates closer than their radius on the same or a neighbouring level
-/// (BMVC 2013 §4.2); a grid of 32-pixel cells finds the neighbours.
+/// (Alcantarilla et al. 2013 §4.2); a grid of 32-pixel cells finds the neighbours.
 pub(crate) fn suppress(mut cands: Vec<Candidate>) -> Vec<Candidate> {
     cands.sort_unstable_by(|a, b| b.response.total_cmp(&a.response).then(a.level.cmp(&b.level)));
     let cell = 32.0;

@@ -1,5 +1,5 @@
-//! AKAZE features (Alcantarilla, Nuevo, Bartoli: fast explicit diffusion for accelerated features in
-//! nonlinear scale spaces, BMVC 2013): FED scale space, Hessian detector with subpixel refinement, M-LDB
+//! AKAZE features (Alcantarilla et al. 2013, fast explicit diffusion for accelerated features in
+//! nonlinear scale spaces): FED scale space, Hessian detector with subpixel refinement, M-LDB
 //! binary descriptor, upright or oriented; Hamming matching with ratio test and mutual check.
 
 pub(crate) mod descriptor;

@@ -1,5 +1,5 @@
 //! The nonlinear scale space of AKAZE: Perona–Malik g2 conductance, fast explicit diffusion (FED) cycles,
-//! octaves by 2× area downsampling (Alcantarilla et al., BMVC 2013, §3–4).
+//! octaves by 2× area downsampling (Alcantarilla et al. 2013 §3–4).
 
 use rayon::prelude::*;
 
@@ -27,7 +27,7 @@ impl Level {
 }
 
 /// The contrast factor k: the `percentile` of the gradient magnitude histogram of the σ = 1 smoothed
-/// image (KAZE, ECCV 2012 §3.1; 300 bins, as the authors' code).
+/// image (KAZE, Alcantarilla et al. 2012 §3.1; 300 bins, as the authors' code).
 pub(crate) fn contrast_factor(img: &GrayImage, percentile: f64) -> f32 {
     let Ok(smooth) = gaussian_blur(img, 1.0) else { return 0.03 };
     let (lx, ly) = scharr_pair(&smooth, 1);
@@ -53,14 +53,14 @@ pub(crate) fn contrast_factor(img: &GrayImage, percentile: f64) -> f32 {
     (max * k as f32 / bins as f32).max(1e-6)
 }
 
-/// Perona–Malik g2 conductance 1 / (1 + |∇L_σ|² / k²) of the σ = 1 smoothed image (BMVC 2013 eq. (2)).
+/// Perona–Malik g2 conductance 1 / (1 + |∇L_σ|² / k²) of the σ = 1 smoothed image (Alcantarilla et al. 2013 eq. (2)).
 pub(crate) fn conductance(img: &GrayImage, k: f32) -> GrayImage {
     conductance_of(&gaussian_blur(img, 1.0).unwrap_or_else(|_| img.clone()), k)
 }
 
-/// FED step sizes for diffusion time `t` with stable step `tau_max` (Grewenig et al. 2010; BMVC 2013 eq. (5)):
-/// n = ⌈√(3t/τ_max + 1/4) − 1/2⌉, τ_j = τ_max / (2 cos²(π(2j + 1)/(4n + 2))), rescaled to sum to t, in the
-/// authors' κ-cycle order (see `reorder`).
+/// FED step sizes for diffusion time `t` with stable step `tau_max` (Grewenig et al. 2010; Alcantarilla et
+/// al. 2013 eq. (5)): n = ⌈√(3t/τ_max + 1/4) − 1/2⌉, τ_j = τ_max / (2 cos²(π(2j + 1)/(4n + 2))), rescaled
+/// to sum to t, in the authors' κ-cycle order (see `reorder`).
 pub(crate) fn fed_steps(t: f64, tau_max: f64) -> Vec<f64> {
     reorder(&fed_steps_ascending(t, tau_max))
 }
@@ -76,7 +76,7 @@ fn fed_steps_ascending(t: f64, tau_max: f64) -> Vec<f64> {
     (0..n)
         .map(|j| {
             let h = (std::f64::consts::PI * (2 * j + 1) as f64 * c).cos();
-            scale * tau_max / (2.0 * h * h) // BMVC 2013 eq. (5)
+            scale * tau_max / (2.0 * h * h) // Alcantarilla et al. 2013 eq. (5)
         })
         .collect()
 }
@@ -96,7 +96,7 @@ fn reorder(tau: &[f64]) -> Vec<f64> {
 }
 
 /// One explicit step out = L + τ/2 · Σ (c + c_nb)(L_nb − L) over the 4-neighbourhood, reflecting borders
-/// (BMVC 2013 eq. (4); the authors' nld_step_scalar).
+/// (Alcantarilla et al. 2013 eq. (4); the authors' nld_step_scalar).
 fn diffusion_step(l: &GrayImage, cond: &GrayImage, tau: f32, out: &mut GrayImage) {
     let w = l.width();
     let half = 0.5 * tau;
@@ -125,7 +125,7 @@ fn diffusion_step(l: &GrayImage, cond: &GrayImage, tau: f32, out: &mut GrayImage
                 + (c1[i] + c0[i]) * (l0[i] - lc)
                 + (c1[i] + gd[i]) * (d[i] - lc)
                 + (c1[i] + gu[i]) * (u[i] - lc);
-            inner[i] = lc + half * flux; // BMVC 2013 eq. (4), explicit step of the FED cycle
+            inner[i] = lc + half * flux; // Alcantarilla et al. 2013 eq. (4), explicit step of the FED cycle
         }
         o[0] = edge(0);
         o[w - 1] = edge(w - 1);

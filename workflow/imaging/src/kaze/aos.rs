@@ -1,4 +1,4 @@
-//! The additive operator splitting (AOS) step of KAZE's scale space (ECCV 2012 eq. (8)): the tridiagonal
+//! The additive operator splitting (AOS) step of KAZE's scale space (Alcantarilla et al. 2012 eq. (8)): the tridiagonal
 //! systems along rows are solved row by row, those along columns for all columns at once, sweeping down the
 //! rows, so both loops run over contiguous rows and nothing is transposed.
 
@@ -6,7 +6,7 @@ use rayon::prelude::*;
 
 use crate::image::GrayImage;
 
-/// One AOS step of size τ: L' = ½ [(I − 2τA_x)⁻¹ + (I − 2τA_y)⁻¹] L (ECCV 2012 eq. (8)), A the 1-D
+/// One AOS step of size τ: L' = ½ [(I − 2τA_x)⁻¹ + (I − 2τA_y)⁻¹] L (Alcantarilla et al. 2012 eq. (8)), A the 1-D
 /// diffusion operator with half-point conductances (g_i + g_{i+1})/2.
 pub(crate) fn aos_step(l: &GrayImage, g: &GrayImage, tau: f32) -> GrayImage {
     let (mut ux, uy) = rayon::join(|| solve_rows(l, g, tau), || solve_columns(l, g, tau));
@@ -104,7 +104,7 @@ impl Lanes {
 }
 
 /// Solve (I − 2τA) u = f along one line by the Thomas algorithm; the link between samples i and i + 1 is
-/// 2τ (g_i + g_{i+1})/2 (ECCV 2012 eq. (8)).
+/// 2τ (g_i + g_{i+1})/2 (Alcantarilla et al. 2012 eq. (8)).
 fn thomas(f: &[f32], g: &[f32], tau: f32, upper: &mut [f32], u: &mut [f32]) {
     let w = f.len();
     let (mut left, mut up_prev, mut u_prev) = (0.0f32, 0.0f32, 0.0f32);

@@ -1,4 +1,4 @@
-//! The 64-float M-SURF descriptor of KAZE (Agrawal et al. 2008, as ECCV 2012 §4.3 uses it): 4×4
+//! The 64-float M-SURF descriptor of KAZE (Agrawal et al. 2008, as Alcantarilla et al. 2012 §4.3 uses it): 4×4
 //! overlapping subregions of 9×9 samples at spacing `scale` over a 24·scale window. The 24×24 rotated
 //! derivative samples are read once and shared by the overlapping subregions; both Gaussian weightings
 //! depend only on sample indices (the scale cancels), so they are tables.
@@ -14,7 +14,7 @@ pub type SurfDescriptor = [f32; 64];
 /// Samples per side of the window: offsets −12..12 in units of the scale.
 const SIDE: usize = 24;
 
-/// Gaussian weight of sample (k, l) inside its 9×9 subregion, σ = 2.5 samples (ECCV 2012 §4.3).
+/// Gaussian weight of sample (k, l) inside its 9×9 subregion, σ = 2.5 samples (Alcantarilla et al. 2012 §4.3).
 static INNER: LazyLock<[[f32; 9]; 9]> = LazyLock::new(|| {
     let mut w = [[0.0f32; 9]; 9];
     for (k, row) in w.iter_mut().enumerate() {
@@ -55,7 +55,7 @@ fn samples(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> Grid {
 }
 
 /// The M-SURF descriptor of a point at (x, y) pixels with `scale` (pixels) and `angle`: per subregion
-/// Σu, Σv, Σ|u|, Σ|v| Gaussian weighted, normalised to unit length (ECCV 2012 §4.3).
+/// Σu, Σv, Σ|u|, Σ|v| Gaussian weighted, normalised to unit length (Alcantarilla et al. 2012 §4.3).
 pub(crate) fn msurf(d: &Derivatives, x: f64, y: f64, scale: f64, angle: f64) -> SurfDescriptor {
     let grid = samples(d, x, y, scale, angle);
     let inner = &*INNER;

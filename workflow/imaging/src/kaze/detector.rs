@@ -1,4 +1,4 @@
-//! KAZE's detector as the authors define it (ECCV 2012 §4.1): the Hessian determinant normalised by
+//! KAZE's detector as the authors define it (Alcantarilla et al. 2012 §4.1): the Hessian determinant normalised by
 //! σ_i⁴ with σ_i = round(σ) the derivative spacing, maxima over 3×3 pixels × 3 levels (every level but
 //! the first and the last), refined in position and scale by a 3-D quadratic fit (Brown & Lowe 2002).
 
@@ -39,7 +39,7 @@ pub(crate) fn candidates(ders: &[Derivatives], threshold: f32, sigma: impl Fn(f6
 }
 
 /// Offset (dx, dy, ds) of the vertex of the quadratic through the 3×3×3 neighbourhood of the determinant
-/// (ECCV 2012 §4.1, Brown & Lowe 2002); `None` if the fit is singular or the vertex leaves the
+/// (Alcantarilla et al. 2012 §4.1, Brown & Lowe 2002); `None` if the fit is singular or the vertex leaves the
 /// neighbourhood (any |offset| > 1, the authors' test).
 fn refine(det: [&GrayImage; 3], c: usize, r: usize) -> Option<(f64, f64, f64)> {
     let at =
