@@ -78,7 +78,7 @@ pub struct Args {
     #[arg(long, value_name = "X,Y,Z", value_parser = triple, default_value = "0,0,0")]
     pub lever_arm: [f64; 3],
     /// Error model of the IMU: a class (navigation, tactical, industrial, consumer; their figures are in
-    /// ARCHITECTURE.md) or a TOML file of datasheet figures (`class = "…"` plus any figures that differ).
+    /// docs/guide.md § IMU models) or a TOML file of datasheet figures (`class = "…"` plus any figures that differ).
     #[arg(long, value_name = "CLASS|FILE.toml", default_value = "tactical")]
     pub imu_model: String,
     /// Geodetic latitude of the drive, degrees: mechanise on the WGS 84 Earth (Earth rotation, transport

@@ -2,6 +2,7 @@
 //! conforms to the checked-in JSON Schema; every file under `invalid/` fails, naming the fields
 //! listed in its `# expect:` lines.
 
+mod guide;
 mod json_schema;
 
 use std::fs;
