@@ -21,6 +21,7 @@ use gdal::{Dataset, DatasetOptions, GdalOpenFlags};
 
 use crate::gdal_messages::route_gdal_messages;
 use crate::gdal_write::{Raster, RasterData};
+pub use crate::raster_common::{GdalReadError, MapBox};
 use crate::store::GdalRemote;
 use crate::vrt::{VrtMosaic, is_xml};
 
@@ -74,43 +75,6 @@ pub enum MosaicFile {
     Path(PathBuf),
     /// The file's bytes.
     Bytes(Vec<u8>),
-}
-
-/// Why a raster could not be read, naming the raster and the step.
-#[derive(Debug, thiserror::Error)]
-pub enum GdalReadError {
-    /// A GDAL call failed.
-    #[error("{name}: GDAL could not {step}: {source}")]
-    Gdal {
-        /// The raster (its URL or path).
-        name: String,
-        /// What was being done.
-        step: String,
-        /// GDAL's error.
-        #[source]
-        source: GdalError,
-    },
-    /// The raster is readable but not usable as asked.
-    #[error("{name}: {problem}")]
-    Unusable {
-        /// The raster (its URL or path).
-        name: String,
-        /// What is wrong.
-        problem: String,
-    },
-}
-
-/// A box in mapping coordinates (the raster's CRS), metres.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct MapBox {
-    /// Smallest easting.
-    pub min_e: f64,
-    /// Smallest northing.
-    pub min_n: f64,
-    /// Largest easting.
-    pub max_e: f64,
-    /// Largest northing.
-    pub max_n: f64,
 }
 
 /// An open raster of any kind, georeferenced or not (aerial frames are placed by their own orientation, not

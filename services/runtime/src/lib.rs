@@ -29,6 +29,7 @@ pub mod line_io;
 pub mod logging;
 pub mod progress;
 pub mod range_reader;
+mod raster_common;
 pub mod secret;
 pub mod spill;
 pub mod store;

@@ -14,7 +14,7 @@ use std::borrow::Cow;
 
 use quick_xml::events::{BytesStart, Event};
 
-use crate::gdal_read::{GdalReadError, MapBox};
+use crate::raster_common::{GdalReadError, MapBox};
 
 /// Largest VRT read (a city mosaic of 10,000 tiles × 4 bands is about 10 MB).
 pub const MAX_VRT_BYTES: usize = 32 << 20;

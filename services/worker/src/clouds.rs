@@ -39,8 +39,8 @@ use plumbline_runtime::{CrsTransform, Files};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::{SkipReason, blocking, skipped};
+use crate::output::PoleResults;
 use crate::panoramas::position_sigma;
-use crate::poles::PoleResults;
 
 /// A cloud is read by a tile when its header bounds come this close to the tile's fetch box, metres.
 const REACH_M: f64 = 30.0;

@@ -1,4 +1,6 @@
 //! The versioned result of one tile (`tiles/{col}_{row}.json`, schema `schemas/tile-output.v1.schema.json`).
+//! Also the pole results a tile gathers on the way to it (`PoleResults`, filled by modules `poles` and
+//! `clouds`).
 
 use plumbline_adjustment::PoleUpdate;
 use plumbline_geo::tiling::TileId;
@@ -47,6 +49,21 @@ pub struct TileOutputV1 {
     /// is reused only while it matches. Absent in outputs written before it existed (never reused).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub fingerprint: Option<String>,
+}
+
+/// The pole results of a tile.
+#[derive(Default)]
+pub(crate) struct PoleResults {
+    /// Coordinate updates.
+    pub updates: Vec<PoleUpdate>,
+    /// One report per depth frame and point-cloud slice.
+    pub reports: Vec<FrameReport>,
+    /// What was left out.
+    pub skipped: Vec<SkippedInput>,
+    /// Seconds reading depth images and cadastres.
+    pub read_s: f64,
+    /// Seconds in detection and matching.
+    pub process_s: f64,
 }
 
 /// The finished output of `tile` at `url`, when it exists and was computed from the inputs and parameters

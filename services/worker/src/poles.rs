@@ -7,7 +7,6 @@ use std::sync::Arc;
 use std::time::Instant;
 
 use bytes::Bytes;
-use plumbline_adjustment::PoleUpdate;
 use plumbline_campaign::manifest::{Cadastre, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
@@ -21,26 +20,12 @@ use plumbline_scheduler::{Campaign, SkippedInput};
 use futures::StreamExt as _;
 
 use crate::fetch::{SkipReason, blocking, skipped};
+use crate::output::PoleResults;
 use crate::panoramas::dg_at;
-use crate::tile::POLES;
+use crate::stages::POLES;
 
 /// Cadastre objects are read this far beyond the tile's fetch box plus the depth range, metres (DG error).
 const CADASTRE_MARGIN_M: f64 = 5.0;
-
-/// The pole results of a tile.
-#[derive(Default)]
-pub(crate) struct PoleResults {
-    /// Coordinate updates.
-    pub updates: Vec<PoleUpdate>,
-    /// One report per depth frame and point-cloud slice.
-    pub reports: Vec<FrameReport>,
-    /// What was left out.
-    pub skipped: Vec<SkippedInput>,
-    /// Seconds reading depth images and cadastres.
-    pub read_s: f64,
-    /// Seconds in detection and matching.
-    pub process_s: f64,
-}
 
 /// A depth image the tile wants, with its DG record.
 #[derive(Clone)]

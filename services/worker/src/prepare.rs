@@ -27,7 +27,7 @@ use plumbline_scheduler::SkippedInput;
 
 use crate::fetch::{counted, on_rayon, read_one};
 use crate::panoramas::{Placed, STAGE, decode};
-use crate::tile::REGISTRATION;
+use crate::stages::REGISTRATION;
 
 /// Owned panoramas registered together: their patches, their neighbours' and the segment before's last are
 /// what a tile holds (about 5 MB each at the default 3 cm over 28 m).

@@ -7,9 +7,9 @@ use std::collections::HashMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::assemble::Piece;
 use crate::geometry::{add_scaled, dist, line_angle, midpoints, quantile, resample, segment_distance, sub, unit};
 use crate::lines::LineKind;
+use crate::piece::Piece;
 
 /// Spacing of the samples along true and extracted centre lines, metres.
 const SAMPLE_M: f64 = 0.1;

@@ -14,11 +14,13 @@ mod extract;
 mod geometry;
 mod lines;
 mod markings;
+mod piece;
 #[cfg(test)]
 mod scene;
 
-pub use assemble::{AssembleConfig, Assembly, Observed, Piece, assemble};
+pub use assemble::{Assembly, Observed, assemble};
 pub use evaluate::{EvaluateConfig, LineScore, TruthElement, evaluate, within_reach};
 pub use extract::{ExtractConfig, Stroke, extract};
 pub use lines::{DashPattern, LineKind, RoadLine};
 pub use markings::{MarkingsCsvError, parse_markings_csv};
+pub use piece::{AssembleConfig, Piece};

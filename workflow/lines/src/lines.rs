@@ -6,8 +6,8 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::assemble::{AssembleConfig, Piece};
 use crate::geometry::{cross, dot, length, line_angle, median, norm, sub, unit};
+use crate::piece::{AssembleConfig, Piece};
 
 /// What a road line is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]

@@ -16,9 +16,11 @@ use std::collections::{HashMap, HashSet};
 use std::io::{Cursor, Read, Seek, SeekFrom, Write};
 
 use laz::record::{LayeredPointRecordDecompressor, RecordDecompressor};
-use laz::{LazItem, LazItemType, LazVlr};
+use laz::{LazItem, LazVlr};
 
-use crate::las::{BATCH, LasEncoding, LasError, LasPoint, append, check_extents, las_header_of, unpanicked, xyz_of};
+use crate::las::{
+    BATCH, LasEncoding, LasError, LasPoint, append, check_extents, las_header_of, layer_count, unpanicked, xyz_of,
+};
 use crate::las_header::LasHeader;
 
 /// The deepest octree level accepted (a node's cube at level 24 of a 100 km root is 6 mm wide).
@@ -267,20 +269,6 @@ impl CopcIndex {
         }
         Ok(())
     }
-}
-
-/// The number of layer sizes a chunk of these items carries; `None` for items that are not layered.
-pub(crate) fn layer_count(items: &[LazItem]) -> Option<u64> {
-    items
-        .iter()
-        .map(|item| match item.item_type() {
-            LazItemType::Point14 => Some(9),
-            LazItemType::RGB14 | LazItemType::WavePacket14 => Some(1),
-            LazItemType::RGBNIR14 => Some(2),
-            LazItemType::Byte14(n) => Some(u64::from(n)),
-            _ => None,
-        })
-        .sum()
 }
 
 /// Octree cells per axis of a node: a point joins the first node on its way down whose cell it is alone in.

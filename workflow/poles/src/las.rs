@@ -291,6 +291,20 @@ fn stream_laz<R: Read + Seek + Send + Sync + 'static>(
     Ok((checked, total))
 }
 
+/// The number of layer sizes a chunk of these items carries; `None` for items that are not layered.
+pub(crate) fn layer_count(items: &[laz::LazItem]) -> Option<u64> {
+    items
+        .iter()
+        .map(|item| match item.item_type() {
+            laz::LazItemType::Point14 => Some(9),
+            laz::LazItemType::RGB14 | laz::LazItemType::WavePacket14 => Some(1),
+            laz::LazItemType::RGBNIR14 => Some(2),
+            laz::LazItemType::Byte14(n) => Some(u64::from(n)),
+            _ => None,
+        })
+        .sum()
+}
+
 /// A LAZ point section as the `laz` decoder reads it, refusing a layered chunk (LAS 1.4 formats 6–10) whose
 /// layers announce more bytes than the chunk holds: the decoder reads every layer's size at the chunk's
 /// start and then allocates each one it decodes, so the sizes are checked as they pass, before it can.
@@ -308,7 +322,7 @@ struct LayerGuard<R> {
 impl<R: Read + Seek> LayerGuard<R> {
     /// `source` positioned at the point data (`start`): the chunk table is read to find every chunk.
     fn new(mut source: R, vlr: &laz::LazVlr, start: u64, record_len: u64) -> las::Result<Self> {
-        let layers = crate::copc::layer_count(vlr.items()).unwrap_or(0);
+        let layers = layer_count(vlr.items()).unwrap_or(0);
         let mut windows = Vec::new();
         if layers > 0 {
             let table = laz::laszip::ChunkTable::read_from(&mut source, vlr)

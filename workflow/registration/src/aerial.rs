@@ -14,13 +14,15 @@
 //! terrain lookup), `trace` (what §3.8 did, for diagnosis), `image` (steps 5–7 for one aerial image; a
 //! DG-bounded corner search when no initial transformation passes) and `register` (the driver: overlapping
 //! images, one prepared MM patch per aerial orientation, images in parallel). Beside them: `config` (the
-//! settings, with the paper's values where it gives them) and `diagnostics` (why an image or a patch was not
-//! used, typed, part of the tile result).
+//! settings, with the paper's values where it gives them), `diagnostics` (why an image or a patch was not
+//! used, typed, part of the tile result) and `consensus` (the translation consensus and how many inliers make
+//! it significant, shared by `initial`, `pooled` and `joint`; it imports no stage).
 //!
 //! Architecture invariant: I/O-free and deterministic (seeded RANSAC, no clocks); one broken aerial image
 //! or patch is reported in the outcome, never a panic or an error that sinks the tile.
 
 mod config;
+mod consensus;
 mod correlate;
 mod correspond;
 mod diagnostics;

@@ -3,10 +3,14 @@
 //! the tie points and per-image diagnostics go into a versioned [`TileResult`].
 //!
 //! Step 1 and the KAZE features run once per panorama, one panorama at a time if the caller wishes
-//! ([`prepare_panorama`]: the full panorama is not needed afterwards); pairs run in parallel (rayon).
+//! ([`prepare_panorama`]: the full panorama is not needed afterwards); pairs run in parallel (rayon). Modules:
+//! `prepared` (step 1 and the features; which panoramas need them), `pair` (one owned panorama and its
+//! neighbour through steps 2–8), `pairing` (which neighbour, [`neighbour`], from the DG poses alone; below
+//! both), `ties` (the tie points of a pair) and [`crosscheck`].
 
 pub mod crosscheck;
 mod pair;
+mod pairing;
 mod prepared;
 mod ties;
 
@@ -20,7 +24,7 @@ use crate::mm::{MmConfig, PanoramaRig};
 use crate::output::{CrossCheck, Disagreement, DiscardReason, ImageDiagnostic, TileResult, TileResultV1, TileSummary};
 use crosscheck::{Comparison, CrossCheckConfig, Link, Offset, Verdict};
 
-pub use pair::neighbour;
+pub use pairing::neighbour;
 pub use prepared::{
     PanoramaInfo, PreparedPanorama, panoramas_to_prepare, panoramas_to_prepare_for, prepare_panorama,
     prepare_panoramas, time_order,

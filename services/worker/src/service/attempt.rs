@@ -13,7 +13,7 @@ use plumbline_scheduler::SkippedInput;
 
 use crate::fetch::SkipReason;
 use crate::output::read_finished;
-use crate::tile::Timed;
+use crate::stages::Timed;
 use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
 
 /// Inputs of a tile the store failed to deliver: retry the tile rather than skip them.

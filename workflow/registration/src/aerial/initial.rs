@@ -10,10 +10,10 @@ use plumbline_imaging::models::Correspondence;
 use plumbline_imaging::{GrayImage, ImagingError};
 
 use super::config::{AerialConfig, Plausibility};
+use super::consensus::{GroundPair, common_translation, significant_inliers};
 use super::correlate::correlate;
 use super::diagnostics::ImageRejection;
 use super::guided::{Prior, guided_matches};
-use super::joint::{GroundPair, common_translation};
 use super::prepare::Prepared;
 
 /// Pixels added to the plausibility bound for the guided matching's search radius (keypoint localisation).
@@ -255,24 +255,6 @@ pub(crate) fn translation_consensus(
     Ok(candidates)
 }
 
-/// Acceptable chance that false descriptor matches alone produce a translation consensus.
-const FALSE_ALARM: f64 = 0.01;
-
-/// The fewest inliers of a translation consensus among `n` matches that false matches reach by chance with
-/// probability at most [`FALSE_ALARM`]: a false match's displacement scatters over `area` px², so it falls
-/// within `threshold` px of a given hypothesis with probability p = π·threshold²/area, and k − 1 of the
-/// other n − 1 do so for one of the n hypotheses with probability ≤ n·C(n − 1, k − 1)·p^(k − 1). Never
-/// fewer than three (two agreeing matches may share one structure).
-pub(crate) fn significant_inliers(n: usize, threshold: f64, area: f64) -> usize {
-    let p = (std::f64::consts::PI * threshold * threshold / area.max(1.0)).min(1.0);
-    let chance = |k: usize| {
-        let others = n.saturating_sub(1) as f64;
-        let binomial = (0..k - 1).fold(1.0, |b, i| b * (others - i as f64) / (i as f64 + 1.0));
-        n as f64 * binomial.max(0.0) * p.powi(k as i32 - 1)
-    };
-    (3..=n.max(3)).find(|&k| chance(k) <= FALSE_ALARM).unwrap_or(n.max(3))
-}
-
 /// Upright KAZE features of the prepared MM patch whose surroundings have MM samples (no rotated-away
 /// corners, no vehicle).
 pub(crate) fn mm_features(prepared: &Prepared, config: &AerialConfig) -> Result<KazeFeatures, ImagingError> {
@@ -292,19 +274,6 @@ mod tests {
         let (sn, cs) = angle.sin_cos();
         let (a, b) = (s * cs, s * sn);
         Matrix3::new(a, -b, 50.0 - a * 50.0 + b * 50.0 + d[0], b, a, 50.0 - b * 50.0 - a * 50.0 + d[1], 0.0, 0.0, 1.0)
-    }
-
-    #[test]
-    fn the_inliers_a_translation_needs_follow_the_false_alarm_probability() {
-        // Guided matching within 20 px (1257 px²), threshold 1.5 px: p = 0.005 63. Of 20 matches, three
-        // agreeing by chance has probability 20·C(19, 2)·p² = 0.11, four 20·C(19, 3)·p³ = 0.0035.
-        let area = std::f64::consts::PI * 400.0;
-        assert_eq!(significant_inliers(20, 1.5, area), 4);
-        // 7 matches: three already significant (7·C(6, 2)·p² = 0.0033); 50 matches need six.
-        assert_eq!(significant_inliers(7, 1.5, area), 3);
-        assert_eq!(significant_inliers(50, 1.5, area), 6);
-        // Unguided over a 300 × 300 window, three are enough among 40.
-        assert_eq!(significant_inliers(40, 1.5, 90_000.0), 3);
     }
 
     #[test]

@@ -13,8 +13,8 @@ use nalgebra::Matrix3;
 use plumbline_imaging::models::Correspondence;
 use plumbline_imaging::ortho::GroundGrid;
 
+use super::consensus::significant_inliers;
 use super::guided::Prior;
-use super::initial::significant_inliers;
 use crate::stats::upper_median as median;
 
 /// The KAZE matches of one window.
@@ -57,7 +57,7 @@ pub(crate) fn translation_for(grid: &GroundGrid, prior: &Prior, offset: [f64; 2]
 
 /// The ground offsets (E, N metres) the windows' matches agree on within `threshold_px`, best first: the
 /// offset the most distinct MM keypoints support when more do than chance agreement gives (1 % false
-/// alarm, `initial::significant_inliers`) and at least `floor`; then, as for one window, the best offset of
+/// alarm, `consensus::significant_inliers`) and at least `floor`; then, as for one window, the best offset of
 /// the other matches when it is clearly apart and significant too (a repeated marking one period off).
 pub(crate) fn pooled_offsets(windows: &[WindowMatches<'_>], threshold_px: f64, floor: usize) -> Vec<[f64; 2]> {
     let items: Vec<Item> = windows

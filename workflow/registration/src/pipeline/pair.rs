@@ -6,36 +6,11 @@ use std::time::Instant;
 use plumbline_adjustment::TiePoint;
 use plumbline_geo::MapFromBody;
 
+use super::pairing::neighbour;
 use super::{PipelineConfig, PreparedPanorama, StageTimings, ties};
 use crate::aerial::{AerialPointResult, AerialReference, ImageTrace, MmPatch, PatchPoint, register_patch};
 use crate::mm::{MmPoint, OrthoPatch, PanoramaRig, image_motion, match_corners, pair_transform, triangulate};
 use crate::output::{AerialOffset, CornerCounts, DiscardReason, ImageDiagnostic};
-
-/// Horizontal distance between the DG camera centres of two vehicle poses, metres.
-fn distance(a: &MapFromBody, b: &MapFromBody, rig: &PanoramaRig) -> f64 {
-    let (ca, cb) = (rig.mount.camera_pose(a).translation, rig.mount.camera_pose(b).translation);
-    (ca.x() - cb.x()).hypot(ca.y() - cb.y())
-}
-
-/// The neighbour of panorama `i` of a tile whose DG poses in time order are `poses`: the next panorama in
-/// time if it lies within the pairing distance, else the previous one; the reason when neither does.
-pub fn neighbour(
-    i: usize,
-    poses: &[&MapFromBody],
-    rig: &PanoramaRig,
-    config: &PipelineConfig,
-) -> Result<usize, DiscardReason> {
-    let candidates = [i.checked_add(1).filter(|&j| j < poses.len()), i.checked_sub(1)];
-    let mut nearest: Option<f64> = None;
-    for j in candidates.into_iter().flatten() {
-        let d = distance(poses[i], poses[j], rig);
-        if d >= config.min_pair_distance && d <= config.max_pair_distance {
-            return Ok(j);
-        }
-        nearest = Some(nearest.map_or(d, |n: f64| n.min(d)));
-    }
-    Err(DiscardReason::NoNeighbour { nearest_m: nearest })
-}
 
 fn failed(step: &str, message: String) -> DiscardReason {
     DiscardReason::Failed { step: step.to_owned(), message }

@@ -10,7 +10,8 @@ use plumbline_imaging::{GrayImage, ImagePart};
 use plumbline_lines::Stroke;
 use rayon::prelude::*;
 
-use super::{PipelineConfig, StageTimings, pair};
+use super::pairing::neighbour;
+use super::{PipelineConfig, StageTimings};
 use crate::mm::{MmConfig, MmError, OrthoPatch, Panorama, PanoramaRig, features, ortho_patch};
 
 /// What the pairing knows of a panorama before its pixels are read: id, time, DG pose, σ and whether the
@@ -200,7 +201,7 @@ pub fn time_order<T>(items: &[T], key: impl Fn(&T) -> (f64, &str)) -> Vec<usize>
 }
 
 /// Which of `panoramas` must be prepared: every owned one and every context one that is the neighbour
-/// ([`pair::neighbour`]) of an owned one; the others can stay [`PreparedPanorama::unprepared`]. One flag
+/// ([`neighbour`]) of an owned one; the others can stay [`PreparedPanorama::unprepared`]. One flag
 /// per panorama, in the given order. Pairing depends on the DG poses only, so this needs no pixels; a
 /// panorama that later cannot be read must be left out and the question asked again.
 pub fn panoramas_to_prepare(panoramas: &[PanoramaInfo], rig: &PanoramaRig, config: &PipelineConfig) -> Vec<bool> {
@@ -223,7 +224,7 @@ pub fn panoramas_to_prepare_for(
     let mut needed: Vec<bool> = panoramas.iter().map(registering).collect();
     for (i, &k) in order.iter().enumerate() {
         if registering(&panoramas[k])
-            && let Ok(j) = pair::neighbour(i, &poses, rig, config)
+            && let Ok(j) = neighbour(i, &poses, rig, config)
         {
             needed[order[j]] = true;
         }

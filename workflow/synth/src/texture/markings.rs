@@ -2,9 +2,9 @@
 //! stop lines, zebra crossings at junctions and turn arrows on arterials; each element worn, repainted or
 //! missing by epoch.
 
+use super::Rgb;
 use super::filter::{hash, pulses, sdf_cover, stripe, unit};
-use super::{Place, Rgb};
-use crate::world::{Epoch, Street, StreetClass};
+use crate::world::{Epoch, Place, Street, StreetClass};
 
 /// Fresh road paint.
 pub const WHITE: Rgb = [0.86, 0.86, 0.83];

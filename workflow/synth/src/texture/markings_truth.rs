@@ -3,22 +3,22 @@
 //! painted centre line with the paint's width.
 //!
 //! The elements are laid out from the same definitions the texture paints from (`texture::markings`), mapped
-//! from street coordinates (station s, offset t) to the map the way the texture's place lookup inverts it: a
-//! point belongs to the nearest segment of its street's polyline, so a line at constant t is the polyline
-//! offset by t — trimmed where two offset segments cross on the inside of a bend, joined by an arc around the
-//! vertex on the outside. Elements are then clipped to where the texture actually paints them as part of their
-//! own street (not inside a junction area, not where another street's carriageway takes over at an acute
-//! junction). Paint is never missing at the mobile epoch (at worst half worn), so every element exists.
+//! from street coordinates (station s, offset t) to the map the way the place lookup the texture paints by
+//! (`world::place`) inverts it: a point belongs to the nearest segment of its street's polyline, so a line at
+//! constant t is the polyline offset by t — trimmed where two offset segments cross on the inside of a bend,
+//! joined by an arc around the vertex on the outside. Elements are then clipped to where the texture actually
+//! paints them as part of their own street (not inside a junction area, not where another street's carriageway
+//! takes over at an acute junction). Paint is never missing at the mobile epoch (at worst half worn), so every
+//! element exists.
 
 use std::fmt::Write as _;
 
-use super::Texture;
 use super::markings::{
     ARROW_HEAD, ARROW_SHAFT, ARROW_TAIL, ARROW_TIP, CLEAR, DASH_LEN, DASH_PERIOD, LINE, STOP_END, ZEBRA_END, ZEBRA_LEN,
     ZEBRA_PERIOD, ZEBRA_START, each_line, has_zebra,
 };
 use crate::world::polyline::{self, P2};
-use crate::world::{Epoch, Street, StreetClass, World};
+use crate::world::{Street, StreetClass, World};
 
 /// Shortest element kept, metres: a dash cut to less by the clear zone is not worth a line.
 const MIN_LEN: f64 = 1e-3;
@@ -82,10 +82,9 @@ impl MarkingTruth {
 /// Every painted element of the world's streets at the mobile epoch, street by street (none on streets
 /// without markings).
 pub fn road_markings(world: &World) -> Vec<MarkingTruth> {
-    let texture = Texture::new(world, Epoch::Mobile);
     let mut out = Vec::new();
     for st in world.streets.iter().filter(|s| s.markings) {
-        let own = |p: P2| texture.place(p).is_some_and(|pl| pl.street.id == st.id && !pl.in_junction);
+        let own = |p: P2| world.place(p).is_some_and(|pl| pl.street.id == st.id && !pl.in_junction);
         for e in street_elements(world, st) {
             let pieces = clip(&e.points, own);
             let n = pieces.len();
@@ -321,9 +320,10 @@ mod tests {
     use rand::{RngExt, SeedableRng};
     use rand_chacha::ChaCha8Rng;
 
+    use super::super::Texture;
     use super::super::markings::paint;
     use super::*;
-    use crate::world::{Preset, WorldConfig};
+    use crate::world::{Epoch, Preset, WorldConfig};
 
     /// Footprint of the coverage samples, metres.
     const FP: f64 = 0.01;
@@ -340,7 +340,7 @@ mod tests {
 
     /// Paint coverage at the mobile epoch (0 off the carriageways).
     fn coverage(tex: &Texture, p: P2) -> f32 {
-        let Some(place) = tex.place(p) else { return 0.0 };
+        let Some(place) = tex.world.place(p) else { return 0.0 };
         if place.station.t.abs() > place.street.carriageway() / 2.0 {
             return 0.0;
         }

@@ -1,8 +1,8 @@
 //! Surface materials: asphalt with repairs, manholes, kerbstones, sidewalk paving, yards.
 
+use super::Rgb;
 use super::filter::{fbm, grey, mix, pulses, resolved, sdf_cover, stripe, unit};
-use super::{Place, Rgb};
-use crate::world::Epoch;
+use crate::world::{Epoch, Place};
 
 /// Asphalt: low-frequency tone, grain, and rectangular repairs (some newer than the aerial flight).
 pub fn asphalt(seed: u64, epoch: Epoch, x: f64, y: f64, fp: f64) -> Rgb {

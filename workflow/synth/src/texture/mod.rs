@@ -11,8 +11,7 @@ mod materials;
 pub use filter::{fbm, hash, pulses, stripe, unit};
 pub use markings_truth::{MarkingKind, MarkingTruth, markings_csv, road_markings};
 
-use crate::world::polyline::{self, Station};
-use crate::world::{Epoch, Street, World};
+use crate::world::{Epoch, Place, World};
 use filter::mix;
 
 /// Linear RGB in [0, 1].
@@ -27,18 +26,6 @@ pub struct Texture<'w> {
     pub epoch: Epoch,
 }
 
-/// Where a point lies relative to the street it belongs to.
-#[derive(Clone, Copy, Debug)]
-pub(crate) struct Place<'w> {
-    pub street: &'w Street,
-    pub station: Station,
-    /// Distance to the nearest junction area's edge along the street, from `from` and from `to`, metres.
-    pub from_end: f64,
-    pub to_end: f64,
-    /// Inside a junction area.
-    pub in_junction: bool,
-}
-
 impl<'w> Texture<'w> {
     /// The ground texture of `world` as it was at `epoch`.
     pub fn new(world: &'w World, epoch: Epoch) -> Self {
@@ -50,7 +37,7 @@ impl<'w> Texture<'w> {
         let fp = footprint_m.max(1e-3);
         let seed = self.world.config.seed;
         let (x, y) = (e - self.world.config.origin_east, n - self.world.config.origin_north);
-        let Some(place) = self.place([e, n]) else { return materials::yard(seed, x, y, fp) };
+        let Some(place) = self.world.place([e, n]) else { return materials::yard(seed, x, y, fp) };
         let st = place.street;
         let t = place.station.t.abs();
         let cw = st.carriageway() / 2.0;
@@ -86,34 +73,5 @@ impl<'w> Texture<'w> {
         let base = materials::manholes(place, base, fp);
         let (paint, strength) = markings::paint(place, self.epoch, seed, fp);
         mix(base, markings::WHITE, paint * strength)
-    }
-
-    /// The street a point belongs to: the one whose carriageway is nearest; `None` far from all streets.
-    pub(crate) fn place(&self, p: [f64; 2]) -> Option<Place<'w>> {
-        let w = self.world;
-        let mut best: Option<(f64, &Street, Station)> = None;
-        for &(sid, seg) in w.street_grid.at(p) {
-            let st = &w.streets[sid as usize];
-            let (station, _) = polyline::station_on_segment(&st.points, &st.cum, seg as usize, p);
-            let key = station.t.abs() - st.carriageway() / 2.0;
-            if best.as_ref().is_none_or(|b| key < b.0) {
-                best = Some((key, st, station));
-            }
-        }
-        let (key, street, station) = best?;
-        let (j0, j1) = (&w.junctions[street.from as usize], &w.junctions[street.to as usize]);
-        // The junction area is paved where it is near some carriageway (rounded corners), not over the kerbs.
-        let in_junction = key < 1.0
-            && w.junction_grid
-                .at(p)
-                .iter()
-                .any(|&j| polyline::dist(w.junctions[j as usize].pos, p) < w.junctions[j as usize].radius - 1.0);
-        Some(Place {
-            street,
-            station,
-            from_end: station.s - j0.radius,
-            to_end: street.length() - station.s - j1.radius,
-            in_junction,
-        })
     }
 }

@@ -17,6 +17,7 @@ pub mod city;
 pub mod city_route;
 mod index;
 pub mod objects;
+mod place;
 mod placement;
 pub mod polyline;
 mod relief;
@@ -26,6 +27,7 @@ mod trace;
 
 pub use index::Grid;
 pub use objects::{BoxShape, Building, Car, Pedestrian, Pole, PoleClass};
+pub(crate) use place::Place;
 pub use relief::Relief;
 pub use streets::{Junction, Street, StreetClass};
 pub use trace::{Hit, Surface};

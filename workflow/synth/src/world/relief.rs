@@ -15,8 +15,7 @@ use nalgebra::Vector3;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
-use super::{Epoch, World};
-use crate::texture::Texture;
+use super::World;
 
 /// The shape of the ground: hills, cross-fall and kerbs. [`Relief::FLAT`] is the flat ground at
 /// `ground_height` every earlier figure was made on.
@@ -129,7 +128,7 @@ impl World {
     /// The carriageway's recess (kerb and crown) at (e, n) relative to the hills; 0 off the carriageways.
     fn street_profile(&self, e: f64, n: f64) -> f64 {
         let r = &self.config.relief;
-        let Some(place) = Texture::new(self, Epoch::Mobile).place([e, n]) else { return 0.0 };
+        let Some(place) = self.place([e, n]) else { return 0.0 };
         let inside = place.street.carriageway() / 2.0 - place.station.t.abs();
         if inside > 0.0 || place.in_junction { r.cross_fall * inside.max(0.0) - r.kerb_m } else { 0.0 }
     }
