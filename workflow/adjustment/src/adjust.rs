@@ -9,9 +9,9 @@ use crate::config::AdjustmentConfig;
 use crate::heights::HeightBias;
 use crate::jumps::DetectedJump;
 use crate::lm::{Iteration, Observed, minimize};
-use crate::normal::{assemble, node};
+use crate::normal::assemble;
 use crate::observations::{MotionError, ObservationError, ObservationRef, TiePointId};
-use crate::problem::{AdjustmentInput, Item, Kind, Problem};
+use crate::problem::{AdjustmentInput, Item, Kind, Problem, node};
 use crate::solver::{Factorizer, SelectedInverse, SolverError, SolverTimings};
 use crate::standstill::Standstill;
 use crate::stats::{Suspect, VarianceFactors, node_covariances, sigma0, variance_factors, w_tests};
@@ -170,7 +170,7 @@ pub fn adjust_observed(
     par: Par,
     observer: &mut dyn FnMut(&Iteration),
 ) -> Result<Adjustment, AdjustmentError> {
-    let mut problem = Problem::build(input, config, par);
+    let mut problem = crate::build::problem(input, config, par);
     let mut x = initial_state(&problem);
     let mut active = vec![true; problem.obs.len()];
     let mut fac = Factorizer::new(&problem.pattern, par)?;

@@ -88,7 +88,7 @@ fn localize(
     trajectory: &Trajectory,
     links: &Links<'_>,
     config: &AdjustmentConfig,
-    c: &crate::localize::JumpLocalization,
+    c: &crate::config::JumpLocalizationConfig,
 ) {
     // The links [k0, k1) inside the flagged interval.
     let t = &nodes.times;

@@ -1,14 +1,9 @@
-//! Settings of the adjustment: node spacing, the DG random-walk model, the weak prior, robust estimation and
-//! data snooping, standstills.
+//! Settings of the adjustment: node spacing, the DG random-walk model, the weak prior and its floor inside
+//! possible DG faults, robust estimation and data snooping, standstills, jump localisation, kinematic jumps,
+//! height biases and jump detection on the chain. Every settings type of the crate lives here, and this module
+//! imports none of the others: the algorithm modules read their settings from it.
 
 use serde::{Deserialize, Serialize};
-
-use crate::faults::FaultPrior;
-use crate::heights::HeightBiases;
-use crate::jumps::JumpDetection;
-use crate::kinematics::KinematicJumps;
-use crate::localize::JumpLocalization;
-use crate::standstill::StandstillConfig;
 
 /// How the DG trajectory's relative accuracy enters as constraints between consecutive nodes.
 ///
@@ -84,10 +79,10 @@ pub struct AdjustmentConfig {
     pub tolerance: f64,
     /// Floor on the weak prior's position σ between DG breaks close enough to be one jump (`None`: off).
     #[serde(default = "default_fault_prior")]
-    pub fault_prior: Option<FaultPrior>,
+    pub fault_prior: Option<FaultPriorConfig>,
     /// Nodes inside flagged weak links and their weakening placed where the DG jumped (`None`: even).
     #[serde(default = "default_localization")]
-    pub jump_localization: Option<JumpLocalization>,
+    pub jump_localization: Option<JumpLocalizationConfig>,
     /// One 2-D nuisance offset per cadastre object observed more than once (prior σ = its `sigma_pole`), the
     /// updates then weighted with `sigma_camera` alone: they share the object's cadastre error, so they must
     /// not pull like independent control (`false`: every update weighted with Meyer et al. 2023 eq. (1)).
@@ -98,35 +93,35 @@ pub struct AdjustmentConfig {
     pub standstill: Option<StandstillConfig>,
     /// One height bias per aerial frame set listed in the observations (`None`: aerial heights independent).
     #[serde(default = "default_height_biases")]
-    pub height_biases: Option<HeightBiases>,
+    pub height_biases: Option<HeightBiasConfig>,
     /// Data snooping also tests the relative constraints' position rows and widens an inconsistent one as
     /// a DG jump the consistency check missed (`None`: only observations are tested).
     #[serde(default = "default_jump_detection")]
-    pub jump_detection: Option<JumpDetection>,
+    pub jump_detection: Option<JumpDetectionConfig>,
     /// Nodes (and optionally weakened links) where the DG's own motion breaks the vehicle's kinematics, i.e.
     /// where it may have jumped unflagged (`None`: off).
     #[serde(default = "default_kinematic_jumps")]
-    pub kinematic_jumps: Option<KinematicJumps>,
+    pub kinematic_jumps: Option<KinematicJumpConfig>,
 }
 
-fn default_kinematic_jumps() -> Option<KinematicJumps> {
-    Some(KinematicJumps::default())
+fn default_kinematic_jumps() -> Option<KinematicJumpConfig> {
+    Some(KinematicJumpConfig::default())
 }
 
-fn default_jump_detection() -> Option<JumpDetection> {
-    Some(JumpDetection::default())
+fn default_jump_detection() -> Option<JumpDetectionConfig> {
+    Some(JumpDetectionConfig::default())
 }
 
-fn default_height_biases() -> Option<HeightBiases> {
-    Some(HeightBiases::default())
+fn default_height_biases() -> Option<HeightBiasConfig> {
+    Some(HeightBiasConfig::default())
 }
 
-fn default_fault_prior() -> Option<FaultPrior> {
-    Some(FaultPrior::default())
+fn default_fault_prior() -> Option<FaultPriorConfig> {
+    Some(FaultPriorConfig::default())
 }
 
-fn default_localization() -> Option<JumpLocalization> {
-    Some(JumpLocalization::default())
+fn default_localization() -> Option<JumpLocalizationConfig> {
+    Some(JumpLocalizationConfig::default())
 }
 
 fn default_true() -> bool {
@@ -162,5 +157,138 @@ impl Default for AdjustmentConfig {
             jump_detection: default_jump_detection(),
             kinematic_jumps: default_kinematic_jumps(),
         }
+    }
+}
+
+/// Settings of standstill detection and of the zero-velocity constraint.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct StandstillConfig {
+    /// Spacing of the speed samples, seconds.
+    pub sample_step: f64,
+    /// Time over which each speed sample's displacement is taken, seconds.
+    pub baseline: f64,
+    /// Length of the centred window whose median speed decides, seconds (more than twice a jump's rise).
+    pub window: f64,
+    /// Median speed below which the vehicle stands still, m/s. Creeping at 0.1 m/s must stay above it:
+    /// over 40 s it would move 4 m, which the constraint would pull the trajectory by.
+    pub speed_threshold: f64,
+    /// Shortest standstill used, seconds.
+    pub min_duration: f64,
+    /// σ of "corrected position at the end = at the start", per axis, metres.
+    pub position_sigma: f64,
+    /// σ of "corrected heading at the end = at the start" (the vertical rotation-vector component), radians.
+    /// Roll and pitch are not constrained: the body settles on its suspension after braking.
+    pub heading_sigma: f64,
+    /// Factor on the σ of the DG relative constraints inside a standstill (> 1 weakens them, so the
+    /// zero-velocity constraint replaces the DG's relative motion there rather than competing with it).
+    pub chain_factor: f64,
+    /// A weak link (flagged DG jump) containing a standstill over which the DG moves more than this many
+    /// metres is taken as caused by that jump while standing and dropped: the zero-velocity constraint
+    /// absorbs the jump, and the chain on either side stays stiff to hold the standstill in place.
+    pub explained_above: f64,
+}
+
+impl Default for StandstillConfig {
+    fn default() -> Self {
+        Self {
+            sample_step: 0.1,
+            baseline: 0.5,
+            window: 5.0,
+            speed_threshold: 0.02,
+            min_duration: 3.0,
+            position_sigma: 0.005,
+            heading_sigma: 1e-4,
+            chain_factor: 10.0,
+            explained_above: 0.05,
+        }
+    }
+}
+
+/// Settings of the prior floor inside possible DG faults.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct FaultPriorConfig {
+    /// Floor on the prior's position σ (east, north, up) inside a possible fault, metres: the size of the jumps
+    /// to expect (Cazzaniga et al. 2007 §1.2: "tens of cm and more").
+    pub sigma: f64,
+    /// Longest span between two breaks taken as one fault, seconds (a jump persists longer at low speed).
+    pub max_duration: f64,
+}
+
+impl Default for FaultPriorConfig {
+    fn default() -> Self {
+        Self { sigma: 1.0, max_duration: 120.0 }
+    }
+}
+
+/// Settings of jump localisation inside flagged intervals.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JumpLocalizationConfig {
+    /// Node spacing inside a flagged interval, seconds.
+    pub step: f64,
+    /// Length of the centred window of the median velocity, seconds (more than twice a jump's rise).
+    pub window: f64,
+    /// σ added to a sub-interval's position constraint per metre of anomalous DG motion in it.
+    pub anomaly_scale: f64,
+}
+
+impl Default for JumpLocalizationConfig {
+    fn default() -> Self {
+        Self { step: 0.2, window: 3.0, anomaly_scale: 2.0 }
+    }
+}
+
+/// Settings of the search for DG jumps in the DG's own motion.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct KinematicJumpConfig {
+    /// Node spacing over an anomalous span, seconds.
+    pub step: f64,
+    /// Sideways displacement per `step` above which a span gets nodes, metres.
+    pub threshold: f64,
+    /// Let the links of anomalous spans follow the vehicle's kinematics (mean −d of their sideways
+    /// displacement d, σ² = σ_DG² + (anomaly_scale · |d|)²), and count the spans as DG breaks.
+    pub widen: bool,
+    /// σ added per metre of sideways displacement when widening.
+    pub anomaly_scale: f64,
+    /// Estimate the crab angle (the heading's misalignment with the direction of travel) over the drive and
+    /// take the sideways motion relative to it; `false`: the heading is the direction of travel.
+    #[serde(default = "default_true")]
+    pub crab: bool,
+}
+
+impl Default for KinematicJumpConfig {
+    fn default() -> Self {
+        Self { step: 0.2, threshold: 0.01, widen: true, anomaly_scale: 2.0, crab: true }
+    }
+}
+
+/// Settings of the height biases.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct HeightBiasConfig {
+    /// Prior σ of a set's bias as a multiple of its median triangulated height σ.
+    pub prior_scale: f64,
+}
+
+impl Default for HeightBiasConfig {
+    fn default() -> Self {
+        Self { prior_scale: 1.0 }
+    }
+}
+
+/// Settings of jump detection on the chain.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct JumpDetectionConfig {
+    /// Largest σ a widened link's position constraint gets, metres: the size of the DG jumps to expect.
+    pub sigma: f64,
+}
+
+impl Default for JumpDetectionConfig {
+    fn default() -> Self {
+        Self { sigma: 1.0 }
     }
 }

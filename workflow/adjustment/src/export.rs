@@ -5,7 +5,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::AdjustmentConfig;
-use crate::problem::{AdjustmentInput, Kind, Problem};
+use crate::problem::{AdjustmentInput, Kind};
 
 /// One node: its epoch and the σ of its weak absolute prior (east, north, up, θ_e, θ_n, θ_u).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -49,7 +49,7 @@ pub struct ExportedProblem {
 /// Export the chain and the pole CUPTs of the problem [`crate::adjust`] would solve.
 pub fn export(input: &AdjustmentInput<'_>, config: &AdjustmentConfig) -> ExportedProblem {
     // The export has no nuisance offsets: every CUPT carries the σ of Meyer et al. 2023 eq. (1).
-    let p = Problem::build(input, &AdjustmentConfig { pole_offsets: false, ..*config }, faer::Par::Seq);
+    let p = crate::build::problem(input, &AdjustmentConfig { pole_offsets: false, ..*config }, faer::Par::Seq);
     let nodes = p
         .nodes
         .times

@@ -7,25 +7,6 @@
 //! for Δt seconds of a span lasting D gets σ_floor · √(D / Δt), and the nodes together hold the span's
 //! common offset with σ_floor whatever their number.
 
-use serde::{Deserialize, Serialize};
-
-/// Settings of the prior floor inside possible DG faults.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct FaultPrior {
-    /// Floor on the prior's position σ (east, north, up) inside a possible fault, metres: the size of the jumps
-    /// to expect (Cazzaniga et al. 2007 §1.2: "tens of cm and more").
-    pub sigma: f64,
-    /// Longest span between two breaks taken as one fault, seconds (a jump persists longer at low speed).
-    pub max_duration: f64,
-}
-
-impl Default for FaultPrior {
-    fn default() -> Self {
-        Self { sigma: 1.0, max_duration: 120.0 }
-    }
-}
-
 /// The spans of possible faults: every break itself, and the span from one break to the next when they are
 /// at most `max_duration` apart. `breaks` are (start, end) intervals in any order.
 pub(crate) fn fault_spans(breaks: &[(f64, f64)], max_duration: f64) -> Vec<(f64, f64)> {

@@ -14,22 +14,9 @@ use std::collections::HashMap;
 
 use nalgebra::Matrix3;
 
+use crate::config::HeightBiasConfig;
 use crate::observations::{AerialFrameSet, TiePointId};
-use crate::problem::{Kind, Obs};
-
-/// Settings of the height biases.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct HeightBiases {
-    /// Prior σ of a set's bias as a multiple of its median triangulated height σ.
-    pub prior_scale: f64,
-}
-
-impl Default for HeightBiases {
-    fn default() -> Self {
-        Self { prior_scale: 1.0 }
-    }
-}
+use crate::problem::{BiasBlock, Kind, Obs};
 
 /// The estimated height bias of one aerial frame set.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize, schemars::JsonSchema)]
@@ -46,21 +33,13 @@ pub struct HeightBias {
     pub sigma: f64,
 }
 
-/// A frame set with a bias parameter: its frames, the prior σ and the number of points.
-#[derive(Clone, Debug, PartialEq)]
-pub(crate) struct BiasBlock {
-    pub frames: Vec<String>,
-    pub prior_sigma: f64,
-    pub points: usize,
-}
-
 /// Give every aerial observation of a tie listed in `sets` its set's bias block (`Kind::Aerial::bias`);
 /// `points` are the problem's tie ids by point index. Sets with no usable aerial observation get no block.
 pub(crate) fn share_height_biases(
     raw: &mut [Obs],
     sets: &[AerialFrameSet],
     points: &[TiePointId],
-    c: &HeightBiases,
+    c: &HeightBiasConfig,
 ) -> Vec<BiasBlock> {
     let set_of: HashMap<&TiePointId, usize> =
         sets.iter().enumerate().flat_map(|(s, set)| set.ties.iter().map(move |t| (t, s))).collect();

@@ -16,20 +16,6 @@ use serde::{Deserialize, Serialize};
 use crate::problem::Problem;
 use crate::solver::SelectedInverse;
 
-/// Settings of jump detection on the chain.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct JumpDetection {
-    /// Largest σ a widened link's position constraint gets, metres: the size of the DG jumps to expect.
-    pub sigma: f64,
-}
-
-impl Default for JumpDetection {
-    fn default() -> Self {
-        Self { sigma: 1.0 }
-    }
-}
-
 /// A relative constraint that data snooping found inconsistent with the observations: the DG jumped between
 /// `start` and `end`.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]

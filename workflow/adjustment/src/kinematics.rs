@@ -7,45 +7,15 @@
 //! correction gets nodes every `step` (so a jump the consistency check did not flag — before the first
 //! panorama, in a stop, between control — has short links of its own), and with `widen` those links follow
 //! the vehicle's kinematics instead of the DG (mean −e of the sideways displacement e, σ widened by |e|, as
-//! inside flagged intervals: [`crate::JumpLocalization`]) and the span counts as a DG break for the prior's
-//! floor ([`crate::FaultPrior`]). The along-track part of a jump is not separable from braking and
+//! inside flagged intervals: [`crate::JumpLocalizationConfig`]) and the span counts as a DG break for the prior's
+//! floor ([`crate::FaultPriorConfig`]). The along-track part of a jump is not separable from braking and
 //! accelerating this way (a 0.2 m jump needs no more acceleration than driving does); it is left to the
-//! consistency check and to jump detection on the chain ([`crate::JumpDetection`]).
+//! consistency check and to jump detection on the chain ([`crate::JumpDetectionConfig`]).
 
+use crate::config::KinematicJumpConfig;
+use crate::vehicle::{Motion, crab_angle};
 use nalgebra::{Vector3, Vector6};
 use plumbline_geo::Trajectory;
-use serde::{Deserialize, Serialize};
-
-use crate::vehicle::{Motion, crab_angle};
-
-/// Settings of the search for DG jumps in the DG's own motion.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct KinematicJumps {
-    /// Node spacing over an anomalous span, seconds.
-    pub step: f64,
-    /// Sideways displacement per `step` above which a span gets nodes, metres.
-    pub threshold: f64,
-    /// Let the links of anomalous spans follow the vehicle's kinematics (mean −d of their sideways
-    /// displacement d, σ² = σ_DG² + (anomaly_scale · |d|)²), and count the spans as DG breaks.
-    pub widen: bool,
-    /// σ added per metre of sideways displacement when widening.
-    pub anomaly_scale: f64,
-    /// Estimate the crab angle (the heading's misalignment with the direction of travel) over the drive and
-    /// take the sideways motion relative to it; `false`: the heading is the direction of travel.
-    #[serde(default = "default_true")]
-    pub crab: bool,
-}
-
-fn default_true() -> bool {
-    true
-}
-
-impl Default for KinematicJumps {
-    fn default() -> Self {
-        Self { step: 0.2, threshold: 0.01, widen: true, anomaly_scale: 2.0, crab: true }
-    }
-}
 
 /// The DG's sideways motion beyond the crab angle, sampled every `step / 4`.
 struct Samples {
@@ -55,7 +25,7 @@ struct Samples {
 }
 
 impl Samples {
-    fn new(trajectory: &Trajectory, span: (f64, f64), c: &KinematicJumps, crab: f64) -> Option<Self> {
+    fn new(trajectory: &Trajectory, span: (f64, f64), c: &KinematicJumpConfig, crab: f64) -> Option<Self> {
         let motion = Motion::sample(trajectory, span, (c.step / 4.0).max(1e-3))?;
         Some(Self { motion, crab: crab.tan() })
     }
@@ -83,7 +53,7 @@ pub(crate) struct Anomalies {
 }
 
 /// The crab angle and the anomalous spans of the trajectory, ready for [`span_nodes`].
-pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumps) -> Anomalies {
+pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumpConfig) -> Anomalies {
     let span = trajectory.span();
     if !(c.step > 0.0 && c.threshold > 0.0) || span.1 - span.0 < 2.0 * c.step {
         return Anomalies::default();
@@ -114,7 +84,7 @@ pub(crate) fn anomalous_spans(trajectory: &Trajectory, c: &KinematicJumps) -> An
 }
 
 /// The node epochs inside the anomalous spans (every `step`).
-pub(crate) fn span_nodes(spans: &[(f64, f64)], c: &KinematicJumps) -> Vec<f64> {
+pub(crate) fn span_nodes(spans: &[(f64, f64)], c: &KinematicJumpConfig) -> Vec<f64> {
     let step = c.step;
     let inner = move |&(a, b): &(f64, f64)| {
         let n = ((b - a) / step).round() as usize;
@@ -132,7 +102,7 @@ pub(crate) fn widen(
     times: &[f64],
     trajectory: &Trajectory,
     anomalies: &Anomalies,
-    c: &KinematicJumps,
+    c: &KinematicJumpConfig,
 ) {
     for &(a, b) in &anomalies.spans {
         let k0 = times.partition_point(|t| *t < a - 1e-9);
@@ -205,7 +175,7 @@ mod tests {
 
     #[test]
     fn jumps_are_anomalous_and_turns_and_braking_are_not() {
-        let c = KinematicJumps::default();
+        let c = KinematicJumpConfig::default();
         let spans = anomalous_spans(&drive(), &c).spans;
         let hit = |t: f64| spans.iter().any(|(a, b)| *a <= t && t <= *b);
         assert!(hit(20.5) && hit(45.5), "{spans:?}");
@@ -216,14 +186,14 @@ mod tests {
 
     #[test]
     fn a_misaligned_heading_is_not_a_jump_and_jumps_are_still_found_beside_it() {
-        let c = KinematicJumps::default();
+        let c = KinematicJumpConfig::default();
         for degrees in [1.0f64, 2.0] {
             let crab = degrees.to_radians();
             let clean = anomalous_spans(&drive_with(crab, false), &c);
             assert!((clean.crab - crab).abs() < 1e-3, "{degrees}°: {}", clean.crab.to_degrees());
             assert!(clean.spans.is_empty(), "{degrees}°: {:?}", clean.spans);
             // Taking the heading as the direction of travel, every moving step looks like a jump.
-            let naive = anomalous_spans(&drive_with(crab, false), &KinematicJumps { crab: false, ..c });
+            let naive = anomalous_spans(&drive_with(crab, false), &KinematicJumpConfig { crab: false, ..c });
             let marked: f64 = naive.spans.iter().map(|(a, b)| b - a).sum();
             assert!(marked > 30.0, "{degrees}°: {marked} s marked");
             let jumps = anomalous_spans(&drive_with(crab, true), &c).spans;

@@ -12,34 +12,15 @@
 //! an observation inside the interval cannot bend it. Attitude constraints are weakened evenly by the link's
 //! factor, as without localisation.
 
-use nalgebra::{Vector3, Vector6};
-use plumbline_geo::Trajectory;
-use serde::{Deserialize, Serialize};
-
+use crate::config::JumpLocalizationConfig;
 use crate::nodes::WeakLink;
 use crate::standstill::Standstill;
 use crate::vehicle::Motion;
-
-/// Settings of jump localisation inside flagged intervals.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct JumpLocalization {
-    /// Node spacing inside a flagged interval, seconds.
-    pub step: f64,
-    /// Length of the centred window of the median velocity, seconds (more than twice a jump's rise).
-    pub window: f64,
-    /// σ added to a sub-interval's position constraint per metre of anomalous DG motion in it.
-    pub anomaly_scale: f64,
-}
-
-impl Default for JumpLocalization {
-    fn default() -> Self {
-        Self { step: 0.2, window: 3.0, anomaly_scale: 2.0 }
-    }
-}
+use nalgebra::{Vector3, Vector6};
+use plumbline_geo::Trajectory;
 
 /// The node epochs inside the flagged intervals.
-pub(crate) fn sub_nodes(flagged: &[WeakLink], c: &JumpLocalization) -> Vec<f64> {
+pub(crate) fn sub_nodes(flagged: &[WeakLink], c: &JumpLocalizationConfig) -> Vec<f64> {
     if c.step.is_nan() || c.step <= 0.0 {
         return Vec::new();
     }
@@ -61,7 +42,7 @@ pub(crate) fn sub_nodes(flagged: &[WeakLink], c: &JumpLocalization) -> Vec<f64> 
 pub(crate) fn anomalies(
     trajectory: &Trajectory,
     times: &[f64],
-    c: &JumpLocalization,
+    c: &JumpLocalizationConfig,
     still: &[Standstill],
     crab: f64,
 ) -> Vec<Vector3<f64>> {
@@ -133,7 +114,12 @@ fn median_of(mut v: Vec<f64>) -> Option<f64> {
 
 /// The σ of a flagged interval's links: `base` their unweakened σ, `anomaly` their anomalous DG displacement,
 /// `factor` the interval's weakening. Position: σ² = base² + (anomaly_scale · anomaly)²; attitude: base · factor.
-pub(crate) fn widen(base: &[Vector6<f64>], anomaly: &[f64], factor: f64, c: &JumpLocalization) -> Vec<Vector6<f64>> {
+pub(crate) fn widen(
+    base: &[Vector6<f64>],
+    anomaly: &[f64],
+    factor: f64,
+    c: &JumpLocalizationConfig,
+) -> Vec<Vector6<f64>> {
     base.iter()
         .zip(anomaly)
         .map(|(b, a)| {
@@ -167,7 +153,7 @@ mod tests {
 
     #[test]
     fn the_anomaly_sits_where_the_jump_rises() {
-        let c = JumpLocalization::default();
+        let c = JumpLocalizationConfig::default();
         let link = WeakLink { start: 3.0, end: 9.0, factor: 100.0 };
         let mut times = vec![3.0];
         times.extend(sub_nodes(&[link], &c));
@@ -207,7 +193,7 @@ mod tests {
 
     /// The node epochs of flagged interval [a, b] and the anomalies of its sub-intervals.
     fn anomalies_over(t: &Trajectory, (a, b): (f64, f64), still: &[Standstill]) -> (Vec<f64>, Vec<Vector3<f64>>) {
-        let c = JumpLocalization::default();
+        let c = JumpLocalizationConfig::default();
         let mut times = vec![a];
         times.extend(sub_nodes(&[WeakLink { start: a, end: b, factor: 100.0 }], &c));
         times.push(b);

@@ -5,7 +5,7 @@ use nalgebra::{Matrix3x6, Vector3, Vector6};
 
 use crate::model::{self, Linearized};
 use crate::parallel;
-use crate::problem::{Kind, Obs, Problem};
+use crate::problem::{Kind, Obs, Problem, node};
 
 /// The Huber loss of a whitened residual norm `s` with threshold `k` (plain ½s² without one).
 pub(crate) fn huber_loss(s: f64, k: Option<f64>) -> f64 {
@@ -21,11 +21,6 @@ pub(crate) fn huber_weight(s: f64, k: Option<f64>) -> f64 {
         Some(k) if s > k => k / s,
         _ => 1.0,
     }
-}
-
-/// The pose correction of node `k`.
-pub(crate) fn node(x: &[f64], k: usize) -> Vector6<f64> {
-    Vector6::from_column_slice(&x[6 * k..6 * k + 6])
 }
 
 /// Linearise one observation at `x`.

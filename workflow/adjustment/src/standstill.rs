@@ -11,50 +11,7 @@
 use plumbline_geo::Trajectory;
 use serde::{Deserialize, Serialize};
 
-/// Settings of standstill detection and of the zero-velocity constraint.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct StandstillConfig {
-    /// Spacing of the speed samples, seconds.
-    pub sample_step: f64,
-    /// Time over which each speed sample's displacement is taken, seconds.
-    pub baseline: f64,
-    /// Length of the centred window whose median speed decides, seconds (more than twice a jump's rise).
-    pub window: f64,
-    /// Median speed below which the vehicle stands still, m/s. Creeping at 0.1 m/s must stay above it:
-    /// over 40 s it would move 4 m, which the constraint would pull the trajectory by.
-    pub speed_threshold: f64,
-    /// Shortest standstill used, seconds.
-    pub min_duration: f64,
-    /// σ of "corrected position at the end = at the start", per axis, metres.
-    pub position_sigma: f64,
-    /// σ of "corrected heading at the end = at the start" (the vertical rotation-vector component), radians.
-    /// Roll and pitch are not constrained: the body settles on its suspension after braking.
-    pub heading_sigma: f64,
-    /// Factor on the σ of the DG relative constraints inside a standstill (> 1 weakens them, so the
-    /// zero-velocity constraint replaces the DG's relative motion there rather than competing with it).
-    pub chain_factor: f64,
-    /// A weak link (flagged DG jump) containing a standstill over which the DG moves more than this many
-    /// metres is taken as caused by that jump while standing and dropped: the zero-velocity constraint
-    /// absorbs the jump, and the chain on either side stays stiff to hold the standstill in place.
-    pub explained_above: f64,
-}
-
-impl Default for StandstillConfig {
-    fn default() -> Self {
-        Self {
-            sample_step: 0.1,
-            baseline: 0.5,
-            window: 5.0,
-            speed_threshold: 0.02,
-            min_duration: 3.0,
-            position_sigma: 0.005,
-            heading_sigma: 1e-4,
-            chain_factor: 10.0,
-            explained_above: 0.05,
-        }
-    }
-}
+use crate::config::StandstillConfig;
 
 /// A detected standstill: the vehicle is at rest over [start, end].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]

@@ -11,8 +11,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Snooping;
 use crate::jumps;
-use crate::normal::{blocks, linearize, node};
-use crate::problem::{Kind, Problem};
+use crate::normal::{blocks, linearize};
+use crate::problem::{Kind, Problem, node};
 use crate::solver::SelectedInverse;
 
 /// What a w-test blames: an observation, or the relative constraint between node k and k+1 (a DG jump).

@@ -25,7 +25,8 @@ use plumbline_geo::{Attitude, Body, Point3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
-use crate::config::{GnssFix, ImuSample, InitialState, STANDARD_GRAVITY};
+use crate::config::{InitialState, STANDARD_GRAVITY};
+use crate::inputs::{GnssFix, ImuSample};
 
 /// Fewest GNSS fixes in the levelling window: a quadratic per axis and one degree of freedom.
 const MIN_FIXES: usize = 4;

@@ -1,39 +1,16 @@
-//! Inputs of the filter: IMU increments, GNSS fixes, the IMU error model and the initial state.
+//! Settings of the filter and the state it starts from: the IMU error model, the filter configuration with
+//! the vehicle constraint, the IMU's mounting in the vehicle and the model of the IMU record's gaps, and the
+//! initial state. Imports no module of the crate but `earth`; the inputs themselves are in `crate::inputs`.
 
+use nalgebra::{Matrix3, Vector3};
 use plumbline_geo::{Attitude, Body, Map, Point3, Vec3};
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
 use crate::earth::Earth;
-use crate::gaps::ImuGapModel;
-use crate::mount::Mounting;
 
 /// Standard gravity, m/s² (the simulator's flat Earth; [`Earth::Wgs84`] uses normal gravity).
 pub const STANDARD_GRAVITY: f64 = 9.806_65;
-
-/// One IMU record: angle and velocity increments over the interval `[time − dt, time]`, body frame.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ImuSample {
-    /// End of the interval, s.
-    pub time: f64,
-    /// Length of the interval, s.
-    pub dt: f64,
-    /// Angle increment Δθ, rad.
-    pub delta_theta: Vec3<Body>,
-    /// Velocity increment Δv (specific force × dt), m/s.
-    pub delta_v: Vec3<Body>,
-}
-
-/// One GNSS position fix of the antenna.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct GnssFix {
-    /// Time, s (same scale as the IMU).
-    pub time: f64,
-    /// Antenna position in the mapping frame, m.
-    pub position: Point3<Map>,
-    /// Standard deviations east, north, up, m.
-    pub std: [f64; 3],
-}
 
 /// Error model of the IMU, per axis (1σ), SI units; the process noise of the filter is built from it.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -204,5 +181,112 @@ impl InitialState {
             }
         }
         Ok(())
+    }
+}
+
+/// The IMU's mounting against the vehicle's axes, rad: yaw (positive: the vehicle's forward axis lies to
+/// the IMU's right, x toward y) and pitch (positive: it points below the IMU's x axis, toward its z).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct Mounting {
+    pub yaw: f64,
+    pub pitch: f64,
+}
+
+impl Mounting {
+    /// The rotation taking IMU-axis vectors to vehicle axes (x forward, y right, z down).
+    pub fn to_vehicle(self) -> Matrix3<f64> {
+        let (sy, cy) = self.yaw.sin_cos();
+        let (sp, cp) = self.pitch.sin_cos();
+        let forward = Vector3::new(cp * cy, cp * sy, sp);
+        let right = Vector3::z().cross(&forward).normalize();
+        let down = forward.cross(&right);
+        Matrix3::from_rows(&[forward.transpose(), right.transpose(), down.transpose()])
+    }
+
+    /// Check both angles; the error names the bad one.
+    pub fn check(&self) -> Result<(), NavError> {
+        for (field, value) in [("vehicle.mounting.yaw", self.yaw), ("vehicle.mounting.pitch", self.pitch)] {
+            if !(value.is_finite() && value.abs() < 0.5) {
+                return Err(NavError::Config { field, value, expected: "a finite angle under 0.5 rad" });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// How unrecorded stretches are found and what motion they may hide.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct ImuGapModel {
+    /// σ of the vehicle's turn rate about the vertical that a gap's samples do not show, rad/s. A car's yaw
+    /// rate changes by up to 0.5 rad/s within a second in a city turn; the default 0.15 rad/s (8.6 °/s)
+    /// gives a 1.6 s gap a heading σ of 14°.
+    pub yaw_rate_std: f64,
+    /// σ of the roll and pitch change over a gap, rad, whatever its length (suspension travel bounds it).
+    pub tilt_std: f64,
+    /// σ of the unrecorded acceleration, m/s², per axis. A car's acceleration along its track changes by
+    /// about 1 m/s² per second in normal driving, and a straight line through the gap's ends misses a
+    /// fraction of that; across the track it follows the turn rate (held by the vehicle constraint).
+    pub accel_std: f64,
+    /// Fewest consecutive samples, each exactly on the line through its neighbours in all six channels, that
+    /// make a filled run.
+    pub min_filled: usize,
+    /// An interval longer than this many times the recording's median interval is a gap of lost samples.
+    pub missing_factor: f64,
+}
+
+impl Default for ImuGapModel {
+    fn default() -> Self {
+        Self { yaw_rate_std: 0.15, tilt_std: 0.02, accel_std: 0.3, min_filled: 10, missing_factor: 5.0 }
+    }
+}
+
+impl ImuGapModel {
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), NavError> {
+        let sigmas = [
+            ("gaps.yaw_rate_std", self.yaw_rate_std),
+            ("gaps.tilt_std", self.tilt_std),
+            ("gaps.accel_std", self.accel_std),
+        ];
+        for (field, value) in sigmas {
+            if !(value.is_finite() && value >= 0.0) {
+                return Err(NavError::Config { field, value, expected: "a finite σ >= 0" });
+            }
+        }
+        if self.min_filled < 3 {
+            let value = self.min_filled as f64;
+            return Err(NavError::Config { field: "gaps.min_filled", value, expected: "at least 3 samples" });
+        }
+        if !(self.missing_factor.is_finite() && self.missing_factor > 1.0) {
+            let value = self.missing_factor;
+            return Err(NavError::Config { field: "gaps.missing_factor", value, expected: "a finite factor > 1" });
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_vehicle_axes_follow_the_angles() {
+        assert!((Mounting::default().to_vehicle() - Matrix3::identity()).norm() < 1e-15);
+        let m = Mounting { yaw: 0.02, pitch: -0.01 };
+        // The vehicle's forward direction in IMU axes maps to the vehicle's x axis.
+        let forward =
+            Vector3::new((0.02f64).cos() * (-0.01f64).cos(), (0.02f64).sin() * (-0.01f64).cos(), (-0.01f64).sin());
+        assert!((m.to_vehicle() * forward - Vector3::x()).norm() < 1e-12);
+        assert!((m.to_vehicle().determinant() - 1.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn bad_gap_parameters_are_named() {
+        let bad = ImuGapModel { min_filled: 2, ..ImuGapModel::default() };
+        assert!(matches!(bad.check(), Err(NavError::Config { field: "gaps.min_filled", .. })));
+        let bad = ImuGapModel { yaw_rate_std: f64::NAN, ..ImuGapModel::default() };
+        assert!(matches!(bad.check(), Err(NavError::Config { field: "gaps.yaw_rate_std", .. })));
     }
 }

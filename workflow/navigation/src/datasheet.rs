@@ -13,7 +13,8 @@ use std::str::FromStr;
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
-use crate::config::{ImuModel, ImuSample, STANDARD_GRAVITY};
+use crate::config::{ImuModel, STANDARD_GRAVITY};
+use crate::inputs::ImuSample;
 
 const DEG: f64 = std::f64::consts::PI / 180.0;
 const HOUR: f64 = 3600.0;

@@ -7,8 +7,9 @@ use nalgebra::{Matrix2, Matrix3, SMatrix, Vector2, Vector3};
 use plumbline_geo::Rotation;
 
 use crate::adaptive::{Decision, Monitor, reopen};
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig, VehicleConstraint};
+use crate::config::{InitialState, NavConfig, VehicleConstraint};
 use crate::gaps::{GapNoise, ImuGap};
+use crate::inputs::{GnssFix, ImuSample};
 use crate::state::{ATT, BA, BG, POS, VEL};
 use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
 use crate::{NavError, check_fix};

@@ -18,61 +18,9 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::NavError;
-use crate::config::ImuSample;
+use crate::config::ImuGapModel;
+use crate::inputs::ImuSample;
 use crate::state::{ATT, VEL, Vec15};
-
-/// How unrecorded stretches are found and what motion they may hide.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct ImuGapModel {
-    /// σ of the vehicle's turn rate about the vertical that a gap's samples do not show, rad/s. A car's yaw
-    /// rate changes by up to 0.5 rad/s within a second in a city turn; the default 0.15 rad/s (8.6 °/s)
-    /// gives a 1.6 s gap a heading σ of 14°.
-    pub yaw_rate_std: f64,
-    /// σ of the roll and pitch change over a gap, rad, whatever its length (suspension travel bounds it).
-    pub tilt_std: f64,
-    /// σ of the unrecorded acceleration, m/s², per axis. A car's acceleration along its track changes by
-    /// about 1 m/s² per second in normal driving, and a straight line through the gap's ends misses a
-    /// fraction of that; across the track it follows the turn rate (held by the vehicle constraint).
-    pub accel_std: f64,
-    /// Fewest consecutive samples, each exactly on the line through its neighbours in all six channels, that
-    /// make a filled run.
-    pub min_filled: usize,
-    /// An interval longer than this many times the recording's median interval is a gap of lost samples.
-    pub missing_factor: f64,
-}
-
-impl Default for ImuGapModel {
-    fn default() -> Self {
-        Self { yaw_rate_std: 0.15, tilt_std: 0.02, accel_std: 0.3, min_filled: 10, missing_factor: 5.0 }
-    }
-}
-
-impl ImuGapModel {
-    /// Check every parameter; the error names the first bad one.
-    pub fn check(&self) -> Result<(), NavError> {
-        let sigmas = [
-            ("gaps.yaw_rate_std", self.yaw_rate_std),
-            ("gaps.tilt_std", self.tilt_std),
-            ("gaps.accel_std", self.accel_std),
-        ];
-        for (field, value) in sigmas {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(NavError::Config { field, value, expected: "a finite σ >= 0" });
-            }
-        }
-        if self.min_filled < 3 {
-            let value = self.min_filled as f64;
-            return Err(NavError::Config { field: "gaps.min_filled", value, expected: "at least 3 samples" });
-        }
-        if !(self.missing_factor.is_finite() && self.missing_factor > 1.0) {
-            let value = self.missing_factor;
-            return Err(NavError::Config { field: "gaps.missing_factor", value, expected: "a finite factor > 1" });
-        }
-        Ok(())
-    }
-}
 
 /// What kind of unrecorded stretch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -304,13 +252,5 @@ mod tests {
         let noise = GapNoise::new(vec![gap], Some(model));
         assert!(noise.at(159, 0.01).is_some() && noise.at(160, 0.01).is_none());
         assert!(GapNoise::new(vec![gap], None).at(10, 0.01).is_none());
-    }
-
-    #[test]
-    fn bad_parameters_are_named() {
-        let bad = ImuGapModel { min_filled: 2, ..ImuGapModel::default() };
-        assert!(matches!(bad.check(), Err(NavError::Config { field: "gaps.min_filled", .. })));
-        let bad = ImuGapModel { yaw_rate_std: f64::NAN, ..ImuGapModel::default() };
-        assert!(matches!(bad.check(), Err(NavError::Config { field: "gaps.yaw_rate_std", .. })));
     }
 }

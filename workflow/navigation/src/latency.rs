@@ -25,8 +25,9 @@ use serde::{Deserialize, Serialize};
 
 use crate::NavError;
 use crate::chi2::chi2_critical;
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::config::{InitialState, NavConfig};
 use crate::filter::run_once;
+use crate::inputs::{GnssFix, ImuSample};
 use crate::passes::prepare;
 
 /// Largest offset searched, s.

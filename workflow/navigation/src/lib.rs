@@ -32,6 +32,14 @@
 //! test_innovations(&forward.innovations, &IntegrityConfig) → Vec<Flag> (each blaming a Sensor)
 //! check_consistency(&dg, &image_motions, &ConsistencyConfig) → flags + WeakLinks for the adjustment
 //! ```
+//!
+//! Modules, bottom-up (each imports only modules listed before it):
+//! - `inputs` ([`ImuSample`], [`GnssFix`]), `earth`, `chi2`; `config` (the filter's settings — IMU model,
+//!   vehicle constraint, [`Mounting`], [`ImuGapModel`] — and the initial state);
+//! - `screen`, `consistency`, `align`, `datasheet`; `state` (the error state and its propagation);
+//! - `adaptive`, `gaps`; `filter` (one forward pass); `smoother`, `guard`, `integrity`, `noise`;
+//! - `passes` (the forward pass as callers run it, re-linearised over gaps); `latency`, `mount` (measures
+//!   the mounting), `steps`.
 
 mod adaptive;
 mod align;
@@ -43,6 +51,7 @@ mod earth;
 mod filter;
 mod gaps;
 mod guard;
+mod inputs;
 mod integrity;
 mod latency;
 mod mount;
@@ -56,7 +65,7 @@ mod steps;
 pub use adaptive::{Adaptation, Decision};
 pub use align::{AlignmentConfig, align};
 pub use chi2::{chi2_cdf, chi2_critical};
-pub use config::{GnssFix, ImuModel, ImuSample, InitialState, NavConfig, STANDARD_GRAVITY, VehicleConstraint};
+pub use config::{ImuGapModel, ImuModel, InitialState, Mounting, NavConfig, STANDARD_GRAVITY, VehicleConstraint};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
 pub use datasheet::{
     ImuClass, ImuDatasheet, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
@@ -64,14 +73,15 @@ pub use datasheet::{
 };
 pub use earth::{EARTH_RATE, Earth, normal_gravity};
 pub use filter::{FilteredEpoch, ForwardPass, Innovation, SkippedFix};
-pub use gaps::{GapKind, ImuGap, ImuGapModel, find_imu_gaps};
+pub use gaps::{GapKind, ImuGap, find_imu_gaps};
 pub use guard::{Divergence, Physics, Runaway, divergences};
+pub use inputs::{GnssFix, ImuSample};
 pub use integrity::{Component, Flag, IntegrityConfig, Sensor, TestKind, test_innovations};
 pub use latency::{
     SEARCH as TIME_OFFSET_SEARCH, T_CRITICAL as TIME_OFFSET_T_CRITICAL, TimeOffsetMeasurement, measure_time_offset,
     shift_samples,
 };
-pub use mount::{Mounting, MountingMeasurement, measure_mounting};
+pub use mount::{MountingMeasurement, measure_mounting};
 pub use noise::{ALPHA as NOISE_ALPHA, FixNoise, measure_fix_noise};
 pub use passes::{filter, filter_adaptive, filter_excluding};
 pub use screen::{Implausible, Plausibility, Screened, ScreenedFix, screen_fixes};

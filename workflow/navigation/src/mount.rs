@@ -5,13 +5,14 @@
 //! unconstrained filter does not have. The mounting's yaw and pitch are measured from the data: the
 //! direction of the velocity in the IMU's axes while the vehicle drives straight, from a pass without the
 //! constraint (GNSS and IMU alone), median over the epochs. Roll about the forward axis does not move the
-//! velocity and is left at zero.
+//! velocity and is left at zero. The mounting itself (`Mounting`, a field of the vehicle constraint) is a
+//! setting and lives in `crate::config`; this module measures it, running the filter.
 
-use nalgebra::{Matrix3, Vector3};
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::config::{InitialState, Mounting, NavConfig};
+use crate::inputs::{GnssFix, ImuSample};
 use crate::passes::filter;
 
 /// Fastest turn an epoch may have to count as straight driving, rad/s.
@@ -20,37 +21,6 @@ const STRAIGHT: f64 = 0.02;
 const MOVING: f64 = 3.0;
 /// Fewest straight, moving seconds for a measurement.
 const ENOUGH: f64 = 20.0;
-
-/// The IMU's mounting against the vehicle's axes, rad: yaw (positive: the vehicle's forward axis lies to
-/// the IMU's right, x toward y) and pitch (positive: it points below the IMU's x axis, toward its z).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct Mounting {
-    pub yaw: f64,
-    pub pitch: f64,
-}
-
-impl Mounting {
-    /// The rotation taking IMU-axis vectors to vehicle axes (x forward, y right, z down).
-    pub fn to_vehicle(self) -> Matrix3<f64> {
-        let (sy, cy) = self.yaw.sin_cos();
-        let (sp, cp) = self.pitch.sin_cos();
-        let forward = Vector3::new(cp * cy, cp * sy, sp);
-        let right = Vector3::z().cross(&forward).normalize();
-        let down = forward.cross(&right);
-        Matrix3::from_rows(&[forward.transpose(), right.transpose(), down.transpose()])
-    }
-
-    /// Check both angles; the error names the bad one.
-    pub fn check(&self) -> Result<(), NavError> {
-        for (field, value) in [("vehicle.mounting.yaw", self.yaw), ("vehicle.mounting.pitch", self.pitch)] {
-            if !(value.is_finite() && value.abs() < 0.5) {
-                return Err(NavError::Config { field, value, expected: "a finite angle under 0.5 rad" });
-            }
-        }
-        Ok(())
-    }
-}
 
 /// What [`measure_mounting`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -88,20 +58,4 @@ pub fn measure_mounting(
     };
     let mounting = Mounting { yaw: median(&mut yaws), pitch: median(&mut pitches) };
     Ok(Some(MountingMeasurement { mounting, seconds }))
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_vehicle_axes_follow_the_angles() {
-        assert!((Mounting::default().to_vehicle() - Matrix3::identity()).norm() < 1e-15);
-        let m = Mounting { yaw: 0.02, pitch: -0.01 };
-        // The vehicle's forward direction in IMU axes maps to the vehicle's x axis.
-        let forward =
-            Vector3::new((0.02f64).cos() * (-0.01f64).cos(), (0.02f64).sin() * (-0.01f64).cos(), (-0.01f64).sin());
-        assert!((m.to_vehicle() * forward - Vector3::x()).norm() < 1e-12);
-        assert!((m.to_vehicle().determinant() - 1.0).abs() < 1e-12);
-    }
 }

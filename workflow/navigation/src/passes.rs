@@ -4,9 +4,10 @@
 use crate::NavError;
 use crate::adaptive::{Adaptation, Monitor};
 use crate::check_samples;
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::config::{InitialState, NavConfig};
 use crate::filter::{ForwardPass, run_once};
 use crate::gaps::{GapNoise, find_imu_gaps};
+use crate::inputs::{GnssFix, ImuSample};
 use crate::smoother::smooth_errors;
 use crate::state::{ATT, BA, Vec15};
 

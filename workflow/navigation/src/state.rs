@@ -7,8 +7,9 @@
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use crate::config::{ImuModel, ImuSample};
+use crate::config::ImuModel;
 use crate::earth::Earth;
+use crate::inputs::ImuSample;
 
 /// 15 × 15 matrix of the error state.
 pub(crate) type Mat15 = SMatrix<f64, 15, 15>;

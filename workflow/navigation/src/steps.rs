@@ -41,9 +41,10 @@ use serde::{Deserialize, Serialize};
 
 use crate::NavError;
 use crate::chi2::chi2_critical;
-use crate::config::{GnssFix, ImuSample, InitialState, NavConfig};
+use crate::config::{InitialState, NavConfig};
 use crate::filter::ForwardPass;
 use crate::gaps::find_imu_gaps;
+use crate::inputs::{GnssFix, ImuSample};
 use crate::passes::{filter, filter_excluding};
 
 /// Parameters of the step test.

@@ -5,7 +5,7 @@
 use nalgebra::{Matrix3, Vector3};
 
 use crate::chi2::chi2_critical;
-use crate::config::GnssFix;
+use crate::inputs::GnssFix;
 
 /// The antenna's motion at the start of the window.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -9,7 +9,7 @@
 use nalgebra::{UnitQuaternion, Vector3};
 use plumbline_geo::angle::wrap;
 
-use crate::config::ImuSample;
+use crate::inputs::ImuSample;
 
 /// The mean specific force over the samples ending in `[from, until]`, in the body frame at `from`, and the
 /// time it covers; `None` without usable samples.
