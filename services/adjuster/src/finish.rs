@@ -4,13 +4,12 @@
 
 use std::collections::BTreeMap;
 
-use anyhow::Context as _;
 use futures::StreamExt as _;
 use plumbline_adjustment::Iteration;
 use plumbline_campaign::progress::Progress;
 use plumbline_report::{Figures, Report, Stage};
-use plumbline_runtime::Files;
 use plumbline_runtime::trajectory::write_like_input;
+use plumbline_runtime::{Context as _, Files};
 use plumbline_scheduler::Campaign;
 use plumbline_worker::TileOutputV1;
 
@@ -59,7 +58,7 @@ pub async fn finish(
     tiles: &[TileOutputV1],
     config: &AdjusterConfig,
     progress: &dyn Progress,
-) -> anyhow::Result<Finished> {
+) -> plumbline_runtime::Result<Finished> {
     progress.begin(STAGE, None);
     let (owned, tiles, config) = (campaign.clone(), tiles.to_vec(), *config);
     let (sender, mut iterations) = futures::channel::mpsc::unbounded::<Iteration>();
@@ -111,7 +110,7 @@ fn compute(
     tiles: &[TileOutputV1],
     config: &AdjusterConfig,
     observer: &mut dyn FnMut(&Iteration),
-) -> anyhow::Result<Computed> {
+) -> plumbline_runtime::Result<Computed> {
     let mut merged = merge(tiles);
     let joined = join_shared_points(&mut merged);
     tracing::info!(joined, ties = merged.observations.ties.len(), "tie points sharing an image point joined");

@@ -12,7 +12,7 @@
 //!   with the tiles listed in the state's `dead_lettered` (the job API and `plumbline status` show them with
 //!   their errors) and in the report's skipped inputs (stage `tiles`, reason `dead-lettered`). Only a
 //!   campaign without any processed tile ends `failed`;
-//! - a store failure while adjusting (S3 unreachable, [`StoreError::is_retryable`]) leaves the campaign
+//! - a store failure while adjusting (S3 or NATS unreachable: a [`plumbline_runtime::ErrorKind::Transient`] error) leaves the campaign
 //!   `adjusting` and naks the result with a growing delay, so the adjustment runs again once the store is
 //!   back (up to [`MAX_FINISH_DELIVERIES`] deliveries); any other error marks the campaign `failed`;
 //! - the message is acked after the state is written (a failure to write it naks it for redelivery).
@@ -29,7 +29,7 @@ use async_nats::jetstream::{self, AckKind, consumer::PullConsumer, kv};
 use futures::StreamExt as _;
 use plumbline_campaign::progress::NoProgress;
 use plumbline_geo::tiling::TileId;
-use plumbline_runtime::{Files, StoreError};
+use plumbline_runtime::{Error, Files};
 use plumbline_scheduler::SkippedInput;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{Agency, CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
@@ -45,7 +45,6 @@ use crate::{AdjusterConfig, finish};
 mod probe;
 
 pub use probe::ADJUSTER_FAMILIES;
-use probe::kind_of;
 
 pub use plumbline_scheduler::bus::TALLY_BUCKET;
 /// Interval of the in-progress acks while a result (or the adjustment it triggers) is handled.
@@ -61,9 +60,9 @@ fn retry_delay(delivered: i64) -> Duration {
     (RETRY_DELAY * 2u32.pow(doublings)).min(Duration::from_secs(60))
 }
 
-/// Whether `error` is a store failure that may pass (the store unreachable or erring).
-fn store_unavailable(error: &anyhow::Error) -> bool {
-    error.chain().any(|c| c.downcast_ref::<StoreError>().is_some_and(StoreError::is_retryable))
+/// Whether `error` may pass (the store or the broker unreachable or erring), so the campaign waits.
+fn store_unavailable(error: &Error) -> bool {
+    error.is_transient()
 }
 
 /// The tiles of one campaign run that have been counted.
@@ -142,15 +141,21 @@ pub async fn serve(
     layout: Layout,
     ops: Option<Ops>,
     shutdown: impl Future<Output = ()>,
-) -> anyhow::Result<()> {
-    let stream =
-        bus.js.get_stream(RESULTS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {RESULTS_STREAM}: {e}"))?;
+) -> plumbline_runtime::Result<()> {
+    let stream = bus
+        .js
+        .get_stream(RESULTS_STREAM)
+        .await
+        .map_err(|e| Error::transient(format!("stream {RESULTS_STREAM}: {e}")))?;
     let consumer: PullConsumer = stream
         .get_consumer(ADJUSTER_CONSUMER)
         .await
-        .map_err(|e| anyhow::anyhow!("consumer {ADJUSTER_CONSUMER}: {e}"))?;
-    let tallies =
-        bus.js.get_key_value(TALLY_BUCKET).await.map_err(|e| anyhow::anyhow!("KV bucket {TALLY_BUCKET}: {e}"))?;
+        .map_err(|e| Error::transient(format!("consumer {ADJUSTER_CONSUMER}: {e}")))?;
+    let tallies = bus
+        .js
+        .get_key_value(TALLY_BUCKET)
+        .await
+        .map_err(|e| Error::transient(format!("KV bucket {TALLY_BUCKET}: {e}")))?;
     let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
     let metrics = Registry::new(&ADJUSTER_FAMILIES);
     let adjuster =
@@ -192,7 +197,7 @@ pub async fn serve(
 
 impl Adjuster {
     /// Finish the campaigns a previous adjuster left `adjusting`.
-    async fn resume(&self) -> anyhow::Result<()> {
+    async fn resume(&self) -> plumbline_runtime::Result<()> {
         for state in self.bus.campaigns.list().await? {
             if state.status == CampaignStatus::Adjusting {
                 tracing::info!(campaign = state.id.as_str(), run = state.run, "finishing an interrupted adjustment");
@@ -217,7 +222,7 @@ impl Adjuster {
             Ok(()) => reply(message, AckKind::Ack).await,
             Err(e) => {
                 let delay = retry_delay(delivered);
-                self.metrics.add("plumbline_adjuster_retries_total", &[("kind", kind_of(&e))], 1.0);
+                self.metrics.add("plumbline_adjuster_retries_total", &[("kind", e.kind().name())], 1.0);
                 tracing::warn!(error = %format!("{e:#}"), delivered, ?delay, "recording a result failed; retrying later");
                 reply(message, AckKind::Nak(Some(delay))).await;
             }
@@ -225,7 +230,7 @@ impl Adjuster {
     }
 
     /// Count the result into the tally and the state; finish the campaign when every tile is handled.
-    async fn record(&self, outcome: &Outcome, delivered: i64) -> anyhow::Result<()> {
+    async fn record(&self, outcome: &Outcome, delivered: i64) -> plumbline_runtime::Result<()> {
         let (agency, id, run) = outcome.campaign_run();
         let Some((state, _)) = self.bus.campaigns.get(agency, id).await? else {
             tracing::warn!(campaign = id.as_str(), "result of an unknown campaign dropped");
@@ -268,12 +273,13 @@ impl Adjuster {
 
     /// Add the result to the run's tally (revision-checked, retried on a lost race); the tally as written
     /// and whether this call counted the tile.
-    async fn add_to_tally(&self, key: &str, outcome: &Outcome) -> anyhow::Result<(Tally, bool)> {
+    async fn add_to_tally(&self, key: &str, outcome: &Outcome) -> plumbline_runtime::Result<(Tally, bool)> {
         for _ in 0..64 {
-            let entry = self.tallies.entry(key).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
+            let entry = self.tallies.entry(key).await.map_err(|e| Error::transient(format!("tally {key}: {e}")))?;
             let (mut tally, revision) = match entry {
                 Some(e) if e.operation == kv::Operation::Put => (
-                    serde_json::from_slice::<Tally>(&e.value).map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?,
+                    serde_json::from_slice::<Tally>(&e.value)
+                        .map_err(|e| Error::internal(format!("tally {key}: {e}")))?,
                     e.revision,
                 ),
                 _ => (Tally::default(), 0),
@@ -292,13 +298,13 @@ impl Adjuster {
                 Err(e) => tracing::debug!(key, error = e, "tally write lost a race; reading again"),
             }
         }
-        anyhow::bail!("tally {key}: still contended after 64 rounds")
+        Err(Error::transient(format!("tally {key}: still contended after 64 rounds")))
     }
 
     /// Adjust the campaign from its done tiles and set `done` (or `failed`). A store failure on delivery
     /// `delivered` < [`MAX_FINISH_DELIVERIES`] is returned instead, leaving the campaign `adjusting`.
     #[tracing::instrument(skip_all, fields(campaign = state.id.as_str(), run = state.run, delivered))]
-    async fn finish_campaign(&self, state: &CampaignState, delivered: i64) -> anyhow::Result<()> {
+    async fn finish_campaign(&self, state: &CampaignState, delivered: i64) -> plumbline_runtime::Result<()> {
         tracing::info!(campaign = state.id.as_str(), run = state.run, delivered, "adjustment started");
         let started = std::time::Instant::now();
         let result = self.adjust(state).await;
@@ -334,9 +340,10 @@ impl Adjuster {
     }
 
     /// Read the done tiles' outputs and run [`finish`]; the report's URL.
-    async fn adjust(&self, state: &CampaignState) -> anyhow::Result<String> {
+    async fn adjust(&self, state: &CampaignState) -> plumbline_runtime::Result<String> {
         let key = tally_key(&state.agency, &state.id, state.run);
-        let entry = self.tallies.entry(key.as_str()).await.map_err(|e| anyhow::anyhow!("tally {key}: {e}"))?;
+        let entry =
+            self.tallies.entry(key.as_str()).await.map_err(|e| Error::transient(format!("tally {key}: {e}")))?;
         let tally: Tally = match entry {
             Some(e) => serde_json::from_slice(&e.value)?,
             None => Tally::default(),
@@ -349,7 +356,11 @@ impl Adjuster {
         }
         outputs.sort_by_key(|o| o.tile);
         if outputs.is_empty() {
-            anyhow::bail!("no tile of {} could be processed ({} failed)", state.id.as_str(), tally.failed.len());
+            return Err(Error::internal(format!(
+                "no tile of {} could be processed ({} failed)",
+                state.id.as_str(),
+                tally.failed.len()
+            )));
         }
         campaign.skipped.extend(tally.failed.iter().map(|f| SkippedInput {
             stage: "tiles".into(),
@@ -364,9 +375,10 @@ impl Adjuster {
 }
 
 /// One tile's output object.
-async fn read_output(files: &Files, url: &str) -> anyhow::Result<TileOutputV1> {
+async fn read_output(files: &Files, url: &str) -> plumbline_runtime::Result<TileOutputV1> {
     let bytes = files.read(url).await?;
-    let doc: TileOutput = serde_json::from_slice(&bytes).map_err(|e| anyhow::anyhow!("tile output {url}: {e}"))?;
+    let doc: TileOutput =
+        serde_json::from_slice(&bytes).map_err(|e| Error::internal(format!("tile output {url}: {e}")))?;
     Ok(doc.into_latest())
 }
 
@@ -391,7 +403,8 @@ mod tests {
         assert_eq!(delays, [2, 4, 8, 16, 32, 60, 60, 60]);
         assert_eq!(retry_delay(0).as_secs(), 2);
         assert!(!store_unavailable(&plumbline_runtime::invalid("manifest: bad")));
-        assert!(!store_unavailable(&anyhow::anyhow!("adjustment: singular normal matrix")));
+        assert!(!store_unavailable(&Error::internal("adjustment: singular normal matrix")));
+        assert!(store_unavailable(&Error::transient("s3://b/results/tiles/1_0.json: connection reset")));
     }
 
     #[test]

@@ -27,6 +27,18 @@ pub enum SolveError {
     Apply(#[from] TrajectoryError),
 }
 
+/// As a service error: invalid settings of the consistency check are the manifest's; the rest fails the
+/// campaign.
+impl From<SolveError> for plumbline_runtime::Error {
+    fn from(e: SolveError) -> Self {
+        let kind = match e {
+            SolveError::Consistency(_) => plumbline_runtime::ErrorKind::Invalid,
+            SolveError::Adjustment(_) | SolveError::Apply(_) => plumbline_runtime::ErrorKind::Internal,
+        };
+        Self::from_cause(kind, e)
+    }
+}
+
 /// The adjusted campaign.
 #[derive(Clone, Debug)]
 pub struct Solved {

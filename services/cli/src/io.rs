@@ -50,16 +50,16 @@ impl Context {
 
     /// Read a whole file named by path or URL. A missing file is invalid input.
     pub async fn read(&self, url: &str) -> anyhow::Result<Bytes> {
-        self.files.read(url).await
+        Ok(self.files.read(url).await?)
     }
 
     /// Whether the object a path or URL names exists.
     pub async fn exists(&self, url: &str) -> anyhow::Result<bool> {
-        self.files.exists(url).await
+        Ok(self.files.exists(url).await?)
     }
 
     /// Write a whole file named by path or URL, replacing it.
     pub async fn write(&self, url: &str, bytes: Vec<u8>) -> anyhow::Result<()> {
-        self.files.write(url, bytes).await
+        Ok(self.files.write(url, bytes).await?)
     }
 }

@@ -130,5 +130,5 @@ fn report(e: &anyhow::Error) -> ExitCode {
     for cause in e.chain().skip(1) {
         eprintln!("  caused by: {cause}");
     }
-    if plumbline_runtime::is_invalid(e) { ExitCode::from(exit::INVALID) } else { ExitCode::FAILURE }
+    if exit::is_invalid(e) { ExitCode::from(exit::INVALID) } else { ExitCode::FAILURE }
 }

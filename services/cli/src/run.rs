@@ -146,11 +146,11 @@ async fn process_tiles(
     let mut queue = futures::stream::iter(ids.iter().copied())
         .map(|tile| async move {
             let result = if reuse {
-                run_tile_reporting(files, campaign, &tile, config, progress).await
+                run_tile_reporting(files, campaign, &tile, config, progress).await.map_err(anyhow::Error::from)
             } else {
                 match process_tile_reporting(files, campaign, &tile, config, progress).await {
                     Ok(out) => write_tile(files, campaign, out).await,
-                    Err(e) => Err(e),
+                    Err(e) => Err(e.into()),
                 }
             };
             (tile, result)
@@ -169,7 +169,7 @@ async fn process_tiles(
                 outputs.push(output);
                 progress.advance("tiles", 1);
             }
-            Err(e) if plumbline_runtime::is_invalid(&e) => return Err(e.context(format!("tile {tile}"))),
+            Err(e) if crate::exit::is_invalid(&e) => return Err(e.context(format!("tile {tile}"))),
             Err(e) => {
                 tracing::error!(%tile, error = %format!("{e:#}"), "tile failed; the campaign goes on without it");
                 failed.push(SkippedInput {

@@ -159,7 +159,7 @@ async fn connect(ctx: &Context, connection: &Connection, role: &str) -> anyhow::
         }
     };
     let wait = Duration::from_secs(connection.connect_timeout_s);
-    service::connect(&connection.nats, auth, role, wait).await
+    Ok(service::connect(&connection.nats, auth, role, wait).await?)
 }
 
 /// Connect and bind the JetStream resources the scheduler created (waiting for them as long as for the

@@ -12,7 +12,7 @@
 //! - [`gdal_read`] / [`gdal_write`] — raster windows ([`gdal_read::RasterSource`]), GeoTIFF and GeoPackage encoding;
 //!   agency rasters open only through an allow-list of GDAL drivers, agency VRTs only as [`vrt::VrtMosaic`]s rewritten
 //!   to the files beside them; [`line_io`] — line layers read back from a GeoPackage and written as GeoJSON.
-//! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`InvalidInput`] (exit code 2).
+//! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`Error`] with its [`ErrorKind`] (invalid, missing, forbidden, transient, internal), what callers decide exit codes, retries and skips on.
 //! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
 //! - [`logging`] — [`init_tracing`], with OTLP span export through [`telemetry`]; [`progress`] — bars, log
 //!   lines or JSON lines for long work.
@@ -42,7 +42,7 @@ pub use crs::{
     CrsError, CrsTransform, MeridianConvergence, crs_name, epsg_of_wkt, is_projected, linear_unit_m,
     meridian_convergence, vertical_unit_of_wkt,
 };
-pub use errors::{InvalidInput, OrInvalid, invalid, is_invalid};
+pub use errors::{Context, Error, ErrorKind, OrInvalid, Result, find_error, invalid, is_invalid};
 pub use files::{Files, file_name};
 pub use logging::{TracingError, TracingGuard, init_tracing};
 pub use range_reader::RangeReader;

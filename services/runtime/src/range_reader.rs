@@ -52,7 +52,7 @@ impl Fetched {
 impl RangeReader {
     /// A reader of `url` fetching `window` bytes per request (at least 64 KiB); reads its size now. Call from
     /// async code; read from a blocking thread.
-    pub async fn open(files: &Files, url: &str, window: u64) -> anyhow::Result<Self> {
+    pub async fn open(files: &Files, url: &str, window: u64) -> crate::Result<Self> {
         let size = files.size(url).await?;
         Ok(Self {
             files: files.clone(),

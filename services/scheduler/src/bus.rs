@@ -230,6 +230,20 @@ pub enum BusError {
     Message(#[from] MessageError),
 }
 
+/// As a service error: the broker failing for now is transient; a forged state is refused; a stored
+/// message that cannot be read will not read on retry either.
+impl From<BusError> for plumbline_runtime::Error {
+    fn from(e: BusError) -> Self {
+        use plumbline_runtime::ErrorKind;
+        let kind = match &e {
+            BusError::Setup { .. } | BusError::Publish { .. } | BusError::State { .. } => ErrorKind::Transient,
+            BusError::Forged { .. } => ErrorKind::Forbidden,
+            BusError::Message(_) => ErrorKind::Internal,
+        };
+        Self::from_cause(kind, e)
+    }
+}
+
 fn setup(resource: &'static str) -> impl FnOnce(String) -> BusError {
     move |detail| BusError::Setup { resource, detail }
 }

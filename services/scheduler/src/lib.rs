@@ -3,7 +3,7 @@
 //!
 //! Everything a campaign cannot work without is checked here, before any tile is processed: a campaign
 //! whose inputs are unusable as a whole (no trajectory, a CRS PROJ does not know, no panorama index) stops
-//! with an [`plumbline_runtime::InvalidInput`] error naming the file and field. Single bad rows are skipped
+//! with an invalid-input [`plumbline_runtime::Error`] naming the file and field. Single bad rows are skipped
 //! and listed in [`Campaign::skipped`].
 //!
 //! The distributed path: [`messages`] (versioned task, result and state messages), [`bus`] (the JetStream

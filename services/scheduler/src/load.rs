@@ -62,14 +62,14 @@ pub struct Campaign {
 
 impl Campaign {
     /// The absolute path or URL of a manifest location.
-    pub fn url(&self, location: &Location) -> anyhow::Result<String> {
+    pub fn url(&self, location: &Location) -> plumbline_runtime::Result<String> {
         plumbline_campaign::resolve(&self.base, location.as_str()).or_invalid(location.as_str())
     }
 
     /// The URL of a file named by an index row, under the manifest's `images` prefix: a row naming an absolute
     /// URL or path, or climbing above the prefix with `..`, is refused (another agency's objects, worker-local
     /// files).
-    pub fn file_url(&self, prefix: &Location, file: &str) -> anyhow::Result<String> {
+    pub fn file_url(&self, prefix: &Location, file: &str) -> plumbline_runtime::Result<String> {
         let mut dir = self.url(prefix)?;
         if !dir.ends_with('/') {
             dir.push('/');
@@ -94,7 +94,7 @@ pub fn manifest_base(manifest_url: &str) -> String {
 
 /// Parse a manifest's bytes: JSON when `name` ends in `.json`, TOML otherwise; errors are invalid input
 /// naming the file.
-pub fn parse_manifest(name: &str, bytes: &[u8]) -> anyhow::Result<Manifest> {
+pub fn parse_manifest(name: &str, bytes: &[u8]) -> plumbline_runtime::Result<Manifest> {
     let text = std::str::from_utf8(bytes).or_invalid(&format!("{name}: not UTF-8 text"))?;
     if name.to_ascii_lowercase().ends_with(".json") {
         Manifest::from_json_str(text)
@@ -106,7 +106,7 @@ pub fn parse_manifest(name: &str, bytes: &[u8]) -> anyhow::Result<Manifest> {
 
 /// Read, validate and plan the campaign `manifest_url` names. Every problem that makes the campaign
 /// unusable as a whole is an invalid-input error; single bad rows are skipped and listed.
-pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<Campaign> {
+pub async fn load_campaign(files: &Files, manifest_url: &str) -> plumbline_runtime::Result<Campaign> {
     let name = file_name(manifest_url).to_owned();
     let manifest = parse_manifest(&name, &files.read(manifest_url).await?)?;
     if let Err(problems) = manifest.validate() {
@@ -196,7 +196,7 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> anyhow::Result<
         (plan, trajectory)
     })
     .await
-    .map_err(|e| anyhow::anyhow!("{name}: the planning task failed: {e}"))?;
+    .map_err(|e| plumbline_runtime::Error::internal(format!("{name}: the planning task failed: {e}")))?;
     let plan = plan.or_invalid(&name)?;
     for u in &plan.unplanned {
         skipped.push(SkippedInput {
@@ -227,8 +227,8 @@ pub(crate) fn enough_records(loaded: &LoadedTrajectory) -> Result<(), String> {
 /// The DG trajectory's input description, locations resolved.
 pub(crate) fn trajectory_input(
     source: &TrajectorySource,
-    resolve: &impl Fn(&Location) -> anyhow::Result<String>,
-) -> anyhow::Result<TrajectoryInput> {
+    resolve: &impl Fn(&Location) -> plumbline_runtime::Result<String>,
+) -> plumbline_runtime::Result<TrajectoryInput> {
     Ok(match source {
         TrajectorySource::Csv(CsvTrajectory { url, epsg, attitude, .. }) => TrajectoryInput {
             url: resolve(url)?,
@@ -256,7 +256,7 @@ async fn index(
     url: &str,
     stage: &str,
     skipped: &mut Vec<SkippedInput>,
-) -> anyhow::Result<Vec<IndexRow>> {
+) -> plumbline_runtime::Result<Vec<IndexRow>> {
     let bytes = files.read(url).await?;
     let table = read_index(url, &bytes).or_invalid("")?;
     skipped.extend(table.skipped.iter().map(|p| SkippedInput::row(stage, p)));

@@ -14,7 +14,7 @@ use plumbline_runtime::Files;
 use plumbline_scheduler::load_campaign;
 use plumbline_worker::{WorkerConfig, process_tile};
 
-fn main() -> anyhow::Result<()> {
+fn main() -> plumbline_runtime::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
     let Some(manifest) = args.first() else {
         eprintln!("usage: cargo bench -p plumbline-worker --bench tile -- CAMPAIGN.toml");
@@ -24,7 +24,7 @@ fn main() -> anyhow::Result<()> {
     runtime.block_on(run(manifest))
 }
 
-async fn run(manifest: &str) -> anyhow::Result<()> {
+async fn run(manifest: &str) -> plumbline_runtime::Result<()> {
     let files = Files::default();
     let t0 = Instant::now();
     let campaign = load_campaign(&files, manifest).await?;

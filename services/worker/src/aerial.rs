@@ -33,7 +33,7 @@ pub(crate) struct LoadedReference {
 /// The pinhole model of the block's camera: the manifest's metric interior orientation
 /// (Grejner-Brzezinska and Toth 2000, Table 2) in pixels, as the simulator flies it
 /// (`plumbline_synth::aerial::small_format_distorted`).
-pub fn frame_camera(interior: &InteriorOrientation) -> anyhow::Result<Pinhole> {
+pub fn frame_camera(interior: &InteriorOrientation) -> plumbline_runtime::Result<Pinhole> {
     let metric = MetricInterior {
         focal_mm: interior.focal_length_mm,
         xp_mm: interior.principal_point_mm[0],
@@ -73,7 +73,7 @@ pub(crate) async fn load(
     reach: FrameReach,
     area: MapBox,
     concurrency: usize,
-) -> anyhow::Result<Option<LoadedReference>> {
+) -> plumbline_runtime::Result<Option<LoadedReference>> {
     let Some(aerial) = &campaign.manifest.aerial else {
         return Ok(None);
     };
@@ -107,7 +107,7 @@ async fn orthophoto(
     campaign: &Campaign,
     spec: &OrthophotoSpec,
     area: MapBox,
-) -> anyhow::Result<(Option<AerialReference>, Vec<SkippedInput>)> {
+) -> plumbline_runtime::Result<(Option<AerialReference>, Vec<SkippedInput>)> {
     let (image_url, terrain_url) = (campaign.url(&spec.image)?, campaign.url(&spec.terrain)?);
     let mut problems = Vec::new();
     let image = match read_window(files, &image_url, area, campaign.epsg()).await {

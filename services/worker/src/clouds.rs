@@ -55,7 +55,7 @@ pub(crate) async fn process(
     config: &PoleConfig,
     features: &Arc<Vec<CadastreFeature>>,
     out: &mut PoleResults,
-) -> anyhow::Result<()> {
+) -> plumbline_runtime::Result<()> {
     let spans = campaign.plan.time_spans_of(tile);
     if spans.is_empty() {
         return Ok(());
@@ -335,7 +335,7 @@ async fn untimed_stream(
     url: &str,
     spec: Stream,
     trajectory: Arc<Trajectory>,
-) -> anyhow::Result<Searched> {
+) -> plumbline_runtime::Result<Searched> {
     // Thin stems need the scan lines' times to be told from grazed walls (`StemConfig::thin_stems`).
     let mut detector = StemDetector::new(StemConfig { thin_stems: false, ..spec.config.stems });
     let b = spec.fetch;

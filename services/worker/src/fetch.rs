@@ -10,7 +10,7 @@ use bytes::Bytes;
 use futures::StreamExt as _;
 use plumbline_campaign::progress::Progress;
 use plumbline_imaging::decode::DecodeError;
-use plumbline_runtime::{Files, is_invalid};
+use plumbline_runtime::Files;
 use plumbline_scheduler::SkippedInput;
 
 /// Why the worker skipped an input: the `reason` of its [`SkippedInput`], written by its stable [`name`]
@@ -85,15 +85,15 @@ impl SkipReason {
     /// Why the store did not deliver a file: missing (the store says it is not there, or the input is
     /// invalid), refused (the store will refuse it again: a bad scheme or URL, permissions), or a read failure
     /// a later attempt may get past (network, server, outage; also any error that is no store error).
-    pub(crate) fn of_store(e: &anyhow::Error) -> Self {
-        use plumbline_runtime::{StoreError, StoreErrorKind};
-        if is_invalid(e) {
-            return Self::Missing;
-        }
-        match e.chain().find_map(|c| c.downcast_ref::<StoreError>()).map(StoreError::kind) {
-            Some(StoreErrorKind::NotFound) => Self::Missing,
-            Some(StoreErrorKind::Permanent | StoreErrorKind::Config) => Self::Refused,
-            Some(StoreErrorKind::Retryable | StoreErrorKind::Conflict) | None => Self::Read,
+    pub(crate) fn of_store(e: &plumbline_runtime::Error) -> Self {
+        use plumbline_runtime::{ErrorKind, StoreError};
+        match e.kind() {
+            ErrorKind::Missing => Self::Missing,
+            // The store's own refusal (a bad URL or store option) against an input named wrongly.
+            ErrorKind::Invalid if e.find::<StoreError>().is_some() => Self::Refused,
+            ErrorKind::Invalid => Self::Missing,
+            ErrorKind::Forbidden => Self::Refused,
+            ErrorKind::Transient | ErrorKind::Internal => Self::Read,
         }
     }
 
@@ -139,13 +139,13 @@ pub(crate) async fn read_one(files: &Files, url: &str, stage: &str) -> Result<By
 
 /// Run CPU-bound work on rayon's pool (where the workflow crates' own parallel loops run, so that a tile's
 /// allocations stay with rayon's threads rather than spreading over tokio's short-lived blocking threads).
-pub(crate) async fn on_rayon<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
+pub(crate) async fn on_rayon<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> plumbline_runtime::Result<T> {
     let (tx, rx) = futures::channel::oneshot::channel();
     rayon::spawn(move || {
         // The receiver is gone only when the tile was abandoned; nothing to report to then.
         let _ = tx.send(work());
     });
-    rx.await.map_err(|_| anyhow::anyhow!("worker task failed: its rayon job panicked"))
+    rx.await.map_err(|_| plumbline_runtime::Error::internal("worker task failed: its rayon job panicked"))
 }
 
 /// Run `work` on tokio's blocking pool while forwarding what it counts to `progress` as done items of
@@ -154,7 +154,7 @@ pub(crate) async fn counted<T: Send + 'static>(
     progress: &dyn Progress,
     stage: &str,
     work: impl FnOnce(&AtomicU64) -> T + Send + 'static,
-) -> anyhow::Result<T> {
+) -> plumbline_runtime::Result<T> {
     let counter = Arc::new(AtomicU64::new(0));
     let count = Arc::clone(&counter);
     let job = blocking(move || work(&count));
@@ -188,8 +188,8 @@ pub(crate) fn refused(stage: &str, url: &str, e: &DecodeError) -> SkippedInput {
 }
 
 /// Run CPU-bound work on tokio's blocking pool.
-pub(crate) async fn blocking<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
-    tokio::task::spawn_blocking(work).await.map_err(|e| anyhow::anyhow!("worker task failed: {e}"))
+pub(crate) async fn blocking<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> plumbline_runtime::Result<T> {
+    tokio::task::spawn_blocking(work).await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))
 }
 
 #[cfg(test)]

@@ -74,7 +74,7 @@ pub(crate) async fn read_finished(
     url: &str,
     tile: &TileId,
     fingerprint: &str,
-) -> anyhow::Result<Option<TileOutputV1>> {
+) -> plumbline_runtime::Result<Option<TileOutputV1>> {
     if !files.exists(url).await? {
         return Ok(None);
     }

@@ -35,14 +35,14 @@ pub(crate) struct Placed {
 }
 
 /// The planned images of a tile: owned, then context, each in capture order.
-pub(crate) fn planned<'a>(campaign: &'a Campaign, tile: &Tile) -> anyhow::Result<Vec<&'a PlannedImage>> {
+pub(crate) fn planned<'a>(campaign: &'a Campaign, tile: &Tile) -> plumbline_runtime::Result<Vec<&'a PlannedImage>> {
     let plan = &campaign.plan;
     tile.owned
         .iter()
         .chain(&tile.context)
         .map(|id| {
             let image = usize::try_from(id.0).ok().and_then(|i| plan.panoramas.get(i));
-            image.filter(|p| p.id == *id).ok_or_else(|| anyhow::anyhow!("plan: panorama {id} is not in the plan"))
+            image.filter(|p| p.id == *id).ok_or_else(|| plumbline_runtime::Error::internal(format!("plan: panorama {id} is not in the plan")))
         })
         .collect()
 }
@@ -150,7 +150,7 @@ pub(crate) async fn camera_height(
     campaign: &Campaign,
     spec: &Panoramas,
     first: &PlannedImage,
-) -> anyhow::Result<f64> {
+) -> plumbline_runtime::Result<f64> {
     if let Some(h) = spec.camera_height_m {
         return Ok(h);
     }
@@ -166,7 +166,7 @@ pub(crate) async fn camera_height(
     let ground = match read_window(files, &url, around(e, n, 5.0), campaign.epsg()).await {
         Ok(Some(w)) => terrain(&w).ok().and_then(|t| height_at(&t, e, n)).ok_or_else(|| "no data there".to_owned()),
         Ok(None) => Err("the position lies outside it".to_owned()),
-        Err(e) if e.reason().retryable() => return Err(anyhow::anyhow!("{url}: {e}")),
+        Err(e) if e.reason().retryable() => return Err(plumbline_runtime::Error::transient(format!("{url}: {e}"))),
         Err(e) => Err(e.to_string()),
     };
     match ground {
@@ -187,7 +187,7 @@ pub(crate) async fn terrain_model(
     campaign: &Campaign,
     area: MapBox,
     skipped_items: &mut Vec<SkippedInput>,
-) -> anyhow::Result<Option<Arc<Terrain>>> {
+) -> plumbline_runtime::Result<Option<Arc<Terrain>>> {
     let Some(ortho) = campaign.manifest.aerial.as_ref().and_then(|a| a.orthophoto.as_ref()) else {
         return Ok(None);
     };
@@ -214,7 +214,7 @@ pub(crate) async fn rig(
     size: (u32, u32),
     camera_height: f64,
     skipped_items: &mut Vec<SkippedInput>,
-) -> anyhow::Result<PanoramaRig> {
+) -> plumbline_runtime::Result<PanoramaRig> {
     let camera = Equirectangular::new(size.0, size.1).map_err(|e| invalid(format!("panoramas: {e}")))?;
     let vehicle_mask = match &spec.vehicle_mask {
         Some(location) => {

@@ -53,7 +53,7 @@ pub(crate) async fn process(
     config: &PoleConfig,
     concurrency: usize,
     progress: &dyn Progress,
-) -> anyhow::Result<PoleResults> {
+) -> plumbline_runtime::Result<PoleResults> {
     let mut out = PoleResults::default();
     let depth = campaign.plan.depth_of(tile);
     let clouds = !campaign.manifest.point_clouds.is_empty();
@@ -115,13 +115,13 @@ async fn stream_camera(
     concurrency: usize,
     progress: &dyn Progress,
     out: &mut PoleResults,
-) -> anyhow::Result<PoleStream> {
+) -> plumbline_runtime::Result<PoleStream> {
     let spec = Arc::new(spec);
     let mut stream = PoleStream::new(config);
     let mut batches = frames.chunks(batch_size());
     let mut reading = batches.next().map(|b| read_batch(files, b, concurrency));
     while let Some(batch) = reading.take() {
-        let (read, read_s) = batch.await.map_err(|e| anyhow::anyhow!("worker task failed: {e}"))?;
+        let (read, read_s) = batch.await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))?;
         // The next batch is read while this one is decoded.
         reading = batches.next().map(|b| read_batch(files, b, concurrency));
         out.read_s += read_s;
@@ -211,7 +211,7 @@ async fn cadastre_features(
     fetch: &BBox,
     margin: f64,
     skipped_items: &mut Vec<SkippedInput>,
-) -> anyhow::Result<Vec<CadastreFeature>> {
+) -> plumbline_runtime::Result<Vec<CadastreFeature>> {
     let bbox = [fetch.min_east - margin, fetch.min_north - margin, fetch.max_east + margin, fetch.max_north + margin];
     let mut features = Vec::new();
     let mut layer_offset = 0u32;
@@ -250,7 +250,7 @@ async fn read_one(
     spec: Cadastre,
     crs: plumbline_campaign::Epsg,
     bbox: [f64; 4],
-) -> anyhow::Result<CadastreResult> {
+) -> plumbline_runtime::Result<CadastreResult> {
     blocking(move || {
         let source = CadastreSource::Bytes { name: &url, bytes: &bytes };
         read_cadastre(source, &spec, crs, Some(bbox)).map(|r| (r.features, r.diagnostics)).map_err(|e| e.to_string())

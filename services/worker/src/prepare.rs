@@ -71,7 +71,7 @@ pub(crate) async fn register(
     tile: &Tile<'_>,
     reference: Arc<AerialReference>,
     progress: &dyn Progress,
-) -> anyhow::Result<RegisteredTile> {
+) -> plumbline_runtime::Result<RegisteredTile> {
     let placed = tile.placed;
     let mut done: Vec<Option<PreparedPanorama>> = vec![None; placed.len()];
     // Through step 1 (successfully or not), whether its patch is still held or already released.
@@ -152,7 +152,7 @@ fn taken(done: &mut [Option<PreparedPanorama>], placed: &[Placed], k: usize) -> 
 }
 
 /// Read, decode and prepare `todo` (indices into the tile's placed panoramas), in order.
-async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>> {
+async fn stream(tile: &Tile<'_>, todo: &[usize]) -> plumbline_runtime::Result<Vec<Streamed>> {
     let (files, placed, rig, config, concurrency) = (tile.files, tile.placed, tile.rig, tile.config, tile.concurrency);
     let threads = rayon::current_num_threads().max(1);
     futures::stream::iter(todo.iter().copied())
@@ -167,7 +167,7 @@ async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>
         })
         .buffered(concurrency.max(1))
         .map(|read| {
-            let read = read.map_err(|e| anyhow::anyhow!("worker task failed: {e}"));
+            let read = read.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")));
             let (rig, mm) = (Arc::clone(rig), config.mm);
             async move {
                 let (k, bytes, read_s) = read?;
@@ -176,7 +176,7 @@ async fn stream(tile: &Tile<'_>, todo: &[usize]) -> anyhow::Result<Vec<Streamed>
                     Ok(bytes) => on_rayon(move || decode_and_prepare(&one, bytes, &rig, &mm)).await?,
                     Err(s) => (Err(s), 0.0),
                 };
-                anyhow::Ok(Streamed { index: k, prepared, read_s, decode_s })
+                Ok::<_, plumbline_runtime::Error>(Streamed { index: k, prepared, read_s, decode_s })
             }
         })
         .buffered(threads)

@@ -28,11 +28,11 @@ fn local_path(url: &str) -> Option<PathBuf> {
 #[derive(Debug, thiserror::Error)]
 pub(crate) enum WindowError {
     /// Reading the raster (or one of its mosaic tiles) from its store failed.
-    #[error("{0:#}")]
-    Store(anyhow::Error),
+    #[error("{0}")]
+    Store(plumbline_runtime::Error),
     /// The bytes are not a raster GDAL can read, or the window cannot be cut from it.
-    #[error("{0:#}")]
-    Raster(anyhow::Error),
+    #[error("{0}")]
+    Raster(plumbline_runtime::Error),
 }
 
 impl WindowError {
@@ -55,7 +55,7 @@ pub(crate) async fn read_window(
 ) -> Result<Option<Raster>, WindowError> {
     let local = local_path(url);
     if let Some(path) = local.as_ref().filter(|p| !p.exists()) {
-        return Err(WindowError::Store(invalid(format!("{}: no such file", path.display()))));
+        return Err(WindowError::Store(plumbline_runtime::Error::missing(format!("{}: no such file", path.display()))));
     }
     let bytes = match local {
         None => Some(files.read(url).await.map_err(WindowError::Store)?.to_vec()),
@@ -66,7 +66,7 @@ pub(crate) async fn read_window(
         _ => None,
     };
     let url = url.to_owned();
-    let window = blocking(move || -> anyhow::Result<Option<Raster>> {
+    let window = blocking(move || -> plumbline_runtime::Result<Option<Raster>> {
         let source = match (local, bytes, tiles) {
             (Some(path), _, _) => RasterSource::open_local(&path, Tiles::Over(&area))?,
             (None, bytes, Some(tiles)) => RasterSource::open_mosaic_bytes(&url, &bytes.unwrap_or_default(), tiles)?,
@@ -74,7 +74,7 @@ pub(crate) async fn read_window(
         };
         // A raster in another CRS would only "miss" every tile: say what is wrong instead.
         if let Some(epsg) = source.epsg().filter(|&e| e != crs) {
-            anyhow::bail!("{url}: the raster is in EPSG:{epsg}, the campaign in EPSG:{crs}; reproject it");
+            return Err(invalid(format!("{url}: the raster is in EPSG:{epsg}, the campaign in EPSG:{crs}; reproject it")));
         }
         Ok(source.window(&area)?)
     })
@@ -103,23 +103,25 @@ async fn read_tiles(
 
 /// The gray value of every pixel (`plumbline_imaging::radiometry`): band 1 for one band, the luma of bands 1–3
 /// for colour; 8-bit values as they are, deeper data stretched to 0–255.
-pub(crate) fn gray(raster: &Raster) -> anyhow::Result<GrayImage> {
+pub(crate) fn gray(raster: &Raster) -> plumbline_runtime::Result<GrayImage> {
     let (bands, eight_bit): (Vec<Vec<f32>>, bool) = match &raster.data {
         RasterData::U8(b) => (b.iter().map(|v| v.iter().map(|&x| f32::from(x)).collect()).collect(), true),
         RasterData::U16(b) => (b.iter().map(|v| v.iter().map(|&x| f32::from(x)).collect()).collect(), false),
         RasterData::F32(b) => (b.clone(), false),
     };
-    Ok(gray_from_bands(raster.width, raster.height, &bands, eight_bit)?)
+    gray_from_bands(raster.width, raster.height, &bands, eight_bit).map_err(|e| invalid(e.to_string()))
 }
 
 /// Band 1 as terrain heights, no-data values as NaN.
-pub(crate) fn terrain(raster: &Raster) -> anyhow::Result<Terrain> {
+pub(crate) fn terrain(raster: &Raster) -> plumbline_runtime::Result<Terrain> {
     let heights: Vec<f32> = match &raster.data {
         RasterData::F32(b) => b.first().cloned().unwrap_or_default(),
         RasterData::U8(b) => b.first().map(|band| band.iter().map(|&v| f32::from(v)).collect()).unwrap_or_default(),
         RasterData::U16(b) => b.first().map(|band| band.iter().map(|&v| f32::from(v)).collect()).unwrap_or_default(),
     };
-    anyhow::ensure!(heights.len() == raster.width * raster.height, "the terrain window has no band");
+    if heights.len() != raster.width * raster.height {
+        return Err(invalid("the terrain window has no band"));
+    }
     let nodata = raster.nodata;
     let heights = heights.into_iter().map(|v| if nodata == Some(f64::from(v)) { f32::NAN } else { v }).collect();
     Ok(Terrain { heights, width: raster.width, height: raster.height, geotransform: raster.geotransform })
@@ -247,7 +249,7 @@ mod tests {
     /// bytes GDAL rejects, are the input's fault.
     #[tokio::test]
     async fn window_failures_say_whether_a_retry_can_help() {
-        assert_eq!(WindowError::Store(anyhow::anyhow!("connection reset")).reason(), SkipReason::Read);
+        assert_eq!(WindowError::Store(plumbline_runtime::Error::transient("connection reset")).reason(), SkipReason::Read);
         // A scheme no store serves is refused for good, not retried as an outage.
         let files = Files::new(plumbline_runtime::S3Options::default());
         let e = files.read("gs://bucket/ortho.tif").await.unwrap_err();

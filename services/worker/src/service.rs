@@ -30,7 +30,7 @@ use async_nats::jetstream::{self, AckKind, consumer::PullConsumer};
 use futures::StreamExt as _;
 use futures::future::BoxFuture;
 use plumbline_campaign::CampaignId;
-use plumbline_runtime::Files;
+use plumbline_runtime::{Error, Files};
 use plumbline_scheduler::Campaign;
 use plumbline_scheduler::bus::{self, Bus, BusError, MAX_DELIVER, RESULTS_STREAM, TASKS_STREAM, WORKERS_CONSUMER};
 use plumbline_scheduler::messages::{Agency, CampaignStatus, FailureKind, TileDone, TileFailed, TileTask};
@@ -46,7 +46,7 @@ mod probe;
 
 use metrics::{Registry, WORKER_FAMILIES};
 use ops::Probe;
-pub use probe::{error_kind, ready};
+pub use probe::ready;
 
 /// The ops listener of a service: where to answer probes and scrapes, and a URL in the store to probe.
 #[derive(Debug)]
@@ -107,10 +107,10 @@ pub async fn serve(
     config: ServiceConfig,
     ops: Option<Ops>,
     shutdown: impl Future<Output = ()> + Send,
-) -> anyhow::Result<()> {
-    let stream = bus.js.get_stream(TASKS_STREAM).await.map_err(|e| anyhow::anyhow!("stream {TASKS_STREAM}: {e}"))?;
+) -> plumbline_runtime::Result<()> {
+    let stream = bus.js.get_stream(TASKS_STREAM).await.map_err(|e| Error::transient(format!("stream {TASKS_STREAM}: {e}")))?;
     let consumer: PullConsumer =
-        stream.get_consumer(WORKERS_CONSUMER).await.map_err(|e| anyhow::anyhow!("consumer {WORKERS_CONSUMER}: {e}"))?;
+        stream.get_consumer(WORKERS_CONSUMER).await.map_err(|e| Error::transient(format!("consumer {WORKERS_CONSUMER}: {e}")))?;
     let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
     let metrics = Registry::new(&WORKER_FAMILIES);
     let worker = Arc::new(Worker {
@@ -221,24 +221,25 @@ impl Worker {
         self.metrics.add("plumbline_worker_tasks_total", &[("outcome", outcome)], 1.0);
     }
 
-    fn count_error(&self, error: &anyhow::Error, action: &str) {
-        let kind = error_kind(error);
+    fn count_error(&self, error: &Error, action: &str) {
+        let kind = error.kind().name();
         self.metrics.add("plumbline_worker_task_errors_total", &[("kind", kind), ("action", action)], 1.0);
         self.count(action);
     }
 
-    /// Nak a retryable error with deliveries left; give up on anything else.
+    /// Nak an error with deliveries left unless the input is at fault (invalid, missing, forbidden: it would
+    /// fail again); give up on the rest.
     async fn retry_or_give_up(
         &self,
         message: &jetstream::Message,
         task: &TileTask,
         delivered: i64,
         attempts: u32,
-        error: anyhow::Error,
+        error: Error,
     ) {
-        let permanent = plumbline_runtime::is_invalid(&error);
+        let permanent = error.is_input();
         if !permanent && delivered < MAX_DELIVER {
-            tracing::warn!(error = %format!("{error:#}"), delivered, kind = error_kind(&error), "tile failed; retrying later");
+            tracing::warn!(error = %format!("{error:#}"), delivered, kind = %error.kind(), "tile failed; retrying later");
             reply(message, AckKind::Nak(Some(self.config.retry_delay))).await;
             self.count_error(&error, "retried");
             return;
@@ -255,7 +256,7 @@ impl Worker {
             attempts,
         };
         let published = match self.publish_result(task, failed.to_json()).await {
-            Ok(()) => self.bus.publish_dead(&failed).await.map_err(anyhow::Error::from),
+            Ok(()) => self.bus.publish_dead(&failed).await.map_err(Error::from),
             Err(e) => Err(e),
         };
         match published {
@@ -271,7 +272,7 @@ impl Worker {
     }
 
     /// Check the state, load the campaign, process (or read back) the tile.
-    async fn process(&self, task: &TileTask) -> anyhow::Result<Handled> {
+    async fn process(&self, task: &TileTask) -> plumbline_runtime::Result<Handled> {
         let Some((mut state, revision)) = self.bus.campaigns.get(&task.agency, &task.campaign).await? else {
             return Ok(Handled::Skipped("unknown campaign"));
         };
@@ -302,7 +303,7 @@ impl Worker {
             span.in_scope(|| runtime.block_on(attempt::attempt(&files, &owned, &tile, &config)))
         })
         .await
-        .map_err(|e| anyhow::anyhow!("tile task: {e}"))??;
+        .map_err(|e| Error::internal(format!("tile task: {e}")))??;
         tracing::info!(resumed = done.resumed, "tile written");
         if !done.resumed {
             self.observe_stages(&done);
@@ -319,7 +320,7 @@ impl Worker {
     }
 
     /// The task's campaign, loaded once per campaign and run.
-    async fn campaign(&self, task: &TileTask) -> anyhow::Result<Arc<Campaign>> {
+    async fn campaign(&self, task: &TileTask) -> plumbline_runtime::Result<Arc<Campaign>> {
         let key = (task.agency.clone(), task.campaign.clone(), task.run);
         if let Some(found) = self.campaigns.lock().ok().and_then(|c| c.get(&key).cloned()) {
             return Ok(found);
@@ -335,7 +336,7 @@ impl Worker {
     }
 
     /// Publish a result of `task` and wait for the stream's ack.
-    async fn publish_result(&self, task: &TileTask, payload: Vec<u8>) -> anyhow::Result<()> {
+    async fn publish_result(&self, task: &TileTask, payload: Vec<u8>) -> plumbline_runtime::Result<()> {
         let subject = bus::result_subject(&task.agency, &task.campaign);
         let failed = |e: String| BusError::Publish { subject: format!("{subject} ({RESULTS_STREAM})"), detail: e };
         let ack = self.bus.js.publish(subject.clone(), payload.into()).await.map_err(|e| failed(e.to_string()))?;

@@ -38,7 +38,7 @@ pub async fn process_tile(
     campaign: &Campaign,
     tile: &TileId,
     config: &WorkerConfig,
-) -> anyhow::Result<TileOutputV1> {
+) -> plumbline_runtime::Result<TileOutputV1> {
     process_tile_reporting(files, campaign, tile, config, &NoProgress).await
 }
 
@@ -54,7 +54,7 @@ pub async fn process_tile_reporting(
     tile: &TileId,
     config: &WorkerConfig,
     progress: &dyn Progress,
-) -> anyhow::Result<TileOutputV1> {
+) -> plumbline_runtime::Result<TileOutputV1> {
     let start = Instant::now();
     let Some(planned) = campaign.plan.tiles.tile(tile) else {
         return Err(invalid(format!("tile c{}_r{}: not in the campaign's plan", tile.col, tile.row)));
@@ -97,7 +97,7 @@ pub async fn process_tile_reporting(
 /// The height of the panoramic camera above the road that a tile's registration uses: the manifest's
 /// `panoramas.camera_height_m`, else the DG camera height minus the terrain model's height under the tile's
 /// first panorama. Invalid input when neither is available.
-pub async fn tile_camera_height(files: &Files, campaign: &Campaign, tile: &TileId) -> anyhow::Result<f64> {
+pub async fn tile_camera_height(files: &Files, campaign: &Campaign, tile: &TileId) -> plumbline_runtime::Result<f64> {
     let Some(planned) = campaign.plan.tiles.tile(tile) else {
         return Err(invalid(format!("tile c{}_r{}: not in the campaign's plan", tile.col, tile.row)));
     };
@@ -105,7 +105,7 @@ pub async fn tile_camera_height(files: &Files, campaign: &Campaign, tile: &TileI
         return Err(invalid("panoramas: missing; tiles are made of panoramas"));
     };
     let images = panoramas::planned(campaign, planned)?;
-    let first = images.iter().min_by(|a, b| a.time.total_cmp(&b.time)).ok_or_else(|| anyhow::anyhow!("empty tile"))?;
+    let first = images.iter().min_by(|a, b| a.time.total_cmp(&b.time)).ok_or_else(|| plumbline_runtime::Error::internal("empty tile"))?;
     panoramas::camera_height(files, campaign, spec, first).await
 }
 
@@ -118,7 +118,7 @@ async fn register(
     spec: &Panoramas,
     config: &WorkerConfig,
     progress: &dyn Progress,
-) -> anyhow::Result<Registered> {
+) -> plumbline_runtime::Result<Registered> {
     let mut out = Registered { result: None, skipped: Vec::new(), seconds: Vec::new() };
     let owned = tile.owned.len() as u64;
     if campaign.manifest.aerial.is_none() {
@@ -220,7 +220,7 @@ pub async fn run_tile(
     campaign: &Campaign,
     tile: &TileId,
     config: &WorkerConfig,
-) -> anyhow::Result<(TileOutputV1, bool)> {
+) -> plumbline_runtime::Result<(TileOutputV1, bool)> {
     run_tile_reporting(files, campaign, tile, config, &NoProgress).await
 }
 
@@ -232,7 +232,7 @@ pub async fn run_tile_reporting(
     tile: &TileId,
     config: &WorkerConfig,
     progress: &dyn Progress,
-) -> anyhow::Result<(TileOutputV1, bool)> {
+) -> plumbline_runtime::Result<(TileOutputV1, bool)> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
     let fingerprint = crate::fingerprint(campaign, tile, config);
     if let Some(done) = read_finished(files, &url, tile, &fingerprint).await? {

@@ -1,12 +1,12 @@
-//! The adjuster's metric families, its answers to the ops listener (readiness, metrics with the consumer's
-//! lag read at scrape time) and the error kinds of the results it naks.
+//! The adjuster's metric families and its answers to the ops listener (readiness, metrics with the
+//! consumer's lag read at scrape time).
 
 use futures::future::BoxFuture;
 use plumbline_worker::service::metrics::{Family, Kind};
 use plumbline_worker::service::ops::Probe;
-use plumbline_worker::service::{error_kind, ready};
+use plumbline_worker::service::ready;
 
-use super::{Adjuster, store_unavailable};
+use super::Adjuster;
 
 /// The adjuster's metric families.
 pub const ADJUSTER_FAMILIES: [Family; 6] = [
@@ -20,7 +20,7 @@ pub const ADJUSTER_FAMILIES: [Family; 6] = [
     (
         "plumbline_adjuster_retries_total",
         Kind::Counter,
-        "Results nakked for a later retry, by error kind (store, nats, invalid_input, other).",
+        "Results nakked for a later retry, by error kind (transient, internal, invalid, missing, forbidden).",
     ),
     ("plumbline_adjuster_queue_pending", Kind::Gauge, "Tile results not yet delivered to the adjuster."),
     ("plumbline_adjuster_queue_ack_pending", Kind::Gauge, "Tile results delivered and not yet answered."),
@@ -40,9 +40,4 @@ impl Probe for Adjuster {
             self.metrics.render()
         })
     }
-}
-
-/// The error kind of a nakked result, for the metrics.
-pub(super) fn kind_of(error: &anyhow::Error) -> &'static str {
-    if store_unavailable(error) { "store" } else { error_kind(error) }
 }

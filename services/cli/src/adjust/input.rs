@@ -25,7 +25,7 @@ pub async fn trajectory(ctx: &Context, args: &Args) -> anyhow::Result<LoadedTraj
     {
         return Err(invalid(format!("--epsg {e}: not a projected CRS")));
     }
-    load_trajectory(ctx.files(), &input, args.epsg).await
+    Ok(load_trajectory(ctx.files(), &input, args.epsg).await?)
 }
 
 /// How many observations of each kind one file contributed.

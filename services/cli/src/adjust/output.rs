@@ -15,7 +15,7 @@ pub async fn trajectory(
     input: &LoadedTrajectory,
     corrected: &Trajectory,
 ) -> anyhow::Result<Vec<String>> {
-    plumbline_runtime::trajectory::write_like_input(ctx.files(), prefix, "trajectory", input, corrected).await
+    Ok(plumbline_runtime::trajectory::write_like_input(ctx.files(), prefix, "trajectory", input, corrected).await?)
 }
 
 /// The summary: solver figures, rejected observations with their w-test values, skipped observations,

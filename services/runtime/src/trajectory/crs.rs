@@ -65,7 +65,7 @@ pub fn utm_zone_of(raw: &RawTrajectory) -> Result<u32, String> {
 
 /// Bring raw records with coordinates in `source` (an EPSG code; `None` = already in `target`) into the
 /// projected CRS `target` (`None`: keep projected records as they are), validated as a trajectory.
-pub fn into_projected(raw: RawTrajectory, source: Option<u32>, target: Option<u32>) -> anyhow::Result<Trajectory> {
+pub fn into_projected(raw: RawTrajectory, source: Option<u32>, target: Option<u32>) -> crate::Result<Trajectory> {
     let records: Vec<TrajectoryRecord> = match (raw.horizontal, source, target) {
         (Horizontal::Projected, None, _) | (Horizontal::Projected, _, None) => raw.into_map(no_projection)?,
         (Horizontal::Projected, Some(s), Some(t)) if s == t => raw.into_map(no_projection)?,
@@ -79,13 +79,13 @@ pub fn into_projected(raw: RawTrajectory, source: Option<u32>, target: Option<u3
             let to = Projection::new(s.unwrap_or(4326), t)?;
             raw.into_map(|lon, lat, h| to.project(lon, lat, h))?
         }
-        (Horizontal::Geographic, _, None) => anyhow::bail!("geographic coordinates need a projected CRS"),
+        (Horizontal::Geographic, _, None) => return Err(crate::invalid("geographic coordinates need a projected CRS")),
     };
     Ok(Trajectory::new(records, &ValidationLimits::default())?)
 }
 
 /// Express a trajectory in projected CRS `source` in `target`: projected easting/northing, or geographic.
-pub fn express(trajectory: &Trajectory, source: u32, target: u32) -> anyhow::Result<RawTrajectory> {
+pub fn express(trajectory: &Trajectory, source: u32, target: u32) -> crate::Result<RawTrajectory> {
     if !is_projected(target)? {
         let p = Projection::new(target, source)?;
         return Ok(RawTrajectory::from_map(trajectory.records(), |e, n, h| p.unproject(e, n, h))?);

@@ -63,7 +63,7 @@ pub async fn load_trajectory(
     files: &Files,
     input: &TrajectoryInput,
     target: Option<u32>,
-) -> anyhow::Result<LoadedTrajectory> {
+) -> crate::Result<LoadedTrajectory> {
     let bytes = files.read(&input.url).await?;
     let smrmsg = match (input.format, &input.smrmsg) {
         (TrajectoryFormat::Sbet, Some(u)) => Some((file_name(u).to_owned(), files.read(u).await?)),
@@ -73,7 +73,7 @@ pub async fn load_trajectory(
     let name = file_name(&input.url).to_owned();
     tokio::task::spawn_blocking(move || decode(&input, &bytes, smrmsg, target))
         .await
-        .map_err(|e| anyhow::anyhow!("{name}: the decoding task failed: {e}"))?
+        .map_err(|e| crate::Error::internal(format!("{name}: the decoding task failed: {e}")))?
 }
 
 /// Parse a trajectory file's bytes (and its smrmsg's, for an SBET) and bring it into `target`.
@@ -82,7 +82,7 @@ fn decode(
     bytes: &[u8],
     smrmsg: Option<(String, impl AsRef<[u8]>)>,
     target: Option<u32>,
-) -> anyhow::Result<LoadedTrajectory> {
+) -> crate::Result<LoadedTrajectory> {
     let name = file_name(&input.url).to_owned();
     let raw: RawTrajectory = match input.format {
         TrajectoryFormat::Csv => {
@@ -130,7 +130,7 @@ pub async fn write_like_input(
     stem: &str,
     input: &LoadedTrajectory,
     corrected: &Trajectory,
-) -> anyhow::Result<Vec<String>> {
+) -> crate::Result<Vec<String>> {
     let raw = match (input.horizontal, input.epsg) {
         (Horizontal::Geographic, Some(epsg)) => crs::express(corrected, epsg, 4326).or_invalid("output CRS")?,
         _ => RawTrajectory::from_map_projected(corrected.records()),

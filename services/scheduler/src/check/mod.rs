@@ -163,7 +163,8 @@ pub async fn check_inputs(files: &Files, manifest_url: &str, manifest: &Manifest
 async fn trajectory(c: &mut Checker<'_>, field: &str, source: &TrajectorySource) {
     let base = c.base.clone();
     let resolve = |l: &Location| {
-        plumbline_campaign::resolve(&base, l.as_str()).map_err(|e| anyhow::anyhow!("{}: {e}", l.as_str()))
+        plumbline_campaign::resolve(&base, l.as_str())
+            .map_err(|e| plumbline_runtime::invalid(format!("{}: {e}", l.as_str())))
     };
     let loaded = match trajectory_input(source, &resolve) {
         Ok(input) => load_trajectory(c.files, &input, Some(c.epsg)).await,

@@ -32,7 +32,7 @@ use std::sync::Arc;
 use std::time::Duration;
 
 use axum::Router;
-use plumbline_runtime::{Files, NatsConfig};
+use plumbline_runtime::{Error, Files, NatsConfig, Result};
 
 pub use auth::{Agency, MIN_TOKEN_LEN, Tokens};
 pub use openapi::openapi;
@@ -172,25 +172,25 @@ pub enum NatsAuth<'a> {
 /// Connect to NATS as `plumbline-{role}`, retrying the first connection for up to `wait` (an authorization
 /// failure is not retried: it would not pass). Every later disconnection and reconnection is logged; the
 /// client reconnects without limit.
-pub async fn connect(url: &str, auth: NatsAuth<'_>, role: &str, wait: Duration) -> anyhow::Result<async_nats::Client> {
+pub async fn connect(url: &str, auth: NatsAuth<'_>, role: &str, wait: Duration) -> Result<async_nats::Client> {
     let started = std::time::Instant::now();
     loop {
         let options = connect_options(auth, role).await?;
         match options.connect(url).await {
             Ok(client) => return Ok(client),
             Err(e) if e.kind() == async_nats::ConnectErrorKind::AuthorizationViolation => {
-                return Err(anyhow::anyhow!("NATS at {url} refused plumbline-{role}'s credentials: {e}"));
+                return Err(Error::forbidden(format!("NATS at {url} refused plumbline-{role}'s credentials: {e}")));
             }
             Err(e) if started.elapsed() < wait => {
                 tracing::warn!(url, error = %e, "NATS not reachable yet; retrying");
                 tokio::time::sleep(Duration::from_millis(500)).await;
             }
-            Err(e) => return Err(anyhow::anyhow!("connecting to NATS at {url}: {e}")),
+            Err(e) => return Err(Error::transient(format!("connecting to NATS at {url}: {e}"))),
         }
     }
 }
 
-async fn connect_options(auth: NatsAuth<'_>, role: &str) -> anyhow::Result<async_nats::ConnectOptions> {
+async fn connect_options(auth: NatsAuth<'_>, role: &str) -> Result<async_nats::ConnectOptions> {
     let mut options =
         async_nats::ConnectOptions::new().name(format!("plumbline-{role}")).event_callback(|event| async move {
             match event {
@@ -209,7 +209,7 @@ async fn connect_options(auth: NatsAuth<'_>, role: &str) -> anyhow::Result<async
         options = options
             .credentials_file(path)
             .await
-            .map_err(|e| anyhow::anyhow!("NATS credentials file {}: {e}", path.display()))?;
+            .map_err(|e| Error::invalid(format!("NATS credentials file {}: {e}", path.display())))?;
     }
     if let Some(ca) = &config.tls_ca_file {
         options = options.add_root_certificates(ca.clone()).require_tls(true);

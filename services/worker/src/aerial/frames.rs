@@ -43,7 +43,7 @@ pub(super) async fn load(
     ground: &[Point3<Map>],
     reach: FrameReach,
     concurrency: usize,
-) -> anyhow::Result<LoadedReference> {
+) -> plumbline_runtime::Result<LoadedReference> {
     let camera = frame_camera(&block.interior)?;
     let mut skipped_items = Vec::new();
     let heights =

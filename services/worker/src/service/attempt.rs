@@ -16,7 +16,8 @@ use crate::output::read_finished;
 use crate::stages::Timed;
 use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
 
-/// Inputs of a tile the store failed to deliver: retry the tile rather than skip them.
+/// Inputs of a tile the store failed to deliver: retry the tile rather than skip them (a
+/// [`plumbline_runtime::ErrorKind::Transient`] error made from it).
 #[derive(Debug)]
 pub struct UnreadInputs {
     /// The tile.
@@ -81,7 +82,7 @@ pub(crate) async fn attempt(
     campaign: &Campaign,
     tile: &TileId,
     config: &WorkerConfig,
-) -> anyhow::Result<Attempt> {
+) -> plumbline_runtime::Result<Attempt> {
     let url = format!("{}{}", campaign.output, tile_key(tile));
     let fingerprint = crate::fingerprint(campaign, tile, config);
     if let Some(output) = read_finished(files, &url, tile, &fingerprint).await? {
@@ -91,7 +92,8 @@ pub(crate) async fn attempt(
     let output = process_tile(files, campaign, tile, config).await?;
     let undelivered = unread(&output.skipped);
     if let Some(first) = undelivered.first() {
-        return Err(UnreadInputs { tile: *tile, count: undelivered.len(), first: first.detail.clone() }.into());
+        let unread = UnreadInputs { tile: *tile, count: undelivered.len(), first: first.detail.clone() };
+        return Err(plumbline_runtime::Error::from_cause(plumbline_runtime::ErrorKind::Transient, unread));
     }
     let started = std::time::Instant::now();
     let json = serde_json::to_vec_pretty(&TileOutput::V1(output.clone()))?;

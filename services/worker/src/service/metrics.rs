@@ -45,7 +45,7 @@ pub const WORKER_FAMILIES: [Family; 6] = [
     (
         "plumbline_worker_task_errors_total",
         Kind::Counter,
-        "Tile task errors by kind (invalid_input, store, unread_inputs, nats, other) and action (retried, \
+        "Tile task errors by kind (invalid, missing, forbidden, transient, internal) and action (retried, \
          dead_lettered).",
     ),
     (
