@@ -24,7 +24,7 @@ use crate::solve::{Solved, panorama_mount, solve_observed};
 use plumbline_runtime::gdal_write::geopackage_with_lines;
 
 /// The progress stage of the adjustment.
-pub const STAGE: &str = "adjustment";
+pub const STAGE: plumbline_campaign::Stage = plumbline_campaign::Stage::Adjustment;
 
 /// What [`finish`] produced.
 #[derive(Clone, Debug)]
@@ -63,7 +63,7 @@ pub async fn finish(
     let (owned, tiles, config) = (campaign.clone(), tiles.to_vec(), *config);
     let (sender, mut iterations) = futures::channel::mpsc::unbounded::<Iteration>();
     let count = i64::try_from(tiles.len()).unwrap_or(i64::MAX);
-    let span = tracing::info_span!("stage", stage = STAGE, tiles = count);
+    let span = tracing::info_span!("stage", stage = STAGE.name(), tiles = count);
     let task = tokio::task::spawn_blocking(move || {
         let _entered = span.enter();
         // Sending fails only when `finish` was dropped: then nobody listens any more.
@@ -145,11 +145,11 @@ pub fn stages(tiles: &[TileOutputV1], merged: &Merged, solved: &Solved) -> Vec<S
     }
     for s in by_name.values_mut() {
         s.total = tiles.len();
-        s.skipped = merged.skipped.iter().filter(|k| k.stage == s.name).count();
+        s.skipped = merged.skipped.iter().filter(|k| k.stage.name() == s.name).count();
     }
     let mut out: Vec<Stage> = by_name.into_values().collect();
     out.push(Stage {
-        name: STAGE.into(),
+        name: STAGE.name().to_owned(),
         done: 1,
         total: 1,
         skipped: solved.adjustment.skipped.len(),

@@ -9,7 +9,7 @@ use plumbline_navigation::ImageMotion;
 use plumbline_poles::{FrameReport, FrameReportV1};
 use plumbline_registration::TileResultV1;
 use plumbline_report::TileLine;
-use plumbline_scheduler::SkippedInput;
+use plumbline_scheduler::{SkipReason, SkippedInput, Stage};
 use plumbline_worker::TileOutputV1;
 
 /// What became of one panorama in its tile's registration.
@@ -140,12 +140,9 @@ fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1, stroked: &mut
     for d in &reg.images {
         let discarded = d.discarded.as_ref().map(|r| (r.key(), r.to_string()));
         if let Some((key, detail)) = &discarded {
-            out.skipped.push(SkippedInput {
-                stage: "registration".into(),
-                item: d.image.clone(),
-                reason: format!("discard.{key}"),
-                detail: format!("panorama {} (tile {}): {detail}", d.image, tile_name(tile)),
-            });
+            let detail = format!("panorama {} (tile {}): {detail}", d.image, tile_name(tile));
+            let reason = SkipReason::Discarded(key.clone());
+            out.skipped.push(SkippedInput::new(Stage::Registration, d.image.clone(), reason, detail));
         }
         out.images.push(ImageOutcome { image: d.image.clone(), time: d.time, tile: *tile, discarded });
         if !d.strokes.is_empty() && stroked.insert(d.image.clone()) {
@@ -155,12 +152,8 @@ fn add_images(out: &mut Merged, tile: &TileId, reg: &TileResultV1, stroked: &mut
 }
 
 fn duplicate_tie(tile: &TileId, id: &str) -> SkippedInput {
-    SkippedInput {
-        stage: "adjustment".into(),
-        item: id.to_owned(),
-        reason: "duplicate_tie".into(),
-        detail: format!("tie point {id} of tile {} already came from another tile; kept once", tile_name(tile)),
-    }
+    let detail = format!("tie point {id} of tile {} already came from another tile; kept once", tile_name(tile));
+    SkippedInput::new(Stage::Adjustment, id, SkipReason::DuplicateTie, detail)
 }
 
 /// The image-derived motions between neighbouring panoramas of a tile (Jende et al. 2017 §3.3): each diagnostic's

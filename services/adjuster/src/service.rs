@@ -29,14 +29,12 @@ use async_nats::jetstream::{self, AckKind, consumer::PullConsumer, kv};
 use futures::StreamExt as _;
 use plumbline_campaign::progress::NoProgress;
 use plumbline_geo::tiling::TileId;
+use plumbline_runtime::ops::{Ops, Probe, Registry, reply, serve_ops, with_heartbeat};
 use plumbline_runtime::{Error, Files};
-use plumbline_scheduler::SkippedInput;
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{Agency, CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
 use plumbline_scheduler::service::{Layout, load_agency_campaign};
-use plumbline_worker::service::metrics::Registry;
-use plumbline_worker::service::ops::{Probe, serve_ops};
-use plumbline_worker::service::{Ops, reply, with_heartbeat};
+use plumbline_scheduler::{SkipReason, SkippedInput, Stage};
 use plumbline_worker::{TileOutput, TileOutputV1, tile_key};
 use serde::{Deserialize, Serialize};
 
@@ -362,11 +360,8 @@ impl Adjuster {
                 tally.failed.len()
             )));
         }
-        campaign.skipped.extend(tally.failed.iter().map(|f| SkippedInput {
-            stage: "tiles".into(),
-            item: format!("tile {}", f.tile),
-            reason: "dead-lettered".into(),
-            detail: f.error.clone(),
+        campaign.skipped.extend(tally.failed.iter().map(|f| {
+            SkippedInput::new(Stage::Tiles, format!("tile {}", f.tile), SkipReason::DeadLettered, f.error.clone())
         }));
         let config = AdjusterConfig::from_manifest(&campaign.manifest);
         finish(&self.files, &campaign, &outputs, &config, &NoProgress).await?;

@@ -42,7 +42,7 @@ pub struct Args {
 pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let style = ProgressStyle::choose(args.quiet, args.json, std::io::stderr().is_terminal());
     let progress = reporter(style);
-    progress.begin("simulate", None);
+    progress.begin(plumbline_campaign::Stage::Simulate, None);
     let sim = simulate::Args {
         preset: args.preset,
         seed: args.seed,
@@ -62,7 +62,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         realism: args.realism,
     };
     let manifest = simulate::write(ctx, sim).await?;
-    progress.end("simulate");
+    progress.end(plumbline_campaign::Stage::Simulate);
     let outcome = run_campaign(ctx.files(), &manifest, false, 2, progress).await?;
     print_summary(&outcome);
     let truth = format!("{}/truth/road_markings.csv", args.out.trim_end_matches('/'));

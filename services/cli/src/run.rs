@@ -16,10 +16,8 @@ use plumbline_campaign::progress::Progress;
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::Files;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
-use plumbline_scheduler::{Campaign, SkippedInput, load_campaign};
-use plumbline_worker::{
-    POLES, REGISTRATION, TileOutput, TileOutputV1, WorkerConfig, process_tile_reporting, run_tile_reporting, tile_key,
-};
+use plumbline_scheduler::{Campaign, SkipReason, SkippedInput, Stage, load_campaign};
+use plumbline_worker::{TileOutput, TileOutputV1, WorkerConfig, process_tile_reporting, run_tile_reporting, tile_key};
 use serde::{Deserialize, Serialize};
 
 use crate::exit::NO_CONTROL;
@@ -96,10 +94,11 @@ pub async fn run_campaign(
     jobs: usize,
     progress: Arc<dyn Progress>,
 ) -> anyhow::Result<Outcome> {
-    progress.begin("load", None);
+    progress.begin(Stage::Load, None);
     let mut campaign = load_campaign(files, manifest).await?;
-    progress.note("load", &format!("{} panoramas in {} tiles", campaign.plan.panoramas.len(), tiles(&campaign).len()));
-    progress.end("load");
+    progress
+        .note(Stage::Load, &format!("{} panoramas in {} tiles", campaign.plan.panoramas.len(), tiles(&campaign).len()));
+    progress.end(Stage::Load);
     let plan_json = campaign.plan.to_json();
     files.write(&format!("{}plan.json", campaign.output), plan_json.clone()).await?;
     let stamp = RunStamp { campaign: digest(&[&files.read(manifest).await?, &plan_json]) };
@@ -112,14 +111,14 @@ pub async fn run_campaign(
 
     let config = WorkerConfig::from_manifest(&campaign.manifest);
     let ids = tiles(&campaign);
-    progress.begin("tiles", Some(ids.len() as u64));
+    progress.begin(Stage::Tiles, Some(ids.len() as u64));
     let plan = campaign.plan.tiles.tiles();
-    progress.begin(REGISTRATION, Some(plan.iter().map(|t| t.owned.len() as u64).sum()));
-    progress.begin(POLES, Some(plan.iter().map(|t| campaign.plan.depth_of(&t.id).len() as u64).sum()));
+    progress.begin(Stage::Registration, Some(plan.iter().map(|t| t.owned.len() as u64).sum()));
+    progress.begin(Stage::Poles, Some(plan.iter().map(|t| campaign.plan.depth_of(&t.id).len() as u64).sum()));
     let (outputs, resumed, failed) = process_tiles(files, &campaign, &ids, &config, reuse, jobs, &*progress).await?;
-    progress.end(REGISTRATION);
-    progress.end(POLES);
-    progress.end("tiles");
+    progress.end(Stage::Registration);
+    progress.end(Stage::Poles);
+    progress.end(Stage::Tiles);
     campaign.skipped.extend(failed);
     if outputs.is_empty() {
         anyhow::bail!(
@@ -164,21 +163,17 @@ async fn process_tiles(
                 resumed += usize::from(was_resumed);
                 matched += output.registration.as_ref().map_or(0, |r| r.summary.images_matched);
                 pole_matches += output.poles.len();
-                progress.note(REGISTRATION, &format!("{matched} matched with the aerial images"));
-                progress.note(POLES, &format!("{pole_matches} pole matches"));
+                progress.note(Stage::Registration, &format!("{matched} matched with the aerial images"));
+                progress.note(Stage::Poles, &format!("{pole_matches} pole matches"));
                 outputs.push(output);
-                progress.advance("tiles", 1);
+                progress.advance(Stage::Tiles, 1);
             }
             Err(e) if crate::exit::is_invalid(&e) => return Err(e.context(format!("tile {tile}"))),
             Err(e) => {
                 tracing::error!(%tile, error = %format!("{e:#}"), "tile failed; the campaign goes on without it");
-                failed.push(SkippedInput {
-                    stage: "tiles".into(),
-                    item: format!("tile {tile}"),
-                    reason: "failed".into(),
-                    detail: format!("tile {tile}: {e:#}"),
-                });
-                progress.skip("tiles", 1);
+                let detail = format!("tile {tile}: {e:#}");
+                failed.push(SkippedInput::new(Stage::Tiles, format!("tile {tile}"), SkipReason::Failed, detail));
+                progress.skip(Stage::Tiles, 1);
             }
         }
     }

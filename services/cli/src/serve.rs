@@ -56,12 +56,12 @@ pub struct OpsArgs {
 
 impl OpsArgs {
     /// Bind the listener, if asked for.
-    async fn bind(&self, store: &str) -> anyhow::Result<Option<plumbline_worker::service::Ops>> {
+    async fn bind(&self, store: &str) -> anyhow::Result<Option<plumbline_runtime::ops::Ops>> {
         let Some(addr) = &self.ops_listen else { return Ok(None) };
         let listener = tokio::net::TcpListener::bind(addr).await.or_invalid(&format!("--ops-listen {addr}"))?;
         tracing::info!(addr = %listener.local_addr()?, "ops listening");
         let store_probe = format!("{}/.readyz", store.trim_end_matches('/'));
-        Ok(Some(plumbline_worker::service::Ops { listener, store_probe }))
+        Ok(Some(plumbline_runtime::ops::Ops { listener, store_probe }))
     }
 }
 

@@ -10,6 +10,7 @@ use std::time::{Duration, Instant};
 
 use clap::Args as ClapArgs;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
+use plumbline_scheduler::Stage;
 use plumbline_scheduler::api::CampaignView;
 use plumbline_scheduler::messages::CampaignStatus;
 
@@ -80,18 +81,19 @@ pub async fn run(_ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let mut shown: Vec<(u64, u64)> = Vec::new();
     loop {
         for (i, stage) in view.stages.iter().enumerate() {
+            let Some(name) = api_stage(&stage.stage) else { continue };
             if shown.len() <= i {
-                progress.begin(&stage.stage, Some(stage.total));
-                shown.push((0, 0));
+                progress.begin(name, Some(stage.total));
+                shown.resize(i + 1, (0, 0));
             }
             let (done, failed) = shown[i];
-            progress.advance(&stage.stage, stage.done.saturating_sub(done));
-            progress.skip(&stage.stage, stage.failed.saturating_sub(failed));
+            progress.advance(name, stage.done.saturating_sub(done));
+            progress.skip(name, stage.failed.saturating_sub(failed));
             shown[i] = (done.max(stage.done), failed.max(stage.failed));
         }
-        progress.note("tiles", view.campaign.status.as_str());
+        progress.note(Stage::Tiles, view.campaign.status.as_str());
         if view.campaign.status.is_terminal() {
-            view.stages.iter().for_each(|s| progress.end(&s.stage));
+            view.stages.iter().filter_map(|s| api_stage(&s.stage)).for_each(|s| progress.end(s));
             break;
         }
         tokio::time::sleep(interval).await;
@@ -119,5 +121,14 @@ fn print_view(view: &CampaignView) {
     }
     if let Some(r) = &c.report {
         println!("  report: {r}");
+    }
+}
+
+/// A stage of the job API's status (`plan`, `tiles`, `adjust`) as a progress stage; `None` for a stage this
+/// client does not know (a newer server).
+fn api_stage(name: &str) -> Option<Stage> {
+    match name {
+        "adjust" => Some(Stage::Adjustment),
+        other => other.parse().ok(),
     }
 }

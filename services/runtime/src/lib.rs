@@ -14,6 +14,8 @@
 //!   to the files beside them; [`line_io`] — line layers read back from a GeoPackage and written as GeoJSON.
 //! - [`files`] — [`Files`]: whole files by path or URL; [`errors`] — [`Error`] with its [`ErrorKind`] (invalid, missing, forbidden, transient, internal), what callers decide exit codes, retries and skips on.
 //! - [`trajectory`] — trajectory files (CSV, SBET + smrmsg) into the campaign CRS and back.
+//! - [`ops`] — the roles' metrics registry, ops listener (`/healthz`, `/readyz`, `/metrics`) and JetStream
+//!   heartbeat.
 //! - [`logging`] — [`init_tracing`], with OTLP span export through [`telemetry`]; [`progress`] — bars, log
 //!   lines or JSON lines for long work.
 
@@ -27,6 +29,7 @@ pub mod gdal_read;
 pub mod gdal_write;
 pub mod line_io;
 pub mod logging;
+pub mod ops;
 pub mod progress;
 pub mod range_reader;
 mod raster_common;

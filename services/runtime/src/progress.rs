@@ -6,7 +6,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use std::time::{Duration, Instant};
 
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle as BarStyle};
-use plumbline_campaign::progress::{NoProgress, Progress};
+use plumbline_campaign::progress::{NoProgress, Progress, Stage};
 
 /// Shortest interval between two log or JSON lines of one stage (its end is always reported).
 const LINE_INTERVAL: Duration = Duration::from_secs(2);
@@ -167,17 +167,21 @@ impl Throttled {
 }
 
 impl Progress for Throttled {
-    fn begin(&self, stage: &str, total: Option<u64>) {
+    fn begin(&self, stage: Stage, total: Option<u64>) {
+        let stage = stage.name();
         self.stages.lock().unwrap_or_else(PoisonError::into_inner).remove(stage);
         self.update(stage, |c| c.total = total, "begin", true);
     }
-    fn advance(&self, stage: &str, n: u64) {
+    fn advance(&self, stage: Stage, n: u64) {
+        let stage = stage.name();
         self.update(stage, |c| c.done += n, "progress", false);
     }
-    fn skip(&self, stage: &str, n: u64) {
+    fn skip(&self, stage: Stage, n: u64) {
+        let stage = stage.name();
         self.update(stage, |c| c.skipped += n, "progress", false);
     }
-    fn note(&self, stage: &str, text: &str) {
+    fn note(&self, stage: Stage, text: &str) {
+        let stage = stage.name();
         let stages = self.stages.lock().unwrap_or_else(PoisonError::into_inner);
         let (count, elapsed) = stages
             .get(stage)
@@ -186,7 +190,8 @@ impl Progress for Throttled {
         drop(stages);
         self.emit(stage, "note", &count, elapsed, Some(text));
     }
-    fn end(&self, stage: &str) {
+    fn end(&self, stage: Stage) {
+        let stage = stage.name();
         self.update(stage, |_| {}, "end", true);
     }
 }
@@ -228,24 +233,25 @@ impl Bars {
 }
 
 impl Progress for Bars {
-    fn begin(&self, stage: &str, total: Option<u64>) {
-        let bar = self.make(stage, total);
-        if let Some(old) = self.bars.lock().unwrap_or_else(PoisonError::into_inner).insert(stage.to_owned(), bar) {
+    fn begin(&self, stage: Stage, total: Option<u64>) {
+        let bar = self.make(stage.name(), total);
+        if let Some(old) = self.bars.lock().unwrap_or_else(PoisonError::into_inner).insert(stage.name().to_owned(), bar)
+        {
             old.finish_and_clear();
         }
     }
-    fn advance(&self, stage: &str, n: u64) {
-        self.with(stage, |b| b.inc(n));
+    fn advance(&self, stage: Stage, n: u64) {
+        self.with(stage.name(), |b| b.inc(n));
     }
-    fn skip(&self, stage: &str, n: u64) {
-        self.with(stage, |b| b.inc(n));
+    fn skip(&self, stage: Stage, n: u64) {
+        self.with(stage.name(), |b| b.inc(n));
     }
-    fn note(&self, stage: &str, text: &str) {
+    fn note(&self, stage: Stage, text: &str) {
         let text = text.to_owned();
-        self.with(stage, |b| b.set_message(text));
+        self.with(stage.name(), |b| b.set_message(text));
     }
-    fn end(&self, stage: &str) {
-        self.with(stage, ProgressBar::finish);
+    fn end(&self, stage: Stage) {
+        self.with(stage.name(), ProgressBar::finish);
     }
 }
 
@@ -286,18 +292,18 @@ mod tests {
     #[test]
     fn throttled_reporters_count_from_many_threads() {
         let p = Throttled::new(Sink::Log);
-        p.begin("tiles", Some(400));
+        p.begin(Stage::Tiles, Some(400));
         std::thread::scope(|s| {
             for _ in 0..4 {
                 s.spawn(|| {
                     for _ in 0..100 {
-                        p.advance("tiles", 1);
+                        p.advance(Stage::Tiles, 1);
                     }
                 });
             }
         });
-        p.skip("tiles", 3);
-        p.end("tiles");
+        p.skip(Stage::Tiles, 3);
+        p.end(Stage::Tiles);
         let stages = p.stages.lock().unwrap();
         assert_eq!(stages["tiles"].count, StageCount { done: 400, skipped: 3, total: Some(400) });
     }

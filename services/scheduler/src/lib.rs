@@ -19,4 +19,5 @@ pub mod messages;
 pub mod service;
 
 pub use check::{InputCheck, check_inputs};
-pub use load::{Campaign, SkippedInput, load_campaign, manifest_base, parse_manifest};
+pub use load::{Campaign, load_campaign, manifest_base, parse_manifest};
+pub use plumbline_campaign::{SkipReason, SkippedInput, Stage};

@@ -4,40 +4,14 @@
 
 use plumbline_campaign::manifest::{CsvTrajectory, SbetTrajectory, TrajectorySource};
 use plumbline_campaign::plan::{CampaignPlan, plan_campaign};
-use plumbline_campaign::tables::{ExteriorRow, IndexRow, RowProblem, Table, read_exterior, read_index};
-use plumbline_campaign::{Location, Manifest, ManifestV1, Problem};
+use plumbline_campaign::tables::{ExteriorRow, IndexRow, Table, read_exterior, read_index};
+use plumbline_campaign::{Location, Manifest, ManifestV1, Problem, SkipReason, SkippedInput, Stage};
 use plumbline_geo::Trajectory;
 use plumbline_geo::formats::AttitudeConvention;
 use plumbline_geo::tiling::TilingParams;
 use plumbline_runtime::errors::{OrInvalid, invalid};
 use plumbline_runtime::trajectory::{LoadedTrajectory, TrajectoryFormat, TrajectoryInput, load_trajectory};
 use plumbline_runtime::{Files, file_name};
-use serde::{Deserialize, Serialize};
-
-/// An input item left out while loading or processing, and why (the report lists them).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
-pub struct SkippedInput {
-    /// The stage that skipped it (`load`, `registration`, `poles`, `cadastre`, …).
-    pub stage: String,
-    /// The item: file, record or feature.
-    pub item: String,
-    /// Short reason class, for counting.
-    pub reason: String,
-    /// The full message, naming file, record and field.
-    pub detail: String,
-}
-
-impl SkippedInput {
-    /// A skipped table row.
-    pub fn row(stage: &str, problem: &RowProblem) -> Self {
-        Self {
-            stage: stage.to_owned(),
-            item: format!("{} line {}", problem.file, problem.line),
-            reason: problem.field.as_ref().map_or_else(|| "row".to_owned(), |f| format!("bad {f}")),
-            detail: problem.to_string(),
-        }
-    }
-}
 
 /// A campaign ready to process.
 #[derive(Clone, Debug)]
@@ -152,12 +126,8 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> plumbline_runti
                 Ok(r) => Some(r.trajectory),
                 Err(e) => {
                     tracing::warn!(file = %url, error = %e, "reference trajectory skipped");
-                    skipped.push(SkippedInput {
-                        stage: "load".into(),
-                        item: url.clone(),
-                        reason: "reference".into(),
-                        detail: format!("reference trajectory {url}: {e:#}"),
-                    });
+                    let detail = format!("reference trajectory {url}: {e:#}");
+                    skipped.push(SkippedInput::new(Stage::Load, url.clone(), SkipReason::Reference, detail));
                     None
                 }
             }
@@ -171,20 +141,20 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> plumbline_runti
              not supported yet)"
         )));
     };
-    let pano_rows = index(files, &resolve(&panoramas.index)?, "load", &mut skipped).await?;
+    let pano_rows = index(files, &resolve(&panoramas.index)?, Stage::Load, &mut skipped).await?;
     if pano_rows.is_empty() {
         return Err(invalid(format!("{}: no usable panorama rows", resolve(&panoramas.index)?)));
     }
     let mut depth_rows = Vec::new();
     for camera in &manifest.depth {
-        depth_rows.push(index(files, &resolve(&camera.index)?, "load", &mut skipped).await?);
+        depth_rows.push(index(files, &resolve(&camera.index)?, Stage::Load, &mut skipped).await?);
     }
     let aerial_frames = match manifest.aerial.as_ref().and_then(|a| a.frames.as_ref()) {
         Some(block) => {
             let url = resolve(&block.index)?;
             let bytes = files.read(&url).await?;
             let table: Table<ExteriorRow> = read_exterior(&url, &bytes).or_invalid("")?;
-            skipped.extend(table.skipped.iter().map(|p| SkippedInput::row("load", p)));
+            skipped.extend(table.skipped.iter().map(|p| SkippedInput::row(Stage::Load, p)));
             table.rows
         }
         None => Vec::new(),
@@ -199,12 +169,9 @@ pub async fn load_campaign(files: &Files, manifest_url: &str) -> plumbline_runti
     .map_err(|e| plumbline_runtime::Error::internal(format!("{name}: the planning task failed: {e}")))?;
     let plan = plan.or_invalid(&name)?;
     for u in &plan.unplanned {
-        skipped.push(SkippedInput {
-            stage: "plan".into(),
-            item: format!("{} {}", u.source, u.image_id),
-            reason: "outside_trajectory".into(),
-            detail: format!("{} image {}: {}", u.source, u.image_id, u.reason),
-        });
+        let detail = format!("{} image {}: {}", u.source, u.image_id, u.reason);
+        let item = format!("{} {}", u.source, u.image_id);
+        skipped.push(SkippedInput::new(Stage::Plan, item, SkipReason::OutsideTrajectory, detail));
     }
     if plan.panoramas.is_empty() {
         return Err(invalid(format!("{name}: no panorama lies within the trajectory's time span")));
@@ -254,7 +221,7 @@ pub(crate) fn trajectory_input(
 async fn index(
     files: &Files,
     url: &str,
-    stage: &str,
+    stage: Stage,
     skipped: &mut Vec<SkippedInput>,
 ) -> plumbline_runtime::Result<Vec<IndexRow>> {
     let bytes = files.read(url).await?;

@@ -24,6 +24,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use plumbline_campaign::CadastreFeature;
 use plumbline_campaign::manifest::{CloudTime, PointCloud};
+use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::{BBox, TileId};
@@ -38,7 +39,7 @@ use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
 use plumbline_runtime::{CrsTransform, Files};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{SkipReason, blocking, skipped};
+use crate::fetch::{blocking, reason_of_store, skipped};
 use crate::output::PoleResults;
 use crate::panoramas::position_sigma;
 
@@ -67,7 +68,7 @@ pub(crate) async fn process(
         let url = match campaign.url(&cloud.url) {
             Ok(url) => url,
             Err(e) => {
-                out.skipped.push(skipped("poles", cloud.url.as_str(), SkipReason::Url, format!("{e:#}")));
+                out.skipped.push(skipped(Stage::Poles, cloud.url.as_str(), SkipReason::Url, format!("{e:#}")));
                 continue;
             }
         };
@@ -81,7 +82,7 @@ pub(crate) async fn process(
         let reproject = match check_header(&header, cloud, campaign.manifest.crs.0, &url) {
             Ok(r) => r,
             Err(detail) => {
-                out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+                out.skipped.push(skipped(Stage::Poles, &url, SkipReason::Refused, detail));
                 continue;
             }
         };
@@ -91,15 +92,15 @@ pub(crate) async fn process(
         let z_unit = match height_unit(&header, &url) {
             Ok(u) => u,
             Err(detail) => {
-                out.skipped.push(skipped("poles", &url, SkipReason::Refused, detail));
+                out.skipped.push(skipped(Stage::Poles, &url, SkipReason::Refused, detail));
                 continue;
             }
         };
         let reader = match RangeReader::open(files, &url, DEFAULT_WINDOW).await {
             Ok(r) => r,
             Err(e) => {
-                let reason = SkipReason::of_store(&e);
-                out.skipped.push(skipped("poles", &url, reason, format!("{url}: cannot be read: {e:#}")));
+                let reason = reason_of_store(&e);
+                out.skipped.push(skipped(Stage::Poles, &url, reason, format!("{url}: cannot be read: {e:#}")));
                 continue;
             }
         };
@@ -129,7 +130,7 @@ pub(crate) async fn process(
         out.process_s += t1.elapsed().as_secs_f64();
         if let Err(e) = read {
             let detail = format!("{e} (the slices before it are used)");
-            out.skipped.push(skipped("poles", &url, SkipReason::Decode, detail));
+            out.skipped.push(skipped(Stage::Poles, &url, SkipReason::Decode, detail));
         }
         report_counts(&url, &counts, out);
         tracing::debug!(cloud = %url, ?counts, frames = found.len(), "point cloud searched");
@@ -420,8 +421,8 @@ async fn read_header(files: &Files, url: &str) -> Result<LasHeader, SkippedInput
     let (prefix, len) = files
         .read_prefix(url, LAS_PREFIX_BYTES as u64)
         .await
-        .map_err(|e| skipped("poles", url, SkipReason::of_store(&e), format!("{url}: cannot be read: {e:#}")))?;
-    parse_las_header(url, &prefix, Some(len)).map_err(|e| skipped("poles", url, SkipReason::Decode, e.to_string()))
+        .map_err(|e| skipped(Stage::Poles, url, reason_of_store(&e), format!("{url}: cannot be read: {e:#}")))?;
+    parse_las_header(url, &prefix, Some(len)).map_err(|e| skipped(Stage::Poles, url, SkipReason::Decode, e.to_string()))
 }
 
 /// Whether the cloud's bounds (in the campaign's CRS: their corners and edge middles transformed) come within
@@ -504,7 +505,7 @@ fn report_counts(url: &str, c: &CloudCounts, out: &mut PoleResults) {
              and were not used",
             c.late, c.points
         );
-        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+        out.skipped.push(skipped(Stage::Poles, url, SkipReason::Time, detail));
     }
     if c.ambiguous > 0 {
         let detail = format!(
@@ -512,11 +513,11 @@ fn report_counts(url: &str, c: &CloudCounts, out: &mut PoleResults) {
              which pass scanned them)",
             c.ambiguous
         );
-        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+        out.skipped.push(skipped(Stage::Poles, url, SkipReason::Time, detail));
     }
     if c.off_trajectory > 0 {
         let detail = format!("{url}: {} time slices lie outside the DG trajectory and were not used", c.off_trajectory);
-        out.skipped.push(skipped("poles", url, SkipReason::Time, detail));
+        out.skipped.push(skipped(Stage::Poles, url, SkipReason::Time, detail));
     }
 }
 

@@ -9,110 +9,28 @@ use std::time::Duration;
 use bytes::Bytes;
 use futures::StreamExt as _;
 use plumbline_campaign::progress::Progress;
+use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_imaging::decode::DecodeError;
 use plumbline_runtime::Files;
-use plumbline_scheduler::SkippedInput;
 
-/// Why the worker skipped an input: the `reason` of its [`SkippedInput`], written by its stable [`name`]
-/// (the tile output's JSON keeps these strings) and read back by the same table, so the retry decision
-/// ([`SkipReason::retryable`]) cannot drift from what the readers write.
-///
-/// [`name`]: SkipReason::name
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub(crate) enum SkipReason {
-    /// The file does not exist (the store said so).
-    Missing,
-    /// The store failed to deliver the file (network, server, outage): a later attempt may succeed.
-    Read,
-    /// The store refuses the file for good (unsupported scheme, permissions, an invalid key).
-    Refused,
-    /// The bytes are not a readable image.
-    Decode,
-    /// The image has another size than expected, or its header claims more pixels than the budget.
-    Size,
-    /// The file's URL cannot be formed from the manifest.
-    Url,
-    /// The item's time lies outside the trajectory.
-    Time,
-    /// A depth frame the pole pipeline could not use.
-    Frame,
-    /// The depth camera cannot be built from the manifest.
-    Camera,
-    /// The cadastre file cannot be opened.
-    Open,
-    /// The raster (orthophoto or terrain model) does not cover the tile.
-    Outside,
-}
-
-impl SkipReason {
-    /// Every reason, for reading names back.
-    pub(crate) const ALL: [Self; 11] = [
-        Self::Missing,
-        Self::Read,
-        Self::Refused,
-        Self::Decode,
-        Self::Size,
-        Self::Url,
-        Self::Time,
-        Self::Frame,
-        Self::Camera,
-        Self::Open,
-        Self::Outside,
-    ];
-
-    /// The stable name in `SkippedInput::reason`.
-    pub(crate) const fn name(self) -> &'static str {
-        match self {
-            Self::Missing => "missing",
-            Self::Read => "read",
-            Self::Refused => "refused",
-            Self::Decode => "decode",
-            Self::Size => "size",
-            Self::Url => "url",
-            Self::Time => "time",
-            Self::Frame => "frame",
-            Self::Camera => "camera",
-            Self::Open => "open",
-            Self::Outside => "outside",
-        }
-    }
-
-    /// The reason a skipped item's `reason` names, if it is one of these.
-    pub(crate) fn of(name: &str) -> Option<Self> {
-        Self::ALL.into_iter().find(|r| r.name() == name)
-    }
-
-    /// Why the store did not deliver a file: missing (the store says it is not there, or the input is
-    /// invalid), refused (the store will refuse it again: a bad scheme or URL, permissions), or a read failure
-    /// a later attempt may get past (network, server, outage; also any error that is no store error).
-    pub(crate) fn of_store(e: &plumbline_runtime::Error) -> Self {
-        use plumbline_runtime::{ErrorKind, StoreError};
-        match e.kind() {
-            ErrorKind::Missing => Self::Missing,
-            // The store's own refusal (a bad URL or store option) against an input named wrongly.
-            ErrorKind::Invalid if e.find::<StoreError>().is_some() => Self::Refused,
-            ErrorKind::Invalid => Self::Missing,
-            ErrorKind::Forbidden => Self::Refused,
-            ErrorKind::Transient | ErrorKind::Internal => Self::Read,
-        }
-    }
-
-    /// Whether a later attempt may succeed: the store failed to deliver, the input itself may be fine.
-    pub(crate) const fn retryable(self) -> bool {
-        matches!(self, Self::Read)
+/// Why the store did not deliver a file: missing (the store says it is not there, or the input is invalid),
+/// refused (the store will refuse it again: a bad scheme or URL, permissions), or a read failure a later
+/// attempt may get past (network, server, outage; also any error that is not the input's).
+pub(crate) fn reason_of_store(e: &plumbline_runtime::Error) -> SkipReason {
+    use plumbline_runtime::{ErrorKind, StoreError};
+    match e.kind() {
+        ErrorKind::Missing => SkipReason::Missing,
+        // The store's own refusal (a bad URL or store option) against an input named wrongly.
+        ErrorKind::Invalid if e.find::<StoreError>().is_some() => SkipReason::Refused,
+        ErrorKind::Invalid => SkipReason::Missing,
+        ErrorKind::Forbidden => SkipReason::Refused,
+        ErrorKind::Transient | ErrorKind::Internal => SkipReason::Read,
     }
 }
 
-impl AsRef<str> for SkipReason {
-    fn as_ref(&self) -> &str {
-        self.name()
-    }
-}
-
-/// A skipped item of `stage`; `reason` is a [`SkipReason`] (or another crate's reason name, e.g. a cadastre
-/// diagnostic's kind).
-pub(crate) fn skipped(stage: &str, item: &str, reason: impl AsRef<str>, detail: String) -> SkippedInput {
-    SkippedInput { stage: stage.to_owned(), item: item.to_owned(), reason: reason.as_ref().to_owned(), detail }
+/// A skipped item of `stage`.
+pub(crate) fn skipped(stage: Stage, item: &str, reason: SkipReason, detail: String) -> SkippedInput {
+    SkippedInput::new(stage, item, reason, detail)
 }
 
 /// Read `urls` with at most `concurrency` reads in flight, in order. A missing or unreadable file becomes a
@@ -121,7 +39,7 @@ pub(crate) async fn read_all(
     files: &Files,
     urls: &[String],
     concurrency: usize,
-    stage: &str,
+    stage: Stage,
 ) -> Vec<Result<Bytes, SkippedInput>> {
     futures::stream::iter(urls.iter().map(|url| read_one(files, url, stage)))
         .buffered(concurrency.max(1))
@@ -130,16 +48,15 @@ pub(crate) async fn read_all(
 }
 
 /// Read one file; a missing or unreadable one becomes a skipped item of `stage` ([`SkipReason::of_store`]).
-pub(crate) async fn read_one(files: &Files, url: &str, stage: &str) -> Result<Bytes, SkippedInput> {
-    files
-        .read(url)
-        .await
-        .map_err(|e| skipped(stage, url, SkipReason::of_store(&e), format!("{url}: cannot be read: {e:#}")))
+pub(crate) async fn read_one(files: &Files, url: &str, stage: Stage) -> Result<Bytes, SkippedInput> {
+    files.read(url).await.map_err(|e| skipped(stage, url, reason_of_store(&e), format!("{url}: cannot be read: {e:#}")))
 }
 
 /// Run CPU-bound work on rayon's pool (where the workflow crates' own parallel loops run, so that a tile's
 /// allocations stay with rayon's threads rather than spreading over tokio's short-lived blocking threads).
-pub(crate) async fn on_rayon<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> plumbline_runtime::Result<T> {
+pub(crate) async fn on_rayon<T: Send + 'static>(
+    work: impl FnOnce() -> T + Send + 'static,
+) -> plumbline_runtime::Result<T> {
     let (tx, rx) = futures::channel::oneshot::channel();
     rayon::spawn(move || {
         // The receiver is gone only when the tile was abandoned; nothing to report to then.
@@ -152,7 +69,7 @@ pub(crate) async fn on_rayon<T: Send + 'static>(work: impl FnOnce() -> T + Send 
 /// `stage` (polled four times a second, and once more at the end).
 pub(crate) async fn counted<T: Send + 'static>(
     progress: &dyn Progress,
-    stage: &str,
+    stage: Stage,
     work: impl FnOnce(&AtomicU64) -> T + Send + 'static,
 ) -> plumbline_runtime::Result<T> {
     let counter = Arc::new(AtomicU64::new(0));
@@ -182,14 +99,18 @@ pub(crate) async fn counted<T: Send + 'static>(
 /// refused (over the pixel budget, other than expected, empty), [`SkipReason::Decode`] when its bytes were.
 /// The detail is the decoder's message, which names the file and the size found against the budget or the
 /// size expected.
-pub(crate) fn refused(stage: &str, url: &str, e: &DecodeError) -> SkippedInput {
+pub(crate) fn refused(stage: Stage, url: &str, e: &DecodeError) -> SkippedInput {
     let reason = if e.is_size() { SkipReason::Size } else { SkipReason::Decode };
     skipped(stage, url, reason, e.to_string())
 }
 
 /// Run CPU-bound work on tokio's blocking pool.
-pub(crate) async fn blocking<T: Send + 'static>(work: impl FnOnce() -> T + Send + 'static) -> plumbline_runtime::Result<T> {
-    tokio::task::spawn_blocking(work).await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))
+pub(crate) async fn blocking<T: Send + 'static>(
+    work: impl FnOnce() -> T + Send + 'static,
+) -> plumbline_runtime::Result<T> {
+    tokio::task::spawn_blocking(work)
+        .await
+        .map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))
 }
 
 #[cfg(test)]
@@ -201,19 +122,19 @@ mod tests {
     struct Tally(std::sync::Mutex<Vec<(String, u64)>>);
 
     impl Progress for Tally {
-        fn begin(&self, _: &str, _: Option<u64>) {}
-        fn advance(&self, stage: &str, n: u64) {
-            self.0.lock().unwrap().push((stage.to_owned(), n));
+        fn begin(&self, _: Stage, _: Option<u64>) {}
+        fn advance(&self, stage: Stage, n: u64) {
+            self.0.lock().unwrap().push((stage.name().to_owned(), n));
         }
-        fn skip(&self, _: &str, _: u64) {}
-        fn note(&self, _: &str, _: &str) {}
-        fn end(&self, _: &str) {}
+        fn skip(&self, _: Stage, _: u64) {}
+        fn note(&self, _: Stage, _: &str) {}
+        fn end(&self, _: Stage) {}
     }
 
     #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
     async fn counted_work_reaches_the_progress_while_it_runs_and_in_full() {
         let tally = Tally::default();
-        let out = counted(&tally, "registration", |count| {
+        let out = counted(&tally, Stage::Registration, |count| {
             for _ in 0..7 {
                 count.fetch_add(1, Ordering::Relaxed);
                 std::thread::sleep(Duration::from_millis(120));
@@ -234,25 +155,26 @@ mod tests {
     /// every name reads back to its reason, so the retry decision sees what the readers wrote.
     #[test]
     fn skip_reasons_keep_their_names_and_read_back() {
-        let names = SkipReason::ALL.map(SkipReason::name);
+        use SkipReason::*;
+        let worker = [Missing, Read, Refused, Decode, Size, Url, Time, Frame, Camera, Open, Outside];
+        let names: Vec<String> = worker.iter().map(|r| r.name().into_owned()).collect();
         let expected =
             ["missing", "read", "refused", "decode", "size", "url", "time", "frame", "camera", "open", "outside"];
         assert_eq!(names, expected);
-        for r in SkipReason::ALL {
-            assert_eq!(SkipReason::of(r.name()), Some(r));
+        for r in &worker {
+            assert_eq!(r.name().parse::<SkipReason>().as_ref(), Ok(r));
         }
-        assert_eq!(SkipReason::of("unknown_class"), None);
-        let retryable: Vec<_> = SkipReason::ALL.into_iter().filter(|r| r.retryable()).collect();
-        assert_eq!(retryable, [SkipReason::Read]);
+        let retryable: Vec<_> = worker.into_iter().filter(SkipReason::retryable).collect();
+        assert_eq!(retryable, [Read]);
     }
 
     #[tokio::test]
     async fn a_missing_file_is_skipped_as_missing_not_as_unread() {
         let dir = tempfile::tempdir().unwrap();
         let url = format!("{}/absent.jpg", dir.path().display());
-        let s = read_one(&Files::default(), &url, "registration").await.unwrap_err();
-        assert_eq!((s.stage.as_str(), s.item.as_str()), ("registration", url.as_str()));
-        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Missing));
+        let s = read_one(&Files::default(), &url, Stage::Registration).await.unwrap_err();
+        assert_eq!((s.stage.name(), s.item.as_str()), ("registration", url.as_str()));
+        assert_eq!(s.reason, SkipReason::Missing);
         assert!(!SkipReason::Missing.retryable());
     }
 
@@ -262,13 +184,13 @@ mod tests {
         let budget = Bounds::budget(PANORAMA_PIXELS);
         let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
         let e = header("dir/p7.png", &forged, &budget).unwrap_err();
-        let s = refused("registration", "dir/p7.png", &e);
-        assert_eq!((s.stage.as_str(), s.item.as_str()), ("registration", "dir/p7.png"));
-        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Size));
+        let s = refused(Stage::Registration, "dir/p7.png", &e);
+        assert_eq!((s.stage.name(), s.item.as_str()), ("registration", "dir/p7.png"));
+        assert_eq!(s.reason, SkipReason::Size);
         assert!(s.detail.starts_with("dir/p7.png: 20000 × 20000 px") && s.detail.contains("budget"), "{}", s.detail);
         let e = header("dir/broken.jpg", b"not an image", &budget).unwrap_err();
-        let s = refused("registration", "dir/broken.jpg", &e);
-        assert_eq!(SkipReason::of(&s.reason), Some(SkipReason::Decode));
+        let s = refused(Stage::Registration, "dir/broken.jpg", &e);
+        assert_eq!(s.reason, SkipReason::Decode);
         assert!(s.detail.starts_with("dir/broken.jpg: "), "{}", s.detail);
     }
 }

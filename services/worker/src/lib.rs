@@ -24,5 +24,4 @@ pub use aerial::{frame_camera, frame_pose};
 pub use config::{DEFAULT_CONCURRENCY, WorkerConfig};
 pub use fingerprint::fingerprint;
 pub use output::{TileOutput, TileOutputV1, tile_key};
-pub use stages::{POLES, REGISTRATION};
 pub use tile::{process_tile, process_tile_reporting, run_tile, run_tile_reporting, tile_camera_height};

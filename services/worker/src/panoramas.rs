@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::plan::PlannedImage;
+use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
 use plumbline_geo::tiling::Tile;
@@ -20,10 +21,10 @@ use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, invalid};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
-use crate::fetch::{SkipReason, blocking, read_all, read_one, refused, skipped};
+use crate::fetch::{blocking, read_all, read_one, refused, skipped};
 use crate::raster::{around, height_at, read_window, terrain};
 
-pub(crate) const STAGE: &str = "registration";
+pub(crate) const STAGE: Stage = Stage::Registration;
 
 /// A planned panorama whose file URL and DG pose are known; its pixels are not read yet.
 #[derive(Clone, Debug)]
@@ -42,7 +43,9 @@ pub(crate) fn planned<'a>(campaign: &'a Campaign, tile: &Tile) -> plumbline_runt
         .chain(&tile.context)
         .map(|id| {
             let image = usize::try_from(id.0).ok().and_then(|i| plan.panoramas.get(i));
-            image.filter(|p| p.id == *id).ok_or_else(|| plumbline_runtime::Error::internal(format!("plan: panorama {id} is not in the plan")))
+            image
+                .filter(|p| p.id == *id)
+                .ok_or_else(|| plumbline_runtime::Error::internal(format!("plan: panorama {id} is not in the plan")))
         })
         .collect()
 }
@@ -271,16 +274,16 @@ mod tests {
         assert_eq!((pano.id.as_str(), pano.time, pano.image.width(), pano.image.height()), ("pano7", 12.5, 64, 32));
         assert_eq!(pano.pose.translation.x(), 500.0);
         let wrong = decode(&p, &bytes, &ImagePart::whole(128, 64)).unwrap_err();
-        assert_eq!((wrong.stage.as_str(), wrong.reason.as_str()), ("registration", "size"));
+        assert_eq!((wrong.stage, &wrong.reason), (Stage::Registration, &SkipReason::Size));
         assert!(wrong.detail.contains("p7.jpg") && wrong.detail.contains("64 × 32"), "{}", wrong.detail);
         let garbage = decode(&p, b"no image", &ImagePart::whole(64, 32)).unwrap_err();
-        assert_eq!(garbage.reason, "decode");
+        assert_eq!(garbage.reason, SkipReason::Decode);
         // A header claiming 20000² px is refused before any pixel is decoded, whatever size the tile
         // expects.
         let forged = plumbline_testkit::images::png_claiming(20_000, 20_000);
         for size in [(64, 32), (20_000, 20_000)] {
             let bomb = decode(&p, &forged, &ImagePart::whole(size.0, size.1)).unwrap_err();
-            assert_eq!(bomb.reason, "size");
+            assert_eq!(bomb.reason, SkipReason::Size);
             assert!(bomb.detail.contains("20000 × 20000 px") && bomb.detail.contains("budget"), "{}", bomb.detail);
         }
     }
@@ -301,7 +304,7 @@ mod tests {
         assert_eq!(size(&Files::default(), &spec, &placed).await.unwrap(), (64, 32));
         let failures = size(&Files::default(), &spec, &placed[..1]).await.unwrap_err();
         assert_eq!(failures.len(), 1);
-        assert_eq!(failures[0].reason, "size");
+        assert_eq!(failures[0].reason, SkipReason::Size);
         assert!(failures[0].detail.contains("bomb.png: 20000 × 10000 px"), "{}", failures[0].detail);
     }
 }

@@ -10,6 +10,7 @@ use bytes::Bytes;
 use plumbline_campaign::manifest::{Cadastre, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
+use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::tiling::{BBox, TileId};
 use plumbline_poles::{DepthFrame, FrameReport, PoleConfig, PoleStream};
@@ -19,10 +20,9 @@ use plumbline_scheduler::{Campaign, SkippedInput};
 
 use futures::StreamExt as _;
 
-use crate::fetch::{SkipReason, blocking, skipped};
+use crate::fetch::{blocking, reason_of_store, skipped};
 use crate::output::PoleResults;
 use crate::panoramas::dg_at;
-use crate::stages::POLES;
 
 /// Cadastre objects are read this far beyond the tile's fetch box plus the depth range, metres (DG error).
 const CADASTRE_MARGIN_M: f64 = 5.0;
@@ -59,7 +59,7 @@ pub(crate) async fn process(
     let clouds = !campaign.manifest.point_clouds.is_empty();
     let depth_here = !depth.is_empty() && !campaign.manifest.depth.is_empty();
     if !depth_here {
-        progress.skip(POLES, depth.len() as u64);
+        progress.skip(Stage::Poles, depth.len() as u64);
     }
     if !depth_here && !clouds {
         return Ok(out);
@@ -82,11 +82,11 @@ pub(crate) async fn process(
     }
     let wanted = wanted_frames(campaign, depth, &mut out.skipped);
     let listed: usize = wanted.values().map(Vec::len).sum();
-    progress.skip(POLES, depth.len().saturating_sub(listed) as u64);
+    progress.skip(Stage::Poles, depth.len().saturating_sub(listed) as u64);
     let urls: HashMap<String, String> = wanted.values().flatten().map(|w| (w.id.clone(), w.url.clone())).collect();
     for (camera, frames) in wanted {
         let Some(spec) = campaign.manifest.depth.get(camera).cloned() else {
-            progress.skip(POLES, frames.len() as u64);
+            progress.skip(Stage::Poles, frames.len() as u64);
             continue;
         };
         let stream = stream_camera(files, spec, &frames, config, concurrency, progress, &mut out).await?;
@@ -100,7 +100,7 @@ pub(crate) async fn process(
     out.skipped.extend(out.reports.iter().filter_map(|FrameReport::V1(r)| {
         let problem = r.problem.as_ref()?;
         let item = urls.get(&r.frame).unwrap_or(&r.frame);
-        Some(skipped("poles", item, SkipReason::Frame, format!("depth frame {} ({item}): {problem}", r.frame)))
+        Some(skipped(Stage::Poles, item, SkipReason::Frame, format!("depth frame {} ({item}): {problem}", r.frame)))
     }));
     Ok(out)
 }
@@ -121,7 +121,8 @@ async fn stream_camera(
     let mut batches = frames.chunks(batch_size());
     let mut reading = batches.next().map(|b| read_batch(files, b, concurrency));
     while let Some(batch) = reading.take() {
-        let (read, read_s) = batch.await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))?;
+        let (read, read_s) =
+            batch.await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))?;
         // The next batch is read while this one is decoded.
         reading = batches.next().map(|b| read_batch(files, b, concurrency));
         out.read_s += read_s;
@@ -130,7 +131,7 @@ async fn stream_camera(
             match png {
                 Ok(png) => readable.push((wanted, png)),
                 Err(s) => {
-                    progress.skip(POLES, 1);
+                    progress.skip(Stage::Poles, 1);
                     out.skipped.push(s);
                 }
             }
@@ -145,7 +146,7 @@ async fn stream_camera(
         })
         .await?;
         out.process_s += t1.elapsed().as_secs_f64();
-        progress.advance(POLES, count);
+        progress.advance(Stage::Poles, count);
     }
     Ok(stream)
 }
@@ -161,7 +162,7 @@ fn read_batch(files: &Files, batch: &[Wanted], concurrency: usize) -> tokio::tas
         let read = futures::stream::iter(batch.into_iter().map(move |w| {
             let files = files.clone();
             async move {
-                let png = crate::fetch::read_one(&files, &w.url, "poles").await;
+                let png = crate::fetch::read_one(&files, &w.url, Stage::Poles).await;
                 (w, png)
             }
         }))
@@ -183,19 +184,19 @@ fn wanted_frames(
     for image in depth.iter().filter_map(|&k| campaign.plan.depth.get(k)) {
         let Some(camera) = campaign.manifest.depth.get(image.camera) else {
             let detail = format!("depth image {}: camera {} is not in the manifest", image.image_id, image.camera);
-            skipped_items.push(skipped("poles", &image.file, SkipReason::Camera, detail));
+            skipped_items.push(skipped(Stage::Poles, &image.file, SkipReason::Camera, detail));
             continue;
         };
         let url = match campaign.file_url(&camera.images, &image.file) {
             Ok(url) => url,
             Err(e) => {
-                skipped_items.push(skipped("poles", &image.file, SkipReason::Url, format!("{e:#}")));
+                skipped_items.push(skipped(Stage::Poles, &image.file, SkipReason::Url, format!("{e:#}")));
                 continue;
             }
         };
         match dg_at(campaign, image.time) {
             Ok(dg) => by_camera.entry(image.camera).or_default().push(Wanted { id: image.image_id.clone(), url, dg }),
-            Err(e) => skipped_items.push(skipped("poles", &url, SkipReason::Time, format!("{url}: {e}"))),
+            Err(e) => skipped_items.push(skipped(Stage::Poles, &url, SkipReason::Time, format!("{url}: {e}"))),
         }
     }
     by_camera.values_mut().for_each(|frames| frames.sort_by(|a, b| a.dg.time.total_cmp(&b.dg.time)));
@@ -222,8 +223,8 @@ async fn cadastre_features(
         let bytes = match files.read(&url).await {
             Ok(b) => b,
             Err(e) => {
-                let reason = SkipReason::of_store(&e);
-                skipped_items.push(skipped("cadastre", &url, reason, format!("{url}: cannot be read: {e:#}")));
+                let reason = reason_of_store(&e);
+                skipped_items.push(skipped(Stage::Cadastre, &url, reason, format!("{url}: cannot be read: {e:#}")));
                 continue;
             }
         };
@@ -235,7 +236,7 @@ async fn cadastre_features(
                     f
                 }));
             }
-            Err(e) => skipped_items.push(skipped("cadastre", &url, SkipReason::Open, e)),
+            Err(e) => skipped_items.push(skipped(Stage::Cadastre, &url, SkipReason::Open, e)),
         }
     }
     Ok(features)
@@ -270,8 +271,7 @@ fn diagnostic_skip(d: &CadastreDiagnostic) -> Option<SkippedInput> {
     if let Some(field) = &d.field {
         item.push_str(&format!(" field {field}"));
     }
-    let reason = serde_json::to_value(d.kind).ok().and_then(|v| v.as_str().map(str::to_owned));
-    Some(skipped("cadastre", &item, reason.unwrap_or_else(|| "feature".into()), d.to_string()))
+    Some(skipped(Stage::Cadastre, &item, SkipReason::Cadastre(d.kind), d.to_string()))
 }
 
 #[cfg(test)]
@@ -301,7 +301,7 @@ mod tests {
     fn dropped_features_and_layers_are_skipped_items_naming_file_layer_fid_and_field() {
         let d = diagnostic(DiagnosticKind::UnknownClass, Consequence::FeatureSkipped, Some(17), Some("class"));
         let s = diagnostic_skip(&d).unwrap();
-        assert_eq!((s.stage.as_str(), s.reason.as_str()), ("cadastre", "unknown_class"));
+        assert_eq!((s.stage, &s.reason), (Stage::Cadastre, &SkipReason::Cadastre(DiagnosticKind::UnknownClass)));
         assert_eq!(s.item, "file:///c/poles.gpkg layer trees fid 17 field class");
         assert!(
             s.detail.contains("poles.gpkg") && s.detail.contains("17") && s.detail.contains("oak?"),

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use bytes::Bytes;
 use futures::StreamExt as _;
+use plumbline_campaign::Stage;
 use plumbline_campaign::progress::Progress;
 use plumbline_geo::tiling::TileId;
 use plumbline_registration::aerial::AerialReference;
@@ -27,7 +28,6 @@ use plumbline_scheduler::SkippedInput;
 
 use crate::fetch::{counted, on_rayon, read_one};
 use crate::panoramas::{Placed, STAGE, decode};
-use crate::stages::REGISTRATION;
 
 /// Owned panoramas registered together: their patches, their neighbours' and the segment before's last are
 /// what a tile holds (about 5 MB each at the default 3 cm over 28 m).
@@ -114,7 +114,7 @@ pub(crate) async fn register(
         let alive: Vec<usize> = (0..placed.len()).filter(|k| !failed.contains(k)).collect();
         let panoramas: Vec<PreparedPanorama> = alive.iter().map(|&k| taken(&mut done, placed, k)).collect();
         let (config, rig, reference_run) = (*tile.config, Arc::clone(tile.rig), Arc::clone(&reference));
-        let (back, panoramas) = counted(progress, REGISTRATION, move |count| {
+        let (back, panoramas) = counted(progress, Stage::Registration, move |count| {
             let inputs = TileInputs { rig: &rig, reference: &reference_run, config: &config };
             let id_refs: Vec<&str> = ids.iter().map(String::as_str).collect();
             let counted = |_: &ImageDiagnostic| {
@@ -203,6 +203,7 @@ fn decode_and_prepare(
 
 #[cfg(test)]
 mod tests {
+    use plumbline_campaign::SkipReason;
     use plumbline_geo::camera::Equirectangular;
     use plumbline_geo::dg::{Boresight, CameraMount};
     use plumbline_geo::{MapFromBody, Point3, Rotation};
@@ -277,8 +278,8 @@ mod tests {
         assert_eq!(ids, ["p1", "p3", "p5"]);
         // Each was prepared: what stopped it came after step 1 (no aerial frame), not a missing patch.
         assert!(result.images.iter().all(|d| !format!("{:?}", d.discarded).contains("not prepared")), "{result:?}");
-        let skipped: Vec<(&str, &str)> = out.skipped.iter().map(|s| (s.item.as_str(), s.reason.as_str())).collect();
-        assert_eq!(skipped, [(placed[1].url.as_str(), "size"), (placed[3].url.as_str(), "size")]);
+        let skipped: Vec<(&str, &SkipReason)> = out.skipped.iter().map(|s| (s.item.as_str(), &s.reason)).collect();
+        assert_eq!(skipped, [(placed[1].url.as_str(), &SkipReason::Size), (placed[3].url.as_str(), &SkipReason::Size)]);
         for (s, claim) in out.skipped.iter().zip(["20000 × 20000 px", "12000 × 12000 px"]) {
             assert_eq!(s.stage, STAGE);
             assert!(s.detail.contains(&s.item) && s.detail.contains(claim), "{}", s.detail);

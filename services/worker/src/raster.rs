@@ -5,6 +5,7 @@
 
 use std::path::PathBuf;
 
+use plumbline_campaign::SkipReason;
 use plumbline_imaging::GrayImage;
 use plumbline_imaging::radiometry::gray_from_bands;
 use plumbline_registration::aerial::Terrain;
@@ -13,7 +14,7 @@ use plumbline_runtime::gdal_write::{Raster, RasterData};
 use plumbline_runtime::vrt::{VrtMosaic, is_xml};
 use plumbline_runtime::{Files, invalid};
 
-use crate::fetch::{SkipReason, blocking};
+use crate::fetch::{blocking, reason_of_store};
 
 /// The local file behind a `file://` URL or a plain path; `None` for other schemes.
 fn local_path(url: &str) -> Option<PathBuf> {
@@ -40,7 +41,7 @@ impl WindowError {
     /// is a read failure (a later attempt may succeed), anything GDAL rejects is undecodable.
     pub(crate) fn reason(&self) -> SkipReason {
         match self {
-            Self::Store(e) => SkipReason::of_store(e),
+            Self::Store(e) => reason_of_store(e),
             Self::Raster(_) => SkipReason::Decode,
         }
     }
@@ -74,7 +75,9 @@ pub(crate) async fn read_window(
         };
         // A raster in another CRS would only "miss" every tile: say what is wrong instead.
         if let Some(epsg) = source.epsg().filter(|&e| e != crs) {
-            return Err(invalid(format!("{url}: the raster is in EPSG:{epsg}, the campaign in EPSG:{crs}; reproject it")));
+            return Err(invalid(format!(
+                "{url}: the raster is in EPSG:{epsg}, the campaign in EPSG:{crs}; reproject it"
+            )));
         }
         Ok(source.window(&area)?)
     })
@@ -249,7 +252,10 @@ mod tests {
     /// bytes GDAL rejects, are the input's fault.
     #[tokio::test]
     async fn window_failures_say_whether_a_retry_can_help() {
-        assert_eq!(WindowError::Store(plumbline_runtime::Error::transient("connection reset")).reason(), SkipReason::Read);
+        assert_eq!(
+            WindowError::Store(plumbline_runtime::Error::transient("connection reset")).reason(),
+            SkipReason::Read
+        );
         // A scheme no store serves is refused for good, not retried as an outage.
         let files = Files::new(plumbline_runtime::S3Options::default());
         let e = files.read("gs://bucket/ortho.tif").await.unwrap_err();

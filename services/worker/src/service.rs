@@ -19,7 +19,7 @@
 //!
 //! [`ServiceConfig::concurrency`] slots each fetch one task at a time, so a worker never holds tasks it
 //! is not working on. With an [`Ops`] listener the worker answers `/healthz`, `/readyz` and `/metrics`
-//! ([`ops`], families [`metrics::WORKER_FAMILIES`]).
+//! ([`plumbline_runtime::ops`], the families in `probe.rs`).
 
 use std::collections::HashMap;
 use std::future::Future;
@@ -40,22 +40,10 @@ use tracing::Instrument as _;
 use crate::{WorkerConfig, tile_key};
 
 mod attempt;
-pub mod metrics;
-pub mod ops;
 mod probe;
 
-use metrics::{Registry, WORKER_FAMILIES};
-use ops::Probe;
-pub use probe::ready;
-
-/// The ops listener of a service: where to answer probes and scrapes, and a URL in the store to probe.
-#[derive(Debug)]
-pub struct Ops {
-    /// The bound listener.
-    pub listener: tokio::net::TcpListener,
-    /// A URL in the store (its absence is fine; an error means the store does not answer).
-    pub store_probe: String,
-}
+use plumbline_runtime::ops::{Ops, Probe, Registry, reply, serve_ops, with_heartbeat};
+use probe::WORKER_FAMILIES;
 
 /// How the worker service runs.
 #[derive(Clone, Copy, Debug)]
@@ -108,9 +96,12 @@ pub async fn serve(
     ops: Option<Ops>,
     shutdown: impl Future<Output = ()> + Send,
 ) -> plumbline_runtime::Result<()> {
-    let stream = bus.js.get_stream(TASKS_STREAM).await.map_err(|e| Error::transient(format!("stream {TASKS_STREAM}: {e}")))?;
-    let consumer: PullConsumer =
-        stream.get_consumer(WORKERS_CONSUMER).await.map_err(|e| Error::transient(format!("consumer {WORKERS_CONSUMER}: {e}")))?;
+    let stream =
+        bus.js.get_stream(TASKS_STREAM).await.map_err(|e| Error::transient(format!("stream {TASKS_STREAM}: {e}")))?;
+    let consumer: PullConsumer = stream
+        .get_consumer(WORKERS_CONSUMER)
+        .await
+        .map_err(|e| Error::transient(format!("consumer {WORKERS_CONSUMER}: {e}")))?;
     let (listener, store_probe) = ops.map(|o| (o.listener, o.store_probe)).unzip();
     let metrics = Registry::new(&WORKER_FAMILIES);
     let worker = Arc::new(Worker {
@@ -127,7 +118,7 @@ pub async fn serve(
     if let Some(listener) = listener {
         let mut stop = stop_rx.clone();
         let probe: Arc<dyn Probe> = worker.clone();
-        tokio::spawn(ops::serve_ops(listener, probe, async move {
+        tokio::spawn(serve_ops(listener, probe, async move {
             let _ = stop.wait_for(|s| *s).await;
         }));
     }
@@ -350,23 +341,4 @@ fn fetch_one(
     consumer: &PullConsumer,
 ) -> BoxFuture<'_, Result<jetstream::consumer::pull::Batch, jetstream::consumer::pull::BatchError>> {
     Box::pin(consumer.batch().max_messages(1).expires(Duration::from_secs(2)).messages())
-}
-
-/// Run `work`, sending an in-progress ack for `message` every `every`.
-pub async fn with_heartbeat<T>(message: &jetstream::Message, every: Duration, work: impl Future<Output = T>) -> T {
-    tokio::pin!(work);
-    let mut ticks = tokio::time::interval_at(tokio::time::Instant::now() + every, every);
-    loop {
-        tokio::select! {
-            out = &mut work => return out,
-            _ = ticks.tick() => reply(message, AckKind::Progress).await,
-        }
-    }
-}
-
-/// Send an ack of `kind`, logging a failure (the server redelivers an unacked message anyway).
-pub async fn reply(message: &jetstream::Message, kind: AckKind) {
-    if let Err(e) = message.ack_with(kind).await {
-        tracing::warn!(error = %e, "ack failed");
-    }
 }

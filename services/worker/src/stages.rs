@@ -1,11 +1,6 @@
-//! The names of a tile's stages, at the bottom of the worker (it imports no other module): the progress stages
-//! [`REGISTRATION`] and [`POLES`] that `tile`, `prepare` and `poles` report to, and the stages a tile output
-//! times ([`Timed`], by their stable names in `TileOutputV1::seconds`).
-
-/// Progress stage of the panoramas registered (one item per owned panorama).
-pub const REGISTRATION: &str = "registration";
-/// Progress stage of the depth images processed for poles (one item per depth image).
-pub const POLES: &str = "poles";
+//! The stages a tile output times ([`Timed`], by their stable names in `TileOutputV1::seconds`), at the
+//! bottom of the worker (it imports no other module). Progress and skipped items name the campaign's
+//! [`plumbline_campaign::Stage`]s.
 
 /// The stages a tile output times (`TileOutputV1::seconds`), written and read by their stable names.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

@@ -4,6 +4,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
+use plumbline_campaign::Stage;
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::progress::{NoProgress, Progress};
 use plumbline_geo::tiling::{Tile, TileId};
@@ -17,7 +18,7 @@ use tracing::Instrument as _;
 
 use crate::config::WorkerConfig;
 use crate::output::{TileOutput, TileOutputV1, read_finished, tile_key};
-use crate::stages::{POLES, REGISTRATION, Timed};
+use crate::stages::Timed;
 use crate::{aerial, panoramas, poles, prepare};
 
 /// Registration of a tile and its stage times.
@@ -64,10 +65,10 @@ pub async fn process_tile_reporting(
     };
     let owned = i64::try_from(planned.owned.len()).unwrap_or(i64::MAX);
     let registered = register(files, campaign, planned, spec, config, progress)
-        .instrument(tracing::info_span!("stage", stage = REGISTRATION, panoramas = owned))
+        .instrument(tracing::info_span!("stage", stage = Stage::Registration.name(), panoramas = owned))
         .await?;
     let poles = poles::process(files, campaign, tile, &planned.fetch, &config.poles, config.concurrency, progress)
-        .instrument(tracing::info_span!("stage", stage = POLES))
+        .instrument(tracing::info_span!("stage", stage = Stage::Poles.name()))
         .await?;
     let mut seconds = registered.seconds;
     seconds.push(Timed::PolesRead.took(poles.read_s));
@@ -105,7 +106,10 @@ pub async fn tile_camera_height(files: &Files, campaign: &Campaign, tile: &TileI
         return Err(invalid("panoramas: missing; tiles are made of panoramas"));
     };
     let images = panoramas::planned(campaign, planned)?;
-    let first = images.iter().min_by(|a, b| a.time.total_cmp(&b.time)).ok_or_else(|| plumbline_runtime::Error::internal("empty tile"))?;
+    let first = images
+        .iter()
+        .min_by(|a, b| a.time.total_cmp(&b.time))
+        .ok_or_else(|| plumbline_runtime::Error::internal("empty tile"))?;
     panoramas::camera_height(files, campaign, spec, first).await
 }
 
@@ -122,7 +126,7 @@ async fn register(
     let mut out = Registered { result: None, skipped: Vec::new(), seconds: Vec::new() };
     let owned = tile.owned.len() as u64;
     if campaign.manifest.aerial.is_none() {
-        progress.skip(REGISTRATION, owned);
+        progress.skip(Stage::Registration, owned);
         return Ok(out);
     }
     let images = panoramas::planned(campaign, tile)?;
@@ -137,7 +141,7 @@ async fn register(
             // Nothing readable and no size in the manifest: every panorama is skipped.
             out.skipped.extend(failures);
             out.result = Some(summarised(tile.id, Vec::new(), Vec::new()));
-            progress.skip(REGISTRATION, owned);
+            progress.skip(Stage::Registration, owned);
             return Ok(out);
         }
     };
@@ -151,7 +155,7 @@ async fn register(
     let sigma = placed.iter().filter(|p| p.info.owned).map(|p| p.info.position_sigma).fold(0.0, f64::max);
     let reach = pipeline.aerial.frame_reach(pipeline.mm.half_extent, sigma);
     let Some(reference) = aerial::load(files, campaign, &ground, reach, area, config.concurrency).await? else {
-        progress.skip(REGISTRATION, owned);
+        progress.skip(Stage::Registration, owned);
         return Ok(out);
     };
     out.skipped.extend(reference.skipped);
@@ -168,7 +172,7 @@ async fn register(
     let prepare_s = t0.elapsed().as_secs_f64();
     out.skipped.extend(registered.skipped);
     let result = registered.run.result.into_latest();
-    progress.skip(REGISTRATION, owned.saturating_sub(result.images.len() as u64));
+    progress.skip(Stage::Registration, owned.saturating_sub(result.images.len() as u64));
     let t = &registered.run.timings;
     tracing::debug!(most_held = registered.most_held, "prepared patches held at once");
     out.seconds = vec![
@@ -249,10 +253,10 @@ pub async fn run_tile_reporting(
 fn report_resumed(campaign: &Campaign, done: &TileOutputV1, progress: &dyn Progress) {
     let owned = campaign.plan.tiles.tile(&done.tile).map_or(0, |t| t.owned.len()) as u64;
     let registered = done.registration.as_ref().map_or(0, |r| r.images.len()) as u64;
-    progress.advance(REGISTRATION, registered);
-    progress.skip(REGISTRATION, owned.saturating_sub(registered));
+    progress.advance(Stage::Registration, registered);
+    progress.skip(Stage::Registration, owned.saturating_sub(registered));
     let depth = campaign.plan.depth_of(&done.tile).len() as u64;
     let frames = done.pole_frames.len() as u64;
-    progress.advance(POLES, frames);
-    progress.skip(POLES, depth.saturating_sub(frames));
+    progress.advance(Stage::Poles, frames);
+    progress.skip(Stage::Poles, depth.saturating_sub(frames));
 }

@@ -81,6 +81,54 @@ pub enum DiagnosticKind {
     SrsConflict,
 }
 
+impl DiagnosticKind {
+    /// Every kind.
+    pub const ALL: [Self; 18] = [
+        Self::MissingLayer,
+        Self::EmptyLayer,
+        Self::MissingSrs,
+        Self::UnknownSrs,
+        Self::MissingField,
+        Self::NullGeometry,
+        Self::EmptyGeometry,
+        Self::NotAPoint,
+        Self::MultiPoint,
+        Self::HeightDropped,
+        Self::BadCoordinate,
+        Self::NullClass,
+        Self::UnknownClass,
+        Self::NullDiameter,
+        Self::BadDiameter,
+        Self::BadGeometry,
+        Self::ReadFailed,
+        Self::SrsConflict,
+    ];
+
+    /// The kind's name in files (as serde writes it).
+    pub const fn name(self) -> &'static str {
+        match self {
+            Self::MissingLayer => "missing_layer",
+            Self::EmptyLayer => "empty_layer",
+            Self::MissingSrs => "missing_srs",
+            Self::UnknownSrs => "unknown_srs",
+            Self::MissingField => "missing_field",
+            Self::NullGeometry => "null_geometry",
+            Self::EmptyGeometry => "empty_geometry",
+            Self::NotAPoint => "not_a_point",
+            Self::MultiPoint => "multi_point",
+            Self::HeightDropped => "height_dropped",
+            Self::BadCoordinate => "bad_coordinate",
+            Self::NullClass => "null_class",
+            Self::UnknownClass => "unknown_class",
+            Self::NullDiameter => "null_diameter",
+            Self::BadDiameter => "bad_diameter",
+            Self::BadGeometry => "bad_geometry",
+            Self::ReadFailed => "read_failed",
+            Self::SrsConflict => "srs_conflict",
+        }
+    }
+}
+
 /// What happened to the item a diagnostic names.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -158,6 +206,13 @@ mod tests {
         let text = list[1].to_string();
         assert!(text.contains("a.gpkg") && text.contains("\"lights\"") && text.contains("feature 4"), "{text}");
         assert!(text.contains("\"art\"") && text.contains("UnknownClass"), "{text}");
+    }
+
+    #[test]
+    fn kind_names_are_the_serde_names() {
+        for kind in DiagnosticKind::ALL {
+            assert_eq!(serde_json::to_value(kind).ok(), Some(serde_json::Value::from(kind.name())));
+        }
     }
 
     #[test]

@@ -33,6 +33,7 @@ pub mod plan;
 mod problem;
 pub mod progress;
 mod schema;
+pub mod skipped;
 pub mod tables;
 mod validate;
 
@@ -45,5 +46,7 @@ pub use location::{Location, ResolveError, SCHEMES, resolve, resolve_below};
 pub use manifest::{Manifest, ManifestV1};
 pub use parse::{Format, ParseError, Position, SUPPORTED_VERSIONS};
 pub use problem::{FieldPath, Problem, Problems};
+pub use progress::Stage;
 pub use schema::{MANIFEST_SCHEMA_FILE, canonical_json, manifest_schema, manifest_schema_json};
+pub use skipped::{SkipReason, SkippedInput};
 pub use validate::ValidManifest;

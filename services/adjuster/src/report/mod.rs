@@ -125,7 +125,12 @@ fn summary(
 }
 
 fn item(s: &SkippedInput) -> SkippedItem {
-    SkippedItem { stage: s.stage.clone(), item: s.item.clone(), reason: s.reason.clone(), detail: s.detail.clone() }
+    SkippedItem {
+        stage: s.stage.name().to_owned(),
+        item: s.item.clone(),
+        reason: s.reason.to_string(),
+        detail: s.detail.clone(),
+    }
 }
 
 /// Everything skipped: while loading, in the tiles (with the registration discards), by the consistency

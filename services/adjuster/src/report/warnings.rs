@@ -3,7 +3,7 @@
 //! look like a quiet success: each becomes an [`InputWarning`] in the report, the run's summary and its
 //! exit message (`plumbline run --strict` then exits non-zero).
 
-use plumbline_campaign::ManifestV1;
+use plumbline_campaign::{ManifestV1, Stage};
 use plumbline_report::InputWarning;
 
 use crate::merge::Merged;
@@ -24,7 +24,7 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
         }
         let location = cadastre.url.as_str();
         let file = location.rsplit('/').next().unwrap_or(location);
-        let skipped = merged.skipped.iter().filter(|s| s.stage == "cadastre" && s.item.contains(file)).count();
+        let skipped = merged.skipped.iter().filter(|s| s.stage == Stage::Cadastre && s.item.contains(file)).count();
         let why = if !observes_poles {
             "no depth camera or point cloud in the manifest observes poles".to_owned()
         } else if skipped > 0 {
@@ -46,7 +46,7 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
                 (None, Some(f)) => ("aerial.frames", f.index.as_str()),
                 (None, None) => ("aerial", ""),
             };
-            let skipped = merged.skipped.iter().filter(|s| s.stage == "registration").count();
+            let skipped = merged.skipped.iter().filter(|s| s.stage == Stage::Registration).count();
             out.push(InputWarning {
                 input: input.to_owned(),
                 location: location.to_owned(),
@@ -76,7 +76,7 @@ pub fn input_warnings(manifest: &ManifestV1, merged: &Merged) -> Vec<InputWarnin
         }
         let stems: usize = frames.iter().map(|f| f.detections.len()).sum();
         let skipped =
-            merged.skipped.iter().filter(|s| s.stage == "poles" && s.item.contains(cloud.url.as_str())).count();
+            merged.skipped.iter().filter(|s| s.stage == Stage::Poles && s.item.contains(cloud.url.as_str())).count();
         let why = if manifest.cadastres.is_empty() {
             "no cadastre to match its stems against".to_owned()
         } else if frames.is_empty() && skipped > 0 {

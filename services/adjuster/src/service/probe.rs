@@ -2,9 +2,7 @@
 //! consumer's lag read at scrape time).
 
 use futures::future::BoxFuture;
-use plumbline_worker::service::metrics::{Family, Kind};
-use plumbline_worker::service::ops::Probe;
-use plumbline_worker::service::ready;
+use plumbline_runtime::ops::{Family, Kind, Probe, ready};
 
 use super::Adjuster;
 
@@ -28,7 +26,10 @@ pub const ADJUSTER_FAMILIES: [Family; 6] = [
 
 impl Probe for Adjuster {
     fn ready(&self) -> BoxFuture<'_, (bool, bool)> {
-        Box::pin(ready(&self.bus, &self.files, self.store_probe.as_deref()))
+        Box::pin(async {
+            let client = self.bus.js.client();
+            ready(&client, &self.files, self.store_probe.as_deref()).await
+        })
     }
 
     fn metrics(&self) -> BoxFuture<'_, String> {

@@ -11,6 +11,8 @@ use std::fmt::Write as _;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::sync::{Mutex, PoisonError};
 
+use plumbline_runtime::ops::metrics::{escape, header};
+
 use crate::messages::CampaignStatus;
 
 /// Counters of one scheduler process.
@@ -59,17 +61,6 @@ impl Metrics {
         }
         out
     }
-}
-
-/// Write the `# HELP` and `# TYPE` lines of a metric family (shared with the worker's and adjuster's
-/// metrics, so one renderer speaks the exposition format).
-pub fn header(out: &mut String, name: &str, kind: &str, help: &str) {
-    let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}");
-}
-
-/// Escape a label value (backslash, double quote, newline).
-pub fn escape(label: &str) -> String {
-    label.replace('\\', "\\\\").replace('"', "\\\"").replace('\n', "\\n")
 }
 
 #[cfg(test)]

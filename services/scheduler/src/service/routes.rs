@@ -154,15 +154,8 @@ async fn cancel(State(s): Shared, headers: HeaderMap, Path(id): Path<String>) ->
 }
 
 async fn ready(State(s): Shared) -> Response {
-    let nats = s.client.connection_state() == async_nats::connection::State::Connected;
     let probe = format!("{}.readyz", s.layout.root());
-    let store = match s.files.exists(&probe).await {
-        Ok(_) => true,
-        Err(e) => {
-            tracing::warn!(error = %format!("{e:#}"), "store not reachable");
-            false
-        }
-    };
+    let (nats, store) = plumbline_runtime::ops::ready(&s.client, &s.files, Some(&probe)).await;
     let status = if nats && store { StatusCode::OK } else { StatusCode::SERVICE_UNAVAILABLE };
     (status, Json(serde_json::json!({ "nats": nats, "store": store }))).into_response()
 }

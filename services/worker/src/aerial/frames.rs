@@ -12,6 +12,7 @@ use std::time::Instant;
 
 use bytes::Bytes;
 use futures::StreamExt as _;
+use plumbline_campaign::SkipReason;
 use plumbline_campaign::manifest::FrameBlock;
 use plumbline_geo::camera::{CameraModel, Pinhole};
 use plumbline_geo::tiling::BBox;
@@ -25,7 +26,7 @@ use plumbline_runtime::gdal_read::{MAGIC_BYTES, PixelSource, is_tiled_raster};
 use plumbline_scheduler::{Campaign, SkippedInput};
 
 use super::{LoadedReference, STAGE, frame_camera, frame_pose, sees};
-use crate::fetch::{SkipReason, on_rayon, read_one, refused, skipped};
+use crate::fetch::{on_rayon, read_one, refused, skipped};
 
 /// Most pixels of one frame window (a tile's reach is usually a few megapixels; a frame that sees the tile
 /// so obliquely that its window cannot be computed is read whole, up to this).
@@ -374,7 +375,7 @@ mod tests {
         smaller.camera.width = 1000;
         let (frame, _, _) = read_frame(&Files::default(), smaller).await;
         let s = frame.unwrap_err();
-        assert_eq!(s.reason, "size");
+        assert_eq!(s.reason, SkipReason::Size);
         assert!(
             s.detail.contains("2048×1536") && s.detail.contains("1000×1536") && s.detail.contains(url),
             "{}",
@@ -385,7 +386,7 @@ mod tests {
         bytes.extend_from_slice(&[0xFF; 64]);
         std::fs::write(&broken, bytes).unwrap();
         let (frame, _, _) = read_frame(&Files::default(), wanted(broken.to_str().unwrap(), Some((0, 0, 10, 10)))).await;
-        assert_eq!(frame.unwrap_err().reason, "decode");
+        assert_eq!(frame.unwrap_err().reason, SkipReason::Decode);
     }
 
     /// The window covers every point of the area at the ground heights (the projection of its border), grown

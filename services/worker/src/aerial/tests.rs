@@ -108,14 +108,14 @@ fn a_frame_over_the_budget_or_of_another_size_than_the_interior_orientation_is_s
     assert_eq!((window.origin, window.image.width(), window.image.height()), ([100, 50], 30, 20));
     assert_eq!(window.image.get(5, 7), frame.image.get(105, 57));
     let small = frames::decode_frame(&want("f2", None), &png(500, 375)).unwrap_err();
-    assert_eq!((small.item.as_str(), small.reason.as_str()), ("frames/f2.png", "size"));
+    assert_eq!((small.item.as_str(), &small.reason), ("frames/f2.png", &SkipReason::Size));
     assert_eq!(small.detail, "frames/f2.png: 500 × 375 px, expected 1000 × 750 px (the interior orientation's size)");
     // A header claiming more than any aerial camera delivers (600 M px) is refused on the budget.
     let forged = bytes::Bytes::from(plumbline_testkit::images::png_claiming(30_000, 20_000));
     let bomb = frames::decode_frame(&want("f3", None), &forged).unwrap_err();
-    assert_eq!(bomb.reason, "size");
+    assert_eq!(bomb.reason, SkipReason::Size);
     assert!(bomb.detail.starts_with("frames/f3.png: 30000 × 20000 px (600.0 M px) exceeds"), "{}", bomb.detail);
     assert!(bomb.detail.contains("budget of 450.0 M px"), "{}", bomb.detail);
     let garbage = frames::decode_frame(&want("f4", None), &bytes::Bytes::from_static(b"no"));
-    assert_eq!(garbage.unwrap_err().reason, "decode");
+    assert_eq!(garbage.unwrap_err().reason, SkipReason::Decode);
 }

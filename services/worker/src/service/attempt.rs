@@ -11,7 +11,6 @@ use plumbline_scheduler::Campaign;
 
 use plumbline_scheduler::SkippedInput;
 
-use crate::fetch::SkipReason;
 use crate::output::read_finished;
 use crate::stages::Timed;
 use crate::{TileOutput, TileOutputV1, WorkerConfig, process_tile, tile_key};
@@ -101,28 +100,34 @@ pub(crate) async fn attempt(
     Ok(Attempt { output, resumed: false, write_s: started.elapsed().as_secs_f64() })
 }
 
-/// The items skipped because the store failed to deliver them (a retryable [`SkipReason`]), as opposed to
+/// The items skipped because the store failed to deliver them (a retryable [`plumbline_campaign::SkipReason`]), as opposed to
 /// missing or broken ones.
 fn unread(skipped: &[SkippedInput]) -> Vec<&SkippedInput> {
-    skipped.iter().filter(|s| SkipReason::of(&s.reason).is_some_and(SkipReason::retryable)).collect()
+    skipped.iter().filter(|s| s.reason.retryable()).collect()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::fetch::skipped;
+    use plumbline_campaign::{DiagnosticKind, SkipReason, Stage};
 
     /// Only what the store failed to deliver makes the attempt retryable; a missing, refused or broken input,
     /// or a reason of another crate's vocabulary, is skipped for good.
     #[test]
     fn only_undelivered_inputs_make_the_attempt_retryable() {
         let items = [
-            skipped("registration", "p1.jpg", SkipReason::Read, "p1.jpg: cannot be read: timeout".into()),
-            skipped("registration", "p2.jpg", SkipReason::Missing, "p2.jpg: not found".into()),
-            skipped("registration", "p3.jpg", SkipReason::Decode, "p3.jpg: not a readable image".into()),
-            skipped("registration", "gs://b/p4.jpg", SkipReason::Refused, "unsupported scheme `gs`".into()),
-            skipped("cadastre", "poles.gpkg", SkipReason::Read, "poles.gpkg: cannot be read: reset".into()),
-            skipped("cadastre", "poles.gpkg:7", "unknown_class", "feature 7".into()),
+            skipped(Stage::Registration, "p1.jpg", SkipReason::Read, "p1.jpg: cannot be read: timeout".into()),
+            skipped(Stage::Registration, "p2.jpg", SkipReason::Missing, "p2.jpg: not found".into()),
+            skipped(Stage::Registration, "p3.jpg", SkipReason::Decode, "p3.jpg: not a readable image".into()),
+            skipped(Stage::Registration, "gs://b/p4.jpg", SkipReason::Refused, "unsupported scheme `gs`".into()),
+            skipped(Stage::Cadastre, "poles.gpkg", SkipReason::Read, "poles.gpkg: cannot be read: reset".into()),
+            skipped(
+                Stage::Cadastre,
+                "poles.gpkg:7",
+                SkipReason::Cadastre(DiagnosticKind::UnknownClass),
+                "feature 7".into(),
+            ),
         ];
         let found: Vec<&str> = unread(&items).iter().map(|s| s.item.as_str()).collect();
         assert_eq!(found, ["p1.jpg", "poles.gpkg"]);

@@ -1,16 +1,40 @@
-//! The worker's answers to the ops listener: readiness, and metrics with the consumer's lag read at scrape
-//! time.
+//! The worker's metric families and its answers to the ops listener: readiness, and metrics with the
+//! consumer's lag read at scrape time.
 
 use futures::future::BoxFuture;
-use plumbline_runtime::Files;
-use plumbline_scheduler::bus::Bus;
+use plumbline_runtime::ops::{Family, Kind, Probe, ready};
 
 use super::Worker;
-use super::ops::Probe;
+
+/// The worker's metric families.
+pub(super) const WORKER_FAMILIES: [Family; 6] = [
+    ("plumbline_worker_tasks_in_flight", Kind::Gauge, "Tile tasks being processed."),
+    (
+        "plumbline_worker_tasks_total",
+        Kind::Counter,
+        "Tile tasks answered, by outcome (done, resumed, dropped, retried, dead_lettered).",
+    ),
+    (
+        "plumbline_worker_task_errors_total",
+        Kind::Counter,
+        "Tile task errors by kind (invalid, missing, forbidden, transient, internal) and action (retried, \
+         dead_lettered).",
+    ),
+    (
+        "plumbline_worker_stage_seconds",
+        Kind::Summary,
+        "Seconds per tile and stage (fetch, registration, poles, write, total).",
+    ),
+    ("plumbline_worker_queue_pending", Kind::Gauge, "Tile tasks not yet delivered to any worker."),
+    ("plumbline_worker_queue_ack_pending", Kind::Gauge, "Tile tasks delivered and not yet answered."),
+];
 
 impl Probe for Worker {
     fn ready(&self) -> BoxFuture<'_, (bool, bool)> {
-        Box::pin(ready(&self.bus, &self.files, self.store_probe.as_deref()))
+        Box::pin(async {
+            let client = self.bus.js.client();
+            ready(&client, &self.files, self.store_probe.as_deref()).await
+        })
     }
 
     fn metrics(&self) -> BoxFuture<'_, String> {
@@ -25,20 +49,4 @@ impl Probe for Worker {
             self.metrics.render()
         })
     }
-}
-
-/// Whether NATS is connected and whether the store answers at `probe` (a missing object is an answer).
-pub async fn ready(bus: &Bus, files: &Files, probe: Option<&str>) -> (bool, bool) {
-    let nats = bus.js.client().connection_state() == async_nats::connection::State::Connected;
-    let store = match probe {
-        Some(url) => match files.exists(url).await {
-            Ok(_) => true,
-            Err(e) => {
-                tracing::warn!(error = %format!("{e:#}"), "store not reachable");
-                false
-            }
-        },
-        None => true,
-    };
-    (nats, store)
 }

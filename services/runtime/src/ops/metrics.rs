@@ -1,14 +1,10 @@
-//! Prometheus metrics of the worker and adjuster services: a small registry of counters, gauges and
-//! summaries (sum and count, no quantiles) with labels, rendered in the text exposition format (0.0.4) with
-//! the scheduler's helpers ([`plumbline_scheduler::service::metrics`]).
-//!
-//! The worker's families are [`WORKER_FAMILIES`]; the adjuster declares its own.
+//! Prometheus metrics of the long-running roles: a small registry of counters, gauges and summaries (sum
+//! and count, no quantiles) with labels, rendered in the text exposition format (0.0.4), and the two
+//! helpers every renderer of that format uses ([`header`], [`escape`]). Each role declares its families.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::sync::{Mutex, PoisonError};
-
-use plumbline_scheduler::service::metrics::{escape, header};
 
 /// A metric family's type.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,29 +29,6 @@ impl Kind {
 
 /// A family: name, type, help text.
 pub type Family = (&'static str, Kind, &'static str);
-
-/// The worker's metric families.
-pub const WORKER_FAMILIES: [Family; 6] = [
-    ("plumbline_worker_tasks_in_flight", Kind::Gauge, "Tile tasks being processed."),
-    (
-        "plumbline_worker_tasks_total",
-        Kind::Counter,
-        "Tile tasks answered, by outcome (done, resumed, dropped, retried, dead_lettered).",
-    ),
-    (
-        "plumbline_worker_task_errors_total",
-        Kind::Counter,
-        "Tile task errors by kind (invalid, missing, forbidden, transient, internal) and action (retried, \
-         dead_lettered).",
-    ),
-    (
-        "plumbline_worker_stage_seconds",
-        Kind::Summary,
-        "Seconds per tile and stage (fetch, registration, poles, write, total).",
-    ),
-    ("plumbline_worker_queue_pending", Kind::Gauge, "Tile tasks not yet delivered to any worker."),
-    ("plumbline_worker_queue_ack_pending", Kind::Gauge, "Tile tasks delivered and not yet answered."),
-];
 
 /// Labels of one sample, in order.
 type Labels = Vec<(&'static str, String)>;
@@ -132,6 +105,16 @@ impl Registry {
     }
 }
 
+/// Write the `# HELP` and `# TYPE` lines of a metric family.
+pub fn header(out: &mut String, name: &str, kind: &str, help: &str) {
+    let _ = writeln!(out, "# HELP {name} {help}\n# TYPE {name} {kind}");
+}
+
+/// Escape a label value (backslash, double quote, newline).
+pub fn escape(label: &str) -> String {
+    label.replace('\\', "\\\\").replace('"', "\\\"").replace('\n', "\\n")
+}
+
 fn format_labels(labels: &Labels) -> String {
     if labels.is_empty() {
         return String::new();
@@ -144,9 +127,20 @@ fn format_labels(labels: &Labels) -> String {
 mod tests {
     use super::*;
 
+    const FAMILIES: [Family; 3] = [
+        ("plumbline_worker_tasks_in_flight", Kind::Gauge, "Tile tasks being processed."),
+        ("plumbline_worker_tasks_total", Kind::Counter, "Tile tasks answered, by outcome."),
+        ("plumbline_worker_stage_seconds", Kind::Summary, "Seconds per tile and stage."),
+    ];
+
+    #[test]
+    fn label_values_are_escaped() {
+        assert_eq!(escape("a\\b \"c\"\nd"), "a\\\\b \\\"c\\\"\\nd");
+    }
+
     #[test]
     fn counters_gauges_and_summaries_render_with_their_labels() {
-        let m = Registry::new(&WORKER_FAMILIES);
+        let m = Registry::new(&FAMILIES);
         m.add("plumbline_worker_tasks_total", &[("outcome", "done")], 1.0);
         m.add("plumbline_worker_tasks_total", &[("outcome", "done")], 1.0);
         m.add("plumbline_worker_tasks_total", &[("outcome", "retried")], 1.0);
@@ -164,7 +158,7 @@ mod tests {
             "# TYPE plumbline_worker_stage_seconds summary",
             "plumbline_worker_stage_seconds_sum{stage=\"fetch\"} 1.75",
             "plumbline_worker_stage_seconds_count{stage=\"fetch\"} 2",
-            "# HELP plumbline_worker_queue_pending Tile tasks not yet delivered to any worker.",
+            "# HELP plumbline_worker_tasks_in_flight Tile tasks being processed.",
         ] {
             assert!(text.lines().any(|l| l == line), "{line} missing from\n{text}");
         }
@@ -174,7 +168,7 @@ mod tests {
         for l in text.lines().filter(|l| !l.starts_with('#')) {
             let (name, value) = l.rsplit_once(' ').unwrap();
             assert!(value.parse::<f64>().is_ok(), "{l}");
-            assert!(WORKER_FAMILIES.iter().any(|f| name.starts_with(f.0)), "{l}");
+            assert!(FAMILIES.iter().any(|f| name.starts_with(f.0)), "{l}");
         }
     }
 }

@@ -1,4 +1,4 @@
-//! The ops HTTP listener of the worker and adjuster services (`--ops-listen ADDR`): `GET /healthz` (200
+//! The ops HTTP listener of the worker and adjuster roles (`--ops-listen ADDR`): `GET /healthz` (200
 //! while the process runs), `GET /readyz` (200 when NATS is connected and the store answers, else 503; JSON
 //! says which), `GET /metrics` (Prometheus text). A minimal HTTP/1.1 responder: one request per connection,
 //! no body, `Connection: close` — all a probe or a scraper needs.
@@ -10,6 +10,34 @@ use std::time::Duration;
 use futures::future::BoxFuture;
 use tokio::io::{AsyncReadExt as _, AsyncWriteExt as _};
 use tokio::net::{TcpListener, TcpStream};
+
+use crate::Files;
+
+/// The ops listener of a role: where to answer probes and scrapes, and a URL in the store to probe.
+#[derive(Debug)]
+pub struct Ops {
+    /// The bound listener.
+    pub listener: TcpListener,
+    /// A URL in the store (its absence is fine; an error means the store does not answer).
+    pub store_probe: String,
+}
+
+/// Whether NATS is connected, and whether the store answers at `probe` (a missing object is an answer): what
+/// every role's `/readyz` says.
+pub async fn ready(client: &async_nats::Client, files: &Files, probe: Option<&str>) -> (bool, bool) {
+    let nats = client.connection_state() == async_nats::connection::State::Connected;
+    let store = match probe {
+        Some(url) => match files.exists(url).await {
+            Ok(_) => true,
+            Err(e) => {
+                tracing::warn!(error = %e, "store not reachable");
+                false
+            }
+        },
+        None => true,
+    };
+    (nats, store)
+}
 
 /// What the listener asks its service.
 pub trait Probe: Send + Sync + 'static {
