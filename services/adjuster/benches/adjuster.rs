@@ -6,8 +6,7 @@
 //! Run: `cargo bench -p plumbline-adjuster --bench adjuster [-- runs]`.
 #![allow(clippy::unwrap_used)]
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use plumbline_fixtures::adjuster;
 
 use std::time::Instant;
 
@@ -42,17 +41,17 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|");
     let rt = tokio::runtime::Runtime::new().unwrap();
     for length in [1000.0, 2000.0, 4000.0] {
-        let s = common::scenario_of(Preset::District, length, 50.0, 1);
+        let s = adjuster::scenario_of(Preset::District, length, 50.0, 1);
         let dir = tempfile::tempdir().unwrap();
-        let c = common::campaign(&s, &format!("{}/", dir.path().display()));
-        let tiles = common::tiles(&s, &s.poles);
+        let c = adjuster::campaign(&s, &format!("{}/", dir.path().display()));
+        let tiles = adjuster::tiles(&s, &s.poles);
         let config = AdjusterConfig::default();
         let mount = panorama_mount(&c.manifest);
         let (t_merge, m) = time(runs, || merge(&tiles));
         let (t_solve, solved) = time(runs, || solve(&s.dg, &m, &mount, &config).unwrap());
         let (t_report, _) = time(runs, || build_report(&c, &m, &solved, c.reference.as_ref(), &[]));
         let (t_layers, layers) = time(runs, || observation_layers(&c, &m, &solved));
-        let (t_gpkg, _) = time(runs, || plumbline_runtime::gdal_write::geopackage(&layers, common::EPSG).unwrap());
+        let (t_gpkg, _) = time(runs, || plumbline_runtime::gdal_write::geopackage(&layers, adjuster::EPSG).unwrap());
         let (t_csv, _) = time(runs, || corrections_csv(&s.dg, &solved.corrected));
         let (t_finish, _) = time(runs, || {
             rt.block_on(finish(&Files::default(), &c, &tiles, &config, &NoProgress)).unwrap();

@@ -7,13 +7,10 @@
 //! (holding `campaign.toml`, outputs under `results/`); no VARIANT runs all of them.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "common/tiles.rs"]
-mod tiles;
-
 use plumbline_adjuster::{AdjusterConfig, Merged, join_shared_points, merge, panorama_mount, solve};
+use plumbline_fixtures::adjuster::tiles::read_tiles;
 use plumbline_geo::metrics::compare;
 use plumbline_runtime::Files;
-use tiles::read_tiles;
 
 /// A named change to the settings or to the merged observations.
 struct Variant {

@@ -4,13 +4,14 @@
 //! `plumbline_geo::formats`, `corrections.csv`, and `report.json` as the report schema with the before/after
 //! figures of `metrics::compare`.
 
-mod common;
+use plumbline_fixtures::adjuster;
 
 use std::sync::Mutex;
 
 use gdal::Dataset;
 use gdal::vector::LayerAccess;
 use plumbline_adjuster::{AdjusterConfig, LAYERS, LINE_LAYERS, finish};
+use plumbline_campaign::Stage;
 use plumbline_campaign::progress::Progress;
 use plumbline_geo::formats::{AttitudeConvention, parse_csv};
 use plumbline_geo::metrics::compare;
@@ -22,19 +23,19 @@ use plumbline_runtime::Files;
 struct Recorder(Mutex<Vec<String>>);
 
 impl Progress for Recorder {
-    fn begin(&self, stage: &str, total: Option<u64>) {
+    fn begin(&self, stage: Stage, total: Option<u64>) {
         self.0.lock().unwrap().push(format!("begin {stage} {total:?}"));
     }
-    fn advance(&self, stage: &str, n: u64) {
+    fn advance(&self, stage: Stage, n: u64) {
         self.0.lock().unwrap().push(format!("advance {stage} {n}"));
     }
-    fn skip(&self, stage: &str, n: u64) {
+    fn skip(&self, stage: Stage, n: u64) {
         self.0.lock().unwrap().push(format!("skip {stage} {n}"));
     }
-    fn note(&self, stage: &str, text: &str) {
+    fn note(&self, stage: Stage, text: &str) {
         self.0.lock().unwrap().push(format!("note {stage} {text}"));
     }
-    fn end(&self, stage: &str) {
+    fn end(&self, stage: Stage) {
         self.0.lock().unwrap().push(format!("end {stage}"));
     }
 }
@@ -58,13 +59,13 @@ fn assert_figures_eq(got: &Figures, want: &Figures, what: &str) {
 async fn finish_writes_every_output() {
     let dir = tempfile::tempdir().unwrap();
     let out = format!("{}/", dir.path().display());
-    let s = common::scenario(2);
+    let s = adjuster::scenario(2);
     let mut poles = s.poles.clone();
-    let wrong = common::best_light(&poles);
+    let wrong = adjuster::best_light(&poles);
     poles[wrong].cadastre[0] += 0.6;
     poles[wrong].cadastre[1] += 0.8;
-    let tiles = common::tiles(&s, &poles);
-    let campaign = common::campaign(&s, &out);
+    let tiles = adjuster::tiles(&s, &poles);
+    let campaign = adjuster::campaign(&s, &out);
     let progress = Recorder::default();
     let done = finish(&Files::default(), &campaign, &tiles, &AdjusterConfig::default(), &progress).await.unwrap();
 
@@ -155,7 +156,7 @@ fn check_geopackage(
         let mut layer = ds.layer_by_name(name).unwrap();
         assert_eq!(layer.feature_count() as usize, count, "layer {name}");
         let srs = layer.spatial_ref().unwrap();
-        assert_eq!(srs.auth_code().unwrap(), common::EPSG as i32, "layer {name}");
+        assert_eq!(srs.auth_code().unwrap(), adjuster::EPSG as i32, "layer {name}");
         if count > 0 {
             assert!(layer.features().next().is_some());
         }

@@ -2,7 +2,8 @@
 //! Merging tile outputs and filling the report and the GeoPackage layers from them: counts per tile, every
 //! skipped item with its reason, map marks, residuals, pole frames (the schema's golden example).
 
-mod common;
+use plumbline_campaign::{SkipReason, Stage};
+use plumbline_fixtures::adjuster;
 
 use plumbline_adjuster::{
     AdjusterConfig, Merged, build_report, merge, normalised_residuals, observation_layers, panorama_mount, solve,
@@ -15,30 +16,33 @@ use plumbline_worker::TileOutputV1;
 const POLE_FRAMES: &str = include_str!("../../../schemas/examples/pole-frames.v1.example.json");
 
 /// Tiles of seed 4 with tile 0's first tie repeated in tile 1 and the golden pole frames in tile 0.
-fn tiles(s: &common::Scenario) -> Vec<TileOutputV1> {
-    let mut tiles = common::tiles(s, &s.poles);
+fn tiles(s: &adjuster::Scenario) -> Vec<TileOutputV1> {
+    let mut tiles = adjuster::tiles(s, &s.poles);
     let first = tiles[0].registration.as_ref().unwrap().ties[0].clone();
     tiles[1].registration.as_mut().unwrap().ties.push(first);
     tiles[0].pole_frames = serde_json::from_str::<Vec<FrameReport>>(POLE_FRAMES).unwrap();
     tiles
 }
 
-fn discarded(s: &common::Scenario) -> usize {
-    (0..s.panoramas.len()).filter(|i| i % common::DISCARD_EVERY == common::DISCARD_EVERY - 1).count()
+fn discarded(s: &adjuster::Scenario) -> usize {
+    (0..s.panoramas.len()).filter(|i| i % adjuster::DISCARD_EVERY == adjuster::DISCARD_EVERY - 1).count()
 }
 
 #[test]
 fn merge_keeps_every_tile_and_lists_what_was_left_out() {
-    let s = common::scenario(4);
+    let s = adjuster::scenario(4);
     let tiles = tiles(&s);
     let m: Merged = merge(&tiles);
     let ties: usize = tiles.iter().map(|t| t.registration.as_ref().unwrap().ties.len()).sum();
     assert_eq!(m.observations.ties.len(), ties - 1, "the repeated tie is kept once");
     assert_eq!(m.observations.poles.len(), s.poles.len());
     let duplicate = &tiles[0].registration.as_ref().unwrap().ties[0].id.0;
-    let dup: Vec<_> = m.skipped.iter().filter(|k| k.reason == "duplicate_tie").collect();
+    let dup: Vec<_> = m.skipped.iter().filter(|k| k.reason == SkipReason::DuplicateTie).collect();
     assert!(dup.len() == 1 && &dup[0].item == duplicate, "{dup:?}");
-    let discards = m.skipped.iter().filter(|k| k.stage == "registration" && k.reason == "discard.no_neighbour");
+    let discards = m
+        .skipped
+        .iter()
+        .filter(|k| k.stage == Stage::Registration && k.reason == SkipReason::Discarded("no_neighbour".into()));
     assert_eq!(discards.count(), discarded(&s));
     assert_eq!(m.images.len(), s.panoramas.len());
     assert_eq!(m.images.iter().filter(|i| !i.matched()).count(), discarded(&s));
@@ -60,7 +64,7 @@ fn merge_keeps_every_tile_and_lists_what_was_left_out() {
 
 /// A solved scenario and its report.
 struct Run {
-    s: common::Scenario,
+    s: adjuster::Scenario,
     m: Merged,
     c: plumbline_scheduler::Campaign,
     solved: plumbline_adjuster::Solved,
@@ -68,8 +72,8 @@ struct Run {
 }
 
 fn run(seed: u64) -> Run {
-    let s = common::scenario(seed);
-    let c = common::campaign(&s, "/tmp/unused/");
+    let s = adjuster::scenario(seed);
+    let c = adjuster::campaign(&s, "/tmp/unused/");
     let m = merge(&tiles(&s));
     let solved = solve(&s.dg, &m, &panorama_mount(&c.manifest), &AdjusterConfig::default()).unwrap();
     let r = build_report(&c, &m, &solved, c.reference.as_ref(), &[]);
@@ -161,8 +165,8 @@ fn geopackage_layers_carry_poles_and_panoramas() {
     let panoramas = layer("panoramas");
     assert_eq!(panoramas.features.len(), s.panoramas.len());
     let state = |k: usize| text(panoramas, k, "state");
-    assert_eq!((state(0), state(common::DISCARD_EVERY - 1)), ("matched".into(), "discarded".into()));
-    assert_eq!(text(panoramas, common::DISCARD_EVERY - 1, "reason"), "no_neighbour");
+    assert_eq!((state(0), state(adjuster::DISCARD_EVERY - 1)), ("matched".into(), "discarded".into()));
+    assert_eq!(text(panoramas, adjuster::DISCARD_EVERY - 1, "reason"), "no_neighbour");
     assert_eq!(layer("tie_points").features.len(), m.observations.ties.len());
 }
 
@@ -171,8 +175,8 @@ fn geopackage_layers_carry_poles_and_panoramas() {
 /// names the rejected ray the whole tie follows, and counts the tested rejections apart.
 #[test]
 fn a_tie_left_undetermined_names_the_ray_it_follows() {
-    let s = common::scenario(4);
-    let c = common::campaign(&s, "/tmp/unused/");
+    let s = adjuster::scenario(4);
+    let c = adjuster::campaign(&s, "/tmp/unused/");
     let mut tiles = tiles(&s);
     let reg = tiles[0].registration.as_mut().unwrap();
     let tie = reg.ties.iter_mut().find(|t| t.rays.len() >= 2).unwrap();

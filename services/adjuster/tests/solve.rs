@@ -2,7 +2,7 @@
 //! The adjuster's pure path on a simulated deep-canyon drive: merged tile outputs corrected by the global
 //! adjustment, a wrong control point rejected and reported, broken observations skipped and reported.
 
-mod common;
+use plumbline_fixtures::adjuster;
 
 use plumbline_adjuster::{AdjusterConfig, build_report, merge, panorama_mount, solve};
 use plumbline_geo::metrics::compare;
@@ -15,9 +15,9 @@ use plumbline_geo::metrics::compare;
 fn adjustment_reduces_the_dg_error() {
     let (mut before2, mut after2) = (0.0, 0.0);
     for seed in 1..=6 {
-        let s = common::scenario(seed);
-        let c = common::campaign(&s, "/tmp/unused/");
-        let merged = merge(&common::tiles(&s, &s.poles));
+        let s = adjuster::scenario(seed);
+        let c = adjuster::campaign(&s, "/tmp/unused/");
+        let merged = merge(&adjuster::tiles(&s, &s.poles));
         assert!(merged.observations.ties.len() > 100 && merged.observations.poles.len() > 20);
         assert_eq!(merged.motions.len(), s.motions.len());
         let solved = solve(&s.dg, &merged, &panorama_mount(&c.manifest), &AdjusterConfig::default()).unwrap();
@@ -41,15 +41,15 @@ fn adjustment_reduces_the_dg_error() {
 /// critical value; a pole update with a NaN coordinate is skipped and listed under the adjustment's skips.
 #[test]
 fn a_wrong_pole_is_rejected_and_reported() {
-    let s = common::scenario(3);
+    let s = adjuster::scenario(3);
     let mut poles = s.poles.clone();
-    let wrong = common::best_light(&poles);
+    let wrong = adjuster::best_light(&poles);
     poles[wrong].cadastre[0] += 0.6;
     poles[wrong].cadastre[1] += 0.8;
     let broken = (wrong + poles.len() / 2) % poles.len();
     poles[broken].observed[1] = f64::NAN;
-    let c = common::campaign(&s, "/tmp/unused/");
-    let merged = merge(&common::tiles(&s, &poles));
+    let c = adjuster::campaign(&s, "/tmp/unused/");
+    let merged = merge(&adjuster::tiles(&s, &poles));
     let config = AdjusterConfig::default();
     let solved = solve(&s.dg, &merged, &panorama_mount(&c.manifest), &config).unwrap();
     let report = build_report(&c, &merged, &solved, c.reference.as_ref(), &[]);
@@ -74,9 +74,9 @@ fn a_wrong_pole_is_rejected_and_reported() {
 /// the simulated aerial heights carry no shared error, so every bias is zero within 3σ.
 #[test]
 fn aerial_frame_sets_reach_the_adjustment_as_height_biases() {
-    let s = common::scenario(3);
-    let c = common::campaign(&s, "/tmp/unused/");
-    let merged = merge(&common::tiles(&s, &s.poles));
+    let s = adjuster::scenario(3);
+    let c = adjuster::campaign(&s, "/tmp/unused/");
+    let merged = merge(&adjuster::tiles(&s, &s.poles));
     let sets = &merged.observations.aerial_frame_sets;
     let with_aerial = merged.observations.ties.iter().filter(|t| t.aerial.is_some()).count();
     assert!(sets.len() >= 2, "{} sets", sets.len());
@@ -86,7 +86,7 @@ fn aerial_frame_sets_reach_the_adjustment_as_height_biases() {
         assert_eq!(set.frames, [format!("aerial{n:04}"), format!("aerial{:04}", n + 1)]);
         for id in &set.ties {
             let tie = merged.observations.ties.iter().find(|t| &t.id == id).unwrap();
-            assert_eq!(((tie.rays[0].time / common::FRAME_SPAN).floor() as i64), n, "{id:?} in {:?}", set.frames);
+            assert_eq!(((tie.rays[0].time / adjuster::FRAME_SPAN).floor() as i64), n, "{id:?} in {:?}", set.frames);
         }
     }
     let solved = solve(&s.dg, &merged, &panorama_mount(&c.manifest), &AdjusterConfig::default()).unwrap();

@@ -14,16 +14,13 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used)] // a benchmark: a failed step ends it with its message
 
-/// The tests' S3 helpers (store layout, credentials, upload); its `Role` is the tests', this bench has its own
-/// (another binary can be named, and it reads the process's CPU time).
-#[path = "../tests/support/services.rs"]
-#[allow(dead_code)]
-mod services;
-
 use std::path::PathBuf;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
+// The system tests' S3 helpers (store layout, credentials, upload); this bench starts its own `plumbline serve`
+// processes (another binary can be named, and it reads the process's CPU time).
+use plumbline_fixtures::services;
 use plumbline_runtime::{Files, Secret};
 use plumbline_scheduler::client::Client;
 use plumbline_scheduler::service::{self, Scheduler, Tokens};

@@ -3,7 +3,7 @@
 //! rejected manifests naming their fields, and publishing after a nats-server restart.
 #![allow(clippy::unwrap_used)]
 
-mod support;
+use crate::support;
 
 use std::time::{Duration, Instant};
 

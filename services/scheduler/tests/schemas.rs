@@ -2,6 +2,7 @@
 //! document is the checked-in one.
 #![allow(clippy::unwrap_used)]
 
+#[allow(dead_code)] // the rest serves the `scheduler` target
 mod support;
 
 use plumbline_scheduler::messages;

@@ -4,8 +4,7 @@
 //! process's VmHWM after each size (sizes run in increasing order, so it is that size's peak).
 #![allow(clippy::unwrap_used)]
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use plumbline_fixtures::adjustment;
 
 use std::time::Instant;
 
@@ -50,19 +49,19 @@ fn main() {
     println!("|---|---|---|---|---|---|---|---|---|---|---|---|");
     for n in sizes {
         let t0 = Instant::now();
-        let s = common::scene(n as f64 / 10.0 - 0.1, 10.0, None, common::drift_and_jump(f64::INFINITY), 0.05);
+        let s = adjustment::scene(n as f64 / 10.0 - 0.1, 10.0, None, adjustment::drift_and_jump(f64::INFINITY), 0.05);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let obs = ObservationSetV1 { poles: common::poles(&s, 10, 0.03, 0.05, &mut rng), ..Default::default() };
+        let obs = ObservationSetV1 { poles: adjustment::poles(&s, 10, 0.03, 0.05, &mut rng), ..Default::default() };
         let build = t0.elapsed().as_secs_f64();
-        let m = common::mount();
+        let m = adjustment::mount();
         let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
         let config = AdjustmentConfig { node_spacing: Some(0.1), min_node_gap: 0.05, ..AdjustmentConfig::default() };
         let t1 = Instant::now();
         let result = adjust(&input, &config, par).unwrap();
         let total = t1.elapsed().as_secs_f64();
         let corrected = result.apply(&s.dg).unwrap();
-        let before = common::rms(&common::horizontal_errors(&s.dg, &s.truth));
-        let after = common::rms(&common::horizontal_errors(&corrected, &s.truth));
+        let before = adjustment::rms(&adjustment::horizontal_errors(&s.dg, &s.truth));
+        let after = adjustment::rms(&adjustment::horizontal_errors(&corrected, &s.truth));
         let t = result.timings;
         print!("| {n} | {} | {build:.2} | {:.2} | ", obs.poles.len(), t.symbolic.as_secs_f64());
         print!("{:.2} ({}) | {:.2} | ", t.numeric.as_secs_f64(), t.factorizations, t.solve.as_secs_f64());

@@ -5,8 +5,7 @@
 //! Without gtsam the table says so; nothing in CI depends on it.
 #![allow(clippy::unwrap_used)]
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use plumbline_fixtures::adjustment;
 
 use std::process::Command;
 use std::time::Instant;
@@ -26,10 +25,10 @@ fn main() {
     );
     println!("|---|---|---|---|---|---|---|---|---|");
     for n in sizes {
-        let s = common::scene(n as f64 / 10.0 - 0.1, 10.0, None, common::drift_and_jump(f64::INFINITY), 0.05);
+        let s = adjustment::scene(n as f64 / 10.0 - 0.1, 10.0, None, adjustment::drift_and_jump(f64::INFINITY), 0.05);
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(1);
-        let obs = ObservationSetV1 { poles: common::poles(&s, 10, 0.03, 0.05, &mut rng), ..Default::default() };
-        let m = common::mount();
+        let obs = ObservationSetV1 { poles: adjustment::poles(&s, 10, 0.03, 0.05, &mut rng), ..Default::default() };
+        let m = adjustment::mount();
         let input = AdjustmentInput { trajectory: &s.dg, observations: &obs, mount: &m, weak_links: &[] };
         let config = AdjustmentConfig { huber: None, snooping: None, tolerance: 1e-9, ..AdjustmentConfig::default() };
         let t = Instant::now();

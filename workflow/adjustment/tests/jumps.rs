@@ -4,11 +4,9 @@
 //! the result does not change measurably.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use plumbline_adjustment::{Adjustment, AdjustmentConfig, AdjustmentInput, ObservationSetV1, adjust};
+use plumbline_fixtures::adjustment::*;
 use rand::SeedableRng;
 
 fn run(s: &Scene, obs: &ObservationSetV1, config: &AdjustmentConfig) -> Adjustment {

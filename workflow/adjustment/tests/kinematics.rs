@@ -5,14 +5,12 @@
 //! two off the direction of travel is estimated as the drive's crab angle, not taken for jumps everywhere.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
 use plumbline_adjustment::{
     Adjustment, AdjustmentConfig, AdjustmentInput, ObservationSetV1, PoleUpdate, WeakLink, adjust,
 };
+use plumbline_fixtures::adjustment::*;
 use rand::SeedableRng;
 
 /// A smooth drift plus a jump of `size` metres to the left of the street over [from, to) s.

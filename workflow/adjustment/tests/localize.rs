@@ -6,12 +6,10 @@
 //! to the end, a σ of 2 cm would let the weak prior hold the trajectory near the DG.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
 use plumbline_adjustment::{Adjustment, AdjustmentConfig, AdjustmentInput, ObservationSetV1, WeakLink, adjust};
+use plumbline_fixtures::adjustment::*;
 use rand::SeedableRng;
 
 fn smoothstep(x: f64) -> f64 {

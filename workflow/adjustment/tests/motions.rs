@@ -3,14 +3,12 @@
 //! them); a motion 1 m off is rejected by data snooping and does not bend the trajectory.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
 use plumbline_adjustment::{
     Adjustment, AdjustmentConfig, AdjustmentInput, ObservationSetV1, RelativeMotion, WeakLink, adjust,
 };
+use plumbline_fixtures::adjustment::*;
 use rand::{Rng, SeedableRng};
 
 /// Image-motion σ: east, north (m), heading (rad) (Jende et al. 2017 §3.3).

@@ -2,13 +2,11 @@
 //! the truth; posterior σ is calibrated; a 1 m wrong control point is rejected by data snooping.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use plumbline_adjustment::{
     AdjustmentConfig, AdjustmentInput, ObservationRef, ObservationSetV1, WeakLink, adjust, adjust_observed,
 };
+use plumbline_fixtures::adjustment::*;
 use rand::SeedableRng;
 
 fn run(

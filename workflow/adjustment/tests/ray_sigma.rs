@@ -2,14 +2,12 @@
 //! matches seen at grazing angles do) are weighed right with `TieRay::sigma_elevation`, and wrongly without.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::Vector3;
 use plumbline_adjustment::{
     Adjustment, AdjustmentConfig, AdjustmentInput, AerialPoint, ObservationRef, ObservationSetV1, TiePoint, adjust,
 };
+use plumbline_fixtures::adjustment::*;
 use plumbline_geo::{Point3, PositionInterpolation};
 use rand::SeedableRng;
 

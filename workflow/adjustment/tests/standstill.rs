@@ -3,14 +3,12 @@
 //! standstill mis-detected while the vehicle creeps 30 cm is caught by data snooping.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
 use plumbline_adjustment::{
     Adjustment, AdjustmentConfig, AdjustmentInput, ObservationSetV1, StandstillConfig, WeakLink, adjust,
 };
+use plumbline_fixtures::adjustment::*;
 use plumbline_geo::{Attitude, Point3, PoseStd, Trajectory, TrajectoryRecord, ValidationLimits};
 use rand::SeedableRng;
 

@@ -3,12 +3,10 @@
 //! aerial heights sharing their frame set's bias.
 #![allow(clippy::unwrap_used)]
 
-mod common;
-
-use common::*;
 use faer::Par;
 use nalgebra::{Vector3, Vector6};
 use plumbline_adjustment::{AdjustmentConfig, AdjustmentInput, AerialFrameSet, AerialPoint, ObservationSetV1, adjust};
+use plumbline_fixtures::adjustment::*;
 use rand::SeedableRng;
 
 /// Outbound 0–60 s with a smooth drift; the return pass (60–120 s) picks up a different, larger offset.

@@ -8,8 +8,7 @@
 //! synthetic pair. `-- export-descriptors DIR` writes that pair's descriptors for opencv_akaze.py `--match DIR`.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-#[path = "common/scene.rs"]
-mod scene;
+use plumbline_fixtures::imaging as scene;
 
 use std::time::Instant;
 

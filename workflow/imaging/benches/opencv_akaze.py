@@ -1,5 +1,6 @@
 """Reference numbers for benches/imaging.rs: OpenCV (PyPI opencv-python-headless<5) AKAZE and KAZE on the
-identical synthetic 1024² pair (common/scene.rs: SplitMix64 blobs, ±4σ stamps, floor(x + 0.5) quantisation).
+identical synthetic 1024² pair (the workspace's tests/fixtures/src/imaging.rs: SplitMix64 blobs, ±4σ stamps,
+floor(x + 0.5) quantisation).
 
 Run by hand: python3 -m venv /tmp/cv && /tmp/cv/bin/pip install "opencv-python-headless<5" &&
 /tmp/cv/bin/python workflow/imaging/benches/opencv_akaze.py [--tsv PATH]

@@ -2,8 +2,7 @@
 //! tactical grade, for growing durations up to 1 h (`cargo bench -p plumbline-navigation`).
 #![allow(clippy::unwrap_used)]
 
-#[path = "../tests/common/mod.rs"]
-mod common;
+use plumbline_fixtures::navigation;
 
 use std::time::Instant;
 
@@ -15,7 +14,7 @@ fn main() {
     println!("|---|---|---|---|---|---|---|");
     // One pass around the block takes ~2.8 min; 21 passes ≈ 1 h.
     for passes in [3, 9, 21] {
-        let s = common::scenario(7, &common::block_route(passes), &ImuErrors::NAVIGATION, 200.0, 5.0);
+        let s = navigation::scenario(7, &navigation::block_route(passes), &ImuErrors::NAVIGATION, 200.0, 5.0);
         let t = Instant::now();
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         let t_filter = t.elapsed().as_secs_f64();

@@ -2,7 +2,7 @@
 //! Accuracy of the filter and smoother on simulated drives: mechanisation against the simulator, a GNSS
 //! outage bridged by the smoother, covariance consistency (NEES), and input validation.
 
-mod common;
+use plumbline_fixtures::navigation;
 
 use nalgebra::{Matrix3, Rotation3, UnitQuaternion, Vector3};
 use plumbline_geo::{Attitude, Body, Point3};
@@ -16,7 +16,7 @@ use plumbline_synth::motion::imu::ImuErrors;
 /// drive: the mechanisation matches the simulator's increment model (a sign or frame error drifts metres).
 #[test]
 fn perfect_imu_free_inertial_follows_truth() {
-    let mut s = common::scenario(11, &common::block_route(1), &ImuErrors::PERFECT, 100.0, 5.0);
+    let mut s = navigation::scenario(11, &navigation::block_route(1), &ImuErrors::PERFECT, 100.0, 5.0);
     let truth = s.drive.trajectory.records();
     s.initial.position = truth[0].position;
     s.initial.velocity = s.drive.kinematics[0].velocity;
@@ -34,7 +34,7 @@ fn perfect_imu_free_inertial_follows_truth() {
 fn smoother_bridges_outage_consistently() {
     let (mut nees_fw, mut nees_sm, mut n) = (0.0, 0.0, 0usize);
     for seed in [21, 22, 23] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let mut s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 60.0, t0 + 120.0);
         s.gnss.retain(|f| f.time < a || f.time > b);
@@ -44,7 +44,7 @@ fn smoother_bridges_outage_consistently() {
         let (mut max_fw, mut max_sm, mut max_lin) = (0.0f64, 0.0f64, 0.0f64);
         let before = s.gnss.iter().rfind(|f| f.time < a).unwrap();
         let after = s.gnss.iter().find(|f| f.time > b).unwrap();
-        let lever = Point3::<Body>::from_vector(Vector3::from(common::LEVER));
+        let lever = Point3::<Body>::from_vector(Vector3::from(navigation::LEVER));
         for (k, (f, m)) in fw.filtered().zip(&sm).enumerate() {
             if f.time < a || f.time > b {
                 continue;
@@ -84,7 +84,7 @@ fn nees(e: &Vector3<f64>, cov: &Matrix3<f64>) -> f64 {
 /// The smoothed trajectory carries σ that shrink where GNSS is present and grow in the outage's middle.
 #[test]
 fn smoothed_trajectory_has_sigma_from_covariance() {
-    let mut s = common::scenario(31, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(31, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     s.gnss.retain(|f| f.time < t0 + 60.0 || f.time > t0 + 120.0);
     let traj = to_trajectory(&smooth(&filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap()).unwrap()).unwrap();
@@ -99,7 +99,7 @@ fn smoothed_trajectory_has_sigma_from_covariance() {
 /// A broken IMU sample stops the run with its index and field; a broken fix is skipped and reported.
 #[test]
 fn bad_input_is_named() {
-    let s = common::scenario(41, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let s = navigation::scenario(41, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let mut imu = s.imu[..2000].to_vec();
     imu[700].dt = f64::NAN;
     match filter(&imu, &s.gnss, &s.initial, &s.config) {
@@ -125,7 +125,7 @@ fn bad_input_is_named() {
 fn the_vehicle_constraint_bridges_an_outage_with_accelerometer_drift() {
     let (mut worst_free, mut worst_held) = (0.0f64, 0.0f64);
     for seed in [31, 32, 33] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let mut s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 60.0, t0 + 120.0);
         s.gnss.retain(|f| f.time < a || f.time > b);
@@ -156,14 +156,14 @@ fn the_vehicle_constraint_bridges_an_outage_with_accelerometer_drift() {
 /// The clean drive has none.
 #[test]
 fn the_divergence_guard_names_the_span_where_the_state_ran_away() {
-    let mut s = common::scenario(41, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(41, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let physics = plumbline_navigation::Physics::for_unit(s.config.imu.accel_bias, s.config.imu.gyro_bias);
     let clean = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     assert_eq!(plumbline_navigation::divergences(&clean, &physics), vec![]);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 60.0, t0 + 120.0);
     s.gnss.retain(|f| f.time < a || f.time > b);
-    common::add_bias_step(&mut s.imu, a, 2.0);
+    navigation::add_bias_step(&mut s.imu, a, 2.0);
     let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     let spans = plumbline_navigation::divergences(&fw, &physics);
     println!("{spans:?}");
@@ -179,11 +179,11 @@ fn the_divergence_guard_names_the_span_where_the_state_ran_away() {
 /// correction there; trusted, the turn's missing angle bends the whole bridge.
 #[test]
 fn a_filled_imu_dropout_in_a_turn_is_found_and_bridged() {
-    let mut s = common::scenario(31, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let mut s = navigation::scenario(31, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
     // The dropout starts 1 s before a corner and ends 0.6 s into it.
-    let onset = common::corner_onset(&s.imu, 30.0);
+    let onset = navigation::corner_onset(&s.imu, 30.0);
     let (first, last) = (onset - 100, onset + 59);
-    let missed = common::hold_dropout(&mut s.imu, first, last);
+    let missed = navigation::hold_dropout(&mut s.imu, first, last);
     assert!(missed.to_degrees().abs() > 2.0, "the filled run should miss part of the turn: {}°", missed.to_degrees());
     let t_peak = s.imu[onset].time;
     let (a, b) = (t_peak - 20.0, t_peak + 40.0);
@@ -218,7 +218,7 @@ fn a_filled_imu_dropout_in_a_turn_is_found_and_bridged() {
 /// its axes while driving straight gives both back (roll about the forward axis cannot be seen and stays 0).
 #[test]
 fn the_imus_mounting_in_the_vehicle_is_measured_from_straight_driving() {
-    let mut s = common::scenario(41, &common::block_route(2), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let mut s = navigation::scenario(41, &navigation::block_route(2), &ImuErrors::NAVIGATION, 100.0, 1.0);
     let level = measure_mounting(&s.imu, &s.gnss, &s.initial, &s.config).unwrap().unwrap();
     let truth = Mounting { yaw: 0.02, pitch: 0.015 };
     let m = truth.to_vehicle();
@@ -249,7 +249,7 @@ fn the_imus_mounting_in_the_vehicle_is_measured_from_straight_driving() {
 /// with true tags no offset is found significant.
 #[test]
 fn the_imus_time_offset_against_the_gnss_is_measured() {
-    let s = common::scenario(43, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let s = navigation::scenario(43, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
     let on_time = measure_time_offset(&s.imu, &s.gnss, &s.initial, &s.config).unwrap().unwrap();
     let mut late = s.imu.clone();
     shift_samples(&mut late, -0.08);

@@ -6,7 +6,7 @@
 //! the step test (the default of `navigate`) excluding steps, outliers and faults found after an outage, and
 //! nothing else.
 
-mod common;
+use plumbline_fixtures::navigation;
 
 use nalgebra::Vector3;
 use plumbline_geo::Vec3;
@@ -19,7 +19,7 @@ use plumbline_navigation::{
 use plumbline_synth::motion::imu::ImuErrors;
 
 /// Largest horizontal error of the filtered positions against the truth within [a, b).
-fn worst(fw: &ForwardPass, s: &common::Scenario, a: f64, b: f64) -> f64 {
+fn worst(fw: &ForwardPass, s: &navigation::Scenario, a: f64, b: f64) -> f64 {
     let truth = s.drive.trajectory.records();
     fw.filtered()
         .zip(truth)
@@ -30,7 +30,7 @@ fn worst(fw: &ForwardPass, s: &common::Scenario, a: f64, b: f64) -> f64 {
 
 #[test]
 fn a_gnss_jump_is_excluded_instead_of_absorbed() {
-    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(5, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 80.0, t0 + 90.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -61,11 +61,11 @@ fn late_flags(fw: &ForwardPass, from: f64) -> Vec<Flag> {
 
 #[test]
 fn after_an_imu_bias_step_the_filter_recovers_instead_of_flagging_forever() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(6, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis
-    common::add_bias_step(&mut s.imu, step_at, step);
+    navigation::add_bias_step(&mut s.imu, step_at, step);
     let plain = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     let adaptive = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &Adaptation::default()).unwrap();
     let reopened = |i: &&plumbline_navigation::Innovation| {
@@ -96,7 +96,7 @@ fn after_an_imu_bias_step_the_filter_recovers_instead_of_flagging_forever() {
 /// until it does.
 #[test]
 fn a_gyro_bias_far_beyond_its_model_is_taken_in_by_escalating_reopenings() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(6, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let bias = 1000.0 * s.config.imu.gyro_bias;
     for r in s.imu.iter_mut().filter(|r| r.time > t0 + 30.0) {
@@ -112,14 +112,14 @@ fn a_gyro_bias_far_beyond_its_model_is_taken_in_by_escalating_reopenings() {
 
 #[test]
 fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
-    let clean = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let clean = navigation::scenario(6, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = clean.drive.trajectory.records()[0].time;
-    let flags_of = |s: &common::Scenario| {
+    let flags_of = |s: &navigation::Scenario| {
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap()
     };
     let (a, b) = (t0 + 40.0, t0 + 50.0);
-    let mut jumped = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut jumped = navigation::scenario(6, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     for f in jumped.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
         f.position.p.x += 0.5;
     }
@@ -135,7 +135,7 @@ fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
     assert!(gnss as f64 > 0.7 * jump.len() as f64, "{gnss} of {} blame GNSS", jump.len());
     let step_at = t0 + 100.0;
     let mut stepped = clean;
-    common::add_bias_step(&mut stepped.imu, step_at, 0.003);
+    navigation::add_bias_step(&mut stepped.imu, step_at, 0.003);
     let flags = flags_of(&stepped);
     let imu = |f: &&Flag| f.sensor == Sensor::Imu;
     let first = flags.iter().filter(|f| f.time > step_at).find(imu).unwrap();
@@ -152,8 +152,8 @@ fn flags_blame_gnss_for_a_jump_and_the_imu_for_a_bias_step() {
 #[test]
 fn coarse_alignment_recovers_the_start_pose_and_the_filter_converges() {
     for seed in [3, 8] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
-        let lever = Vec3::new(common::LEVER[0], common::LEVER[1], common::LEVER[2]);
+        let s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let lever = Vec3::new(navigation::LEVER[0], navigation::LEVER[1], navigation::LEVER[2]);
         let init = align(&s.imu, &s.gnss, &lever, &AlignmentConfig::default()).unwrap();
         let truth = &s.drive.trajectory.records()[0];
         let d = |a: f64, b: f64| wrap(a - b);
@@ -175,7 +175,7 @@ fn coarse_alignment_recovers_the_start_pose_and_the_filter_converges() {
 }
 
 /// Largest horizontal error of the smoothed positions against the truth within [a, b).
-fn worst_smoothed(smoothed: &[SmoothedEpoch], s: &common::Scenario, a: f64, b: f64) -> f64 {
+fn worst_smoothed(smoothed: &[SmoothedEpoch], s: &navigation::Scenario, a: f64, b: f64) -> f64 {
     let truth = s.drive.trajectory.records();
     let start = truth.partition_point(|r| r.time < smoothed[0].time - 1e-9);
     smoothed
@@ -188,7 +188,7 @@ fn worst_smoothed(smoothed: &[SmoothedEpoch], s: &common::Scenario, a: f64, b: f
 
 /// Largest excess of the speed implied between consecutive smoothed epochs over the true speed, m/s: a step in
 /// the smoothed trajectory shows as a spike of step / dt.
-fn worst_speed_excess(smoothed: &[SmoothedEpoch], s: &common::Scenario) -> f64 {
+fn worst_speed_excess(smoothed: &[SmoothedEpoch], s: &navigation::Scenario) -> f64 {
     smoothed
         .windows(2)
         .zip(&s.drive.kinematics[1..])
@@ -199,11 +199,11 @@ fn worst_speed_excess(smoothed: &[SmoothedEpoch], s: &common::Scenario) -> f64 {
 #[test]
 fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_imu() {
     for seed in [5, 9] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let mut s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (a, b) = (t0 + 80.0, t0 + 90.0);
         // 0.4 m, arriving and leaving over 1 s like the simulator's multipath jumps.
-        common::add_ramped_jump(&mut s.gnss, a, b, 1.0, Vector3::new(0.1, 0.3, -0.25));
+        navigation::add_ramped_jump(&mut s.gnss, a, b, 1.0, Vector3::new(0.1, 0.3, -0.25));
         let fw = filter_adaptive(&s.imu, &s.gnss, &s.initial, &s.config, &Adaptation::default()).unwrap();
         let during = || fw.innovations.iter().filter(|i| i.time >= a && i.time < b);
         assert!(during().all(|i| i.decision != Decision::Reinitialised), "seed {seed}: the IMU was blamed");
@@ -223,7 +223,7 @@ fn a_multipath_jump_that_builds_up_over_a_second_is_excluded_and_bridged_on_the_
 
 #[test]
 fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
-    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(7, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 60.0, t0 + 100.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -251,7 +251,7 @@ fn a_re_initialisation_bends_the_smoothed_trajectory_instead_of_stepping() {
 }
 
 /// Alignment errors (roll, pitch, heading; rad) against the truth at the aligned epoch.
-fn attitude_errors(init: &InitialState, s: &common::Scenario) -> [f64; 3] {
+fn attitude_errors(init: &InitialState, s: &navigation::Scenario) -> [f64; 3] {
     let records = s.drive.trajectory.records();
     let truth = &records[records.partition_point(|r| r.time < init.time - 1e-9)];
     let d = |a: f64, b: f64| wrap(a - b);
@@ -260,15 +260,15 @@ fn attitude_errors(init: &InitialState, s: &common::Scenario) -> [f64; 3] {
 }
 
 fn lever() -> Vec3<plumbline_geo::Body> {
-    Vec3::new(common::LEVER[0], common::LEVER[1], common::LEVER[2])
+    Vec3::new(navigation::LEVER[0], navigation::LEVER[1], navigation::LEVER[2])
 }
 
 #[test]
 fn a_drive_that_starts_moving_is_aligned_in_motion() {
     for (seed, after) in [(3, 30.0), (8, 55.0), (11, 100.0)] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let t0 = s.drive.trajectory.records()[0].time;
-        let (imu, gnss): (Vec<ImuSample>, Vec<GnssFix>) = common::starting_at(&s, t0 + after);
+        let (imu, gnss): (Vec<ImuSample>, Vec<GnssFix>) = navigation::starting_at(&s, t0 + after);
         let k = s.drive.kinematics.partition_point(|k| k.time < imu[0].time - imu[0].dt - 1e-9);
         let (speed, velocity) = (s.drive.kinematics[k].speed, s.drive.kinematics[k].velocity);
         assert!(speed > 3.0, "seed {seed}: the drive stands at the cut ({speed} m/s)");
@@ -293,9 +293,9 @@ fn a_drive_that_starts_moving_is_aligned_in_motion() {
 #[test]
 fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
     for seed in [1, 2, 3, 4] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let mut s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         // The simulator's canyon receiver noise: 5 cm per horizontal axis, 10 cm in height.
-        common::degrade_fixes(&mut s.gnss, [0.05, 0.05, 0.1], seed);
+        navigation::degrade_fixes(&mut s.gnss, [0.05, 0.05, 0.1], seed);
         let init = align(&s.imu, &s.gnss, &lever(), &AlignmentConfig::default()).unwrap();
         let [dr, dp, dh] = attitude_errors(&init, &s);
         println!("seed {seed}: roll {dr:.2e}, pitch {dp:.2e}, heading {dh:.2e} rad, σ {:?}", init.attitude_std);
@@ -314,10 +314,10 @@ fn a_standing_start_with_canyon_grade_fixes_is_recognised_and_levelled() {
 #[test]
 fn one_hertz_gnss_aligns_standing_and_moving() {
     for (seed, after) in [(3, None), (8, None), (8, Some(55.0)), (11, Some(100.0))] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+        let s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
         let t0 = s.drive.trajectory.records()[0].time;
         let (imu, gnss) = match after {
-            Some(a) => common::starting_at(&s, t0 + a),
+            Some(a) => navigation::starting_at(&s, t0 + a),
             None => (s.imu.clone(), s.gnss.clone()),
         };
         let init = align(&imu, &gnss, &lever(), &AlignmentConfig::default()).unwrap();
@@ -334,7 +334,7 @@ fn one_hertz_gnss_aligns_standing_and_moving() {
 
 #[test]
 fn alignment_fails_only_when_impossible_and_says_why() {
-    let s = common::scenario(3, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let s = navigation::scenario(3, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let reason = |imu: &[ImuSample], gnss: &[GnssFix]| match align(imu, gnss, &lever(), &AlignmentConfig::default()) {
         Err(NavError::Alignment { reason }) => reason,
@@ -363,7 +363,7 @@ fn fixes_in(gnss: &[GnssFix], a: f64, b: f64) -> Vec<usize> {
 
 #[test]
 fn the_step_test_excludes_steps_and_outliers_until_the_fixes_return_and_nothing_else() {
-    let mut s = common::scenario(7, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let mut s = navigation::scenario(7, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
     let t0 = s.drive.trajectory.records()[0].time;
     // A 3.5 m multipath step for 15 s; a 10 m outlier; a fault changing level fix by fix (2 m, then 4 m,
     // then back); a slow drift of 2 m over 20 s, which is no step.
@@ -421,7 +421,7 @@ fn the_step_test_excludes_steps_and_outliers_until_the_fixes_return_and_nothing_
 
 #[test]
 fn a_chain_that_starts_inside_a_fault_trusts_the_level_most_of_its_fixes_share() {
-    let mut s = common::scenario(8, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let mut s = navigation::scenario(8, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
     let t0 = s.drive.trajectory.records()[0].time;
     // An outage of 20 s (longer than the test bridges), and the first 12 s after it carry a 3 m fault.
     s.gnss.retain(|f| !(f.time >= t0 + 60.0 && f.time < t0 + 80.0));
@@ -439,7 +439,7 @@ fn a_chain_that_starts_inside_a_fault_trusts_the_level_most_of_its_fixes_share()
 /// evidence is small beside the first's side lobe, and only estimating the run of steps together keeps it.
 #[test]
 fn steps_at_consecutive_fixes_are_each_declared() {
-    let mut s = common::scenario(9, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let mut s = navigation::scenario(9, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let fault = fixes_in(&s.gnss, t0 + 50.0, t0 + 56.0);
     for (n, &i) in fault.iter().enumerate() {
@@ -473,9 +473,9 @@ fn step_test_parameters_are_checked_by_name() {
 /// a slow drift), and the final pass bridges both.
 #[test]
 fn an_imu_dropout_is_not_taken_for_a_gnss_step_and_hides_none() {
-    let mut s = common::scenario(9, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
-    let onset = common::corner_onset(&s.imu, 30.0);
-    let missed = common::hold_dropout(&mut s.imu, onset - 100, onset + 59);
+    let mut s = navigation::scenario(9, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 1.0);
+    let onset = navigation::corner_onset(&s.imu, 30.0);
+    let missed = navigation::hold_dropout(&mut s.imu, onset - 100, onset + 59);
     assert!(missed.to_degrees().abs() > 10.0, "{}°", missed.to_degrees());
     let t = s.imu[onset].time;
     let multipath = fixes_in(&s.gnss, t + 4.0, t + 19.0);

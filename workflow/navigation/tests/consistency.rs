@@ -3,7 +3,7 @@
 //! Jende et al. 2017 §3.3): a DG jump is flagged at exactly the pairs spanning its start and end; clean pairs pass
 //! at the nominal rate.
 
-mod common;
+use plumbline_fixtures::navigation;
 
 use plumbline_geo::{Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
 use plumbline_navigation::{ConsistencyConfig, ImageMotion, NavError, check_consistency};
@@ -32,8 +32,11 @@ fn image_motions(truth: &[TrajectoryRecord], distance: &[f64], rng: &mut ChaCha8
             ImageMotion {
                 start: a.time,
                 end: b.time,
-                displacement: [d.x() + IMAGE_STD[0] * common::gauss(rng), d.y() + IMAGE_STD[1] * common::gauss(rng)],
-                heading_change: turn + IMAGE_STD[2] * common::gauss(rng),
+                displacement: [
+                    d.x() + IMAGE_STD[0] * navigation::gauss(rng),
+                    d.y() + IMAGE_STD[1] * navigation::gauss(rng),
+                ],
+                heading_change: turn + IMAGE_STD[2] * navigation::gauss(rng),
                 std: IMAGE_STD,
             }
         })
@@ -44,7 +47,7 @@ fn image_motions(truth: &[TrajectoryRecord], distance: &[f64], rng: &mut ChaCha8
 fn dg_jump_is_flagged_at_its_edges_only() {
     let (mut clean, mut false_flags) = (0usize, 0usize);
     for seed in [1, 2, 3] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::PERFECT, 100.0, 1.0);
+        let s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::PERFECT, 100.0, 1.0);
         let truth = s.drive.trajectory.records();
         let distance: Vec<f64> = s.drive.kinematics.iter().map(|k| k.distance).collect();
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -82,7 +85,7 @@ fn dg_jump_is_flagged_at_its_edges_only() {
 
 #[test]
 fn broken_pair_is_skipped_not_fatal() {
-    let s = common::scenario(4, &common::block_route(1), &ImuErrors::PERFECT, 100.0, 1.0);
+    let s = navigation::scenario(4, &navigation::block_route(1), &ImuErrors::PERFECT, 100.0, 1.0);
     let truth = s.drive.trajectory.records();
     let distance: Vec<f64> = s.drive.kinematics.iter().map(|k| k.distance).collect();
     let mut motions = image_motions(truth, &distance, &mut ChaCha8Rng::seed_from_u64(4));

@@ -3,7 +3,7 @@
 //! faults (a 1 m GNSS jump for 10 s, a step in an accelerometer bias); the fixes' scatter measured against
 //! their stated σ.
 
-mod common;
+use plumbline_fixtures::navigation;
 
 use plumbline_navigation::{Component, Flag, IntegrityConfig, TestKind, filter, measure_fix_noise, test_innovations};
 use plumbline_synth::motion::imu::ImuErrors;
@@ -26,7 +26,7 @@ fn clean_data_rejects_at_nominal_rate() {
     };
     let (mut lo, mut ls, mut go, mut gs) = (0, 0, 0, 0);
     for seed in [1, 2, 3, 4] {
-        let s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         let inn = &fw.innovations;
         epochs += inn.len();
@@ -52,7 +52,7 @@ fn clean_data_rejects_at_nominal_rate() {
 
 #[test]
 fn gnss_jump_is_flagged_and_blamed_on_its_component() {
-    let mut s = common::scenario(5, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(5, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let (a, b) = (t0 + 80.0, t0 + 90.0);
     for f in s.gnss.iter_mut().filter(|f| f.time >= a && f.time < b) {
@@ -74,11 +74,11 @@ fn gnss_jump_is_flagged_and_blamed_on_its_component() {
 
 #[test]
 fn accelerometer_bias_step_is_flagged() {
-    let mut s = common::scenario(6, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let mut s = navigation::scenario(6, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let t0 = s.drive.trajectory.records()[0].time;
     let step_at = t0 + 100.0;
     let step = 0.01; // ~1 mg on the forward axis
-    common::add_bias_step(&mut s.imu, step_at, step);
+    navigation::add_bias_step(&mut s.imu, step_at, step);
     let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
     let flags = test_innovations(&fw.innovations, &IntegrityConfig::default()).unwrap();
     let after: Vec<&Flag> = flags.iter().filter(|f| f.time > step_at).collect();
@@ -92,7 +92,7 @@ fn accelerometer_bias_step_is_flagged() {
 #[test]
 fn fix_noise_is_measured_against_the_stated_sigma() {
     for seed in [1, 2] {
-        let mut s = common::scenario(seed, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+        let mut s = navigation::scenario(seed, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
         let fitting = measure_fix_noise(&fw, &s.gnss).unwrap();
         println!("seed {seed}, σ as stated: {fitting:?}");
@@ -103,7 +103,7 @@ fn fix_noise_is_measured_against_the_stated_sigma() {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         for f in &mut s.gnss {
             for a in 0..3 {
-                f.position.p[a] += 2.0 * f.std[a] * common::gauss(&mut rng);
+                f.position.p[a] += 2.0 * f.std[a] * navigation::gauss(&mut rng);
             }
         }
         let fw = filter(&s.imu, &s.gnss, &s.initial, &s.config).unwrap();
@@ -116,7 +116,7 @@ fn fix_noise_is_measured_against_the_stated_sigma() {
 
 #[test]
 fn fix_noise_needs_enough_fixes() {
-    let s = common::scenario(3, &common::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
+    let s = navigation::scenario(3, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let fw = filter(&s.imu, &s.gnss[..20], &s.initial, &s.config).unwrap();
     assert!(measure_fix_noise(&fw, &s.gnss[..20]).is_none());
 }

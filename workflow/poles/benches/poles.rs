@@ -7,17 +7,14 @@
 //! laser scanner's figures), POLE_BENCH_STEMS_ONLY (only the static stems' throughput).
 #![allow(clippy::unwrap_used, clippy::expect_used, missing_docs)]
 
-#[path = "../tests/common/mod.rs"]
-mod common;
-
 use std::io::Cursor;
 use std::time::Instant;
 
-use common::Scenario;
-use common::eval::chi2_bounds;
 use las::{Builder, Point, Transform, Vector, Writer, point::Format};
 use plumbline_campaign::Location;
 use plumbline_campaign::manifest::{CameraMount as ManifestMount, DepthCamera};
+use plumbline_fixtures::poles::eval::chi2_bounds;
+use plumbline_fixtures::poles::{SHARE, Scenario};
 use plumbline_poles::pipeline::DepthFrame;
 use std::collections::{BTreeMap, HashMap};
 
@@ -71,7 +68,7 @@ fn depth_throughput(sc: &Scenario, pngs: &[Vec<u8>]) {
     let mut points = 0usize;
     for (i, png) in pngs.iter().enumerate() {
         let depth = decode_depth_png(&sc.shots[i].id, png, &sc.intrinsics).unwrap();
-        let frame = depth_points(&depth, &sc.intrinsics, common::SHARE, &sc.mount, &sc.shots[i].dg.pose());
+        let frame = depth_points(&depth, &sc.intrinsics, SHARE, &sc.mount, &sc.shots[i].dg.pose());
         points += frame.points.len();
         detections += detect(&frame, &DetectConfig::default()).map_or(0, |d| d.detections.len());
     }
@@ -88,7 +85,7 @@ fn accuracy(sc: &Scenario, pngs: &[Vec<u8>]) {
         images: Location::from("depth/"),
         intrinsics: sc.intrinsics,
         mount: ManifestMount { lever_arm_m: Mount::DEPTH.lever_arm_m, boresight_deg: Mount::DEPTH.boresight_deg },
-        range_error_share: common::SHARE,
+        range_error_share: SHARE,
     };
     let frames: Vec<DepthFrame<'_>> =
         sc.shots.iter().zip(pngs).map(|(shot, png)| DepthFrame { id: &shot.id, png, dg: &shot.dg }).collect();

@@ -3,11 +3,9 @@
 //! (a pole is found; facades, a building corner, parked cars and kerbs are not).
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
-
-use common::scene::{Aabb, Cylinder, Rig, Scene};
-use common::{SHARE, Scenario};
 use image::{ImageBuffer, ImageFormat, Luma};
+use plumbline_fixtures::poles::scene::{Aabb, Cylinder, Rig, Scene};
+use plumbline_fixtures::poles::{SHARE, Scenario};
 use plumbline_poles::{DepthError, DetectConfig, DetectError, Detection, decode_depth_png, depth_points, detect};
 use plumbline_synth::world::{PoleClass, Preset};
 

@@ -3,12 +3,10 @@
 //! detection recall, matching precision, and the χ² test of the CUPT residuals against the stated model.
 #![allow(clippy::unwrap_used, clippy::expect_used)]
 
-mod common;
-
-use common::Scenario;
-use common::eval::chi2_bounds;
 use plumbline_campaign::Location;
 use plumbline_campaign::manifest::{CameraMount as ManifestMount, DepthCamera};
+use plumbline_fixtures::poles::eval::{Score, chi2_bounds};
+use plumbline_fixtures::poles::{SHARE, Scenario};
 use plumbline_poles::pipeline::DepthFrame;
 use plumbline_poles::{GROUND_WINDOW, PoleConfig, PoleOutput, PoleStream, process_depth_frames};
 use plumbline_synth::sensors::Mount;
@@ -20,7 +18,7 @@ fn camera(sc: &Scenario) -> DepthCamera {
         images: Location::from("depth/"),
         intrinsics: sc.intrinsics,
         mount: ManifestMount { lever_arm_m: Mount::DEPTH.lever_arm_m, boresight_deg: Mount::DEPTH.boresight_deg },
-        range_error_share: common::SHARE,
+        range_error_share: SHARE,
     }
 }
 
@@ -38,7 +36,7 @@ fn seeds(default: &[u64]) -> Vec<u64> {
         .unwrap_or_else(|| default.to_vec())
 }
 
-fn scored(seed: u64) -> common::eval::Score {
+fn scored(seed: u64) -> Score {
     let rate = std::env::var("POLE_RATE").ok().and_then(|v| v.parse().ok()).unwrap_or(1.0);
     let sc = Scenario::new(Preset::Tiny, seed, 400.0, (320, 180), rate);
     let s = sc.score(&run(&sc));

@@ -22,28 +22,22 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
-#[path = "diagnosis/mod.rs"]
 mod diagnosis;
-#[path = "heights/mod.rs"]
 mod heights;
-#[path = "losses/mod.rs"]
 mod losses;
-#[path = "motion/mod.rs"]
 mod motion;
-#[path = "../tests/support/mod.rs"]
-mod support;
 
 use std::collections::BTreeMap;
 use std::time::Instant;
 
 use diagnosis::{MARKINGS_MIN_M2, Split};
+use plumbline_fixtures::registration::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 use plumbline_geo::tiling::TileId;
 use plumbline_registration::mm::TransformSource;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
 use plumbline_synth::render::{Radiometry, Realism, RealismLevel, Rig};
 use plumbline_synth::world::{self, EpochChanges, Relief};
-use support::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
 
 fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
     std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)

@@ -4,15 +4,11 @@
 
 #![allow(clippy::unwrap_used)]
 
-mod support;
-#[path = "../benches/diagnosis/wrong.rs"]
-mod wrong;
-
+use plumbline_fixtures::registration::{AERIAL_GSD, Campaign, Profile, Spec, wrong};
 use plumbline_geo::tiling::TileId;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, TileResult, register_tile};
 use plumbline_synth::world;
-use support::{AERIAL_GSD, Campaign, Profile, Spec};
 
 /// Panoramas every 5 m (the simulator's `district` spacing), 1024 × 512, around a junction.
 fn spec(seed: u64) -> Spec {

@@ -4,8 +4,7 @@
 //! deterministic down to the JPEG bytes.
 #![allow(clippy::unwrap_used)]
 
-mod render_common;
-
+use plumbline_fixtures::synth::{depth_mount, lonely_lights, pano_mount, world};
 use plumbline_geo::Point3;
 use plumbline_geo::camera::{Equirectangular, Pinhole};
 use plumbline_synth::render::{
@@ -13,7 +12,6 @@ use plumbline_synth::render::{
 };
 use plumbline_synth::render::{render_depth, render_panorama};
 use plumbline_synth::world::Epoch;
-use render_common::{depth_mount, lonely_lights, pano_mount, world};
 
 fn depth_cam() -> Pinhole {
     // The D455 depth stream of Meyer et al. (2023): 1280 × 720, ~87° horizontal field of view.

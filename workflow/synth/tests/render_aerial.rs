@@ -4,16 +4,14 @@
 //! moves by exactly that error.
 #![allow(clippy::unwrap_used)]
 
-mod render_common;
-
 use image::RgbImage;
+use plumbline_fixtures::synth::{body_at, pano_mount, world};
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pinhole, Pixel};
 use plumbline_geo::{MapFromBody, MapFromCamera, OmegaPhiKappa, Point3, Vec3};
 use plumbline_synth::render::{
     AerialOptics, Illumination, Scene, VehicleBody, ground_truth, render_aerial, render_panorama,
 };
 use plumbline_synth::world::{Epoch, Surface, World};
-use render_common::{body_at, pano_mount, world};
 
 fn lum(img: &RgbImage, c: u32, r: u32) -> f64 {
     let p = img.get_pixel(c, r);

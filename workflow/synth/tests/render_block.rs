@@ -2,8 +2,6 @@
 //! (plumbline-geo's pinhole and ray/plane intersection), and every part of the world is seen at least twice.
 #![allow(clippy::unwrap_used)]
 
-mod render_common;
-
 use plumbline_geo::camera::{CameraModel, Pinhole, Pixel};
 use plumbline_geo::dg::intersect_height;
 use plumbline_geo::{Map, MapFromCamera, Point3};

@@ -3,8 +3,6 @@
 //! realism: each nuisance of a rig and of the radiometry is present where it belongs and of its size.
 #![allow(clippy::unwrap_used)]
 
-mod render_common;
-
 use nalgebra::Vector3;
 use plumbline_synth::render::{Illumination, Scene};
 use plumbline_synth::world::{Epoch, Preset, World, WorldConfig};
@@ -70,7 +68,7 @@ fn count(w: &World, shaded: &mut usize, lit: &mut usize, n: &mut usize) {
 
 #[test]
 fn tone_curve_is_monotonic_and_follows_exposure_and_gamma() {
-    let w = render_common::world(1);
+    let w = plumbline_fixtures::synth::world(1);
     let scene = Scene::aerial(&w);
     let mut last = 0u8;
     for k in 0..=100 {
@@ -86,9 +84,9 @@ fn tone_curve_is_monotonic_and_follows_exposure_and_gamma() {
 }
 
 mod realism {
-    use super::render_common::{lonely_lights, pano_mount, world};
     use image::RgbImage;
     use nalgebra::Vector3;
+    use plumbline_fixtures::synth::{lonely_lights, pano_mount, world};
     use plumbline_geo::camera::{Equirectangular, Pinhole};
     use plumbline_geo::{MapFromCamera, OmegaPhiKappa, Point3};
     use plumbline_synth::render::{

@@ -4,14 +4,12 @@
 //! vehicle pixels are exactly the panorama's mask.
 #![allow(clippy::unwrap_used)]
 
-mod render_common;
-
+use plumbline_fixtures::synth::{lonely_lights, pano_mount, world};
 use plumbline_geo::Point3;
 use plumbline_geo::camera::{Equirectangular, Pixel};
 use plumbline_geo::dg::intersect_height;
 use plumbline_synth::render::{Scene, SurfaceClass, VehicleBody, render_panorama, render_surfaces, surface_point};
 use plumbline_synth::world::Epoch;
-use render_common::{lonely_lights, pano_mount, world};
 
 #[test]
 fn ground_pixels_range_to_the_ground_plane_along_their_ray() {

@@ -18,11 +18,8 @@ mod decompose;
 mod score;
 mod truth;
 
-#[path = "../common/tiles.rs"]
-mod tiles;
-
+use plumbline_fixtures::adjuster::tiles::read_tiles;
 use std::collections::BTreeMap;
-use tiles::read_tiles;
 
 use plumbline_adjuster::{AdjusterConfig, Merged, Solved, join_shared_points, merge, panorama_mount, solve};
 use plumbline_adjustment::ObservationRef;

@@ -1,6 +1,6 @@
 //! A scheduler on a free loopback port with a real nats-server and a real store (moto S3 or a directory),
 //! and a tiny hand-written campaign: a straight 600 m drive east with a panorama every 20 m.
-#![allow(dead_code, clippy::unwrap_used)]
+#![allow(clippy::unwrap_used)]
 
 use std::sync::Arc;
 use std::time::Duration;
@@ -19,7 +19,11 @@ pub const N0: f64 = 5_900_050.0;
 /// A running scheduler and what it runs on.
 pub struct Harness {
     pub nats: NatsServer,
+    /// The S3 server, held so that it runs as long as the harness.
+    #[allow(dead_code)]
     pub moto: Option<MotoServer>,
+    /// The directory store, held so that it exists as long as the harness.
+    #[allow(dead_code)]
     pub dir: Option<tempfile::TempDir>,
     pub files: Files,
     pub store: String,

@@ -8,7 +8,7 @@ use plumbline_registration::output::{CrossCheck, ImageDiagnostic};
 use plumbline_registration::pipeline::crosscheck::{self, CrossCheckConfig, Link, Offset, Verdict};
 use plumbline_registration::{PipelineConfig, TileResultV1};
 
-use crate::support::{AERIAL_GSD, Campaign};
+use plumbline_fixtures::registration::{AERIAL_GSD, Campaign};
 
 /// The check's outcome on one profile.
 #[derive(Default)]

@@ -3,7 +3,8 @@
 //! panoramas with markings that failed the initial transformation (Jende et al. 2017 §3.7).
 
 pub mod crosscheck;
-pub mod wrong;
+/// The wrong aerial points explained (shared with the `tiny` test, which prints the same).
+pub use plumbline_fixtures::registration::wrong;
 
 use std::collections::BTreeMap;
 

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::aerial::ImageTrace;
 
-use crate::support::Campaign;
+use plumbline_fixtures::registration::Campaign;
 
 /// A peak within this many aerial pixels of the true position is the true one (the report's criterion).
 const TRUE_PX: f64 = 2.0;

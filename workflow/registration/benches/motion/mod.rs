@@ -6,7 +6,7 @@ use plumbline_geo::{Attitude, Trajectory, TrajectoryRecord, ValidationLimits};
 use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};
 use plumbline_registration::mm::Panorama;
 
-use crate::support::MotionCheck;
+use plumbline_fixtures::registration::MotionCheck;
 
 /// A DG motion this far off the truth (horizontally, m) is a jump the check should flag.
 const JUMP_M: f64 = 0.05;
