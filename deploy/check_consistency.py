@@ -2,7 +2,7 @@
 deploy/check.sh): every YAML/JSON/TOML file parses; compose bind mounts exist; the `plumbline serve <role>`
 flags used in compose and k8s exist in services/cli/src/serve.rs; the KEDA trigger names the stream and
 consumer of services/scheduler/src/bus.rs; every plumbline_* metric the dashboard and docs query is one
-services/scheduler/src/service/metrics.rs, services/worker/src/service/metrics.rs or
+services/scheduler/src/service/metrics.rs, services/worker/src/service/probe.rs or
 services/adjuster/src/service/probe.rs exports; probe paths are routes of the scheduler or of the ops listener; example tokens
 satisfy the scheduler's rules. Prints each problem and exits 1 if there is any."""
 
@@ -104,7 +104,7 @@ def check_k8s(roles, bus):
             if doc.get("kind") == "Deployment":
                 deployments[doc["metadata"]["name"]] = doc
     routes = read("services/scheduler/src/service/routes.rs")
-    ops_routes = read("services/worker/src/service/ops.rs")
+    ops_routes = read("services/runtime/src/ops/server.rs")
     for name, dep in deployments.items():
         for c in dep["spec"]["template"]["spec"]["containers"]:
             if c.get("image") == "plumbline":
@@ -185,7 +185,7 @@ METRIC_SOURCES = {
     # file: families written with header(&mut out, "name", ...) (scheduler) or declared as
     # ("name", Kind::…, "help") (worker and adjuster registries; a summary exports name_sum and name_count)
     "services/scheduler/src/service/metrics.rs": "header",
-    "services/worker/src/service/metrics.rs": "family",
+    "services/worker/src/service/probe.rs": "family",
     "services/adjuster/src/service/probe.rs": "family",
 }
 
