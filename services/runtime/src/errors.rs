@@ -115,12 +115,6 @@ impl Error {
         self
     }
 
-    /// The same error with another kind (a missing object that the caller knows to be the input's fault).
-    pub fn with_kind(mut self, kind: ErrorKind) -> Self {
-        self.kind = kind;
-        self
-    }
-
     /// The error of type `T` this one was made from, if any.
     pub fn find<T: StdError + 'static>(&self) -> Option<&T> {
         self.cause.as_deref().and_then(|c| c.downcast_ref::<T>())
@@ -261,7 +255,7 @@ impl From<serde_json::Error> for Error {
 /// A blocking or spawned task that panicked or was cancelled.
 impl From<tokio::task::JoinError> for Error {
     fn from(e: tokio::task::JoinError) -> Self {
-        Self::new(ErrorKind::Internal, format!("a worker task failed: {e}"))
+        Self::new(ErrorKind::Internal, format!("worker task failed: {e}"))
     }
 }
 

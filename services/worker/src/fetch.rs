@@ -108,9 +108,7 @@ pub(crate) fn refused(stage: Stage, url: &str, e: &DecodeError) -> SkippedInput 
 pub(crate) async fn blocking<T: Send + 'static>(
     work: impl FnOnce() -> T + Send + 'static,
 ) -> plumbline_runtime::Result<T> {
-    tokio::task::spawn_blocking(work)
-        .await
-        .map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))
+    tokio::task::spawn_blocking(work).await.map_err(plumbline_runtime::Error::from)
 }
 
 #[cfg(test)]

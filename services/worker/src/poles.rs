@@ -121,8 +121,7 @@ async fn stream_camera(
     let mut batches = frames.chunks(batch_size());
     let mut reading = batches.next().map(|b| read_batch(files, b, concurrency));
     while let Some(batch) = reading.take() {
-        let (read, read_s) =
-            batch.await.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")))?;
+        let (read, read_s) = batch.await?;
         // The next batch is read while this one is decoded.
         reading = batches.next().map(|b| read_batch(files, b, concurrency));
         out.read_s += read_s;

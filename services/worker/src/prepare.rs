@@ -167,7 +167,7 @@ async fn stream(tile: &Tile<'_>, todo: &[usize]) -> plumbline_runtime::Result<Ve
         })
         .buffered(concurrency.max(1))
         .map(|read| {
-            let read = read.map_err(|e| plumbline_runtime::Error::internal(format!("worker task failed: {e}")));
+            let read = read.map_err(plumbline_runtime::Error::from);
             let (rig, mm) = (Arc::clone(rig), config.mm);
             async move {
                 let (k, bytes, read_s) = read?;
