@@ -18,8 +18,7 @@ use plumbline_runtime::Files;
 use plumbline_synth::world::Preset;
 
 fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v[v.len() / 2]
+    plumbline_geo::metrics::median(&mut v).unwrap_or(f64::NAN)
 }
 
 fn time<T>(runs: usize, mut f: impl FnMut() -> T) -> (f64, T) {

@@ -499,12 +499,7 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
 }
 
 fn median(v: &[f64]) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    s[s.len() / 2]
+    plumbline_geo::metrics::median(&mut v.to_vec()).unwrap_or(f64::NAN)
 }
 
 /// The outcome of a comparison.

@@ -55,8 +55,8 @@ pub(crate) fn share_height_biases(
     let mut block_of = vec![None; sets.len()];
     let mut blocks = Vec::new();
     for (s, list) in sigmas.iter_mut().enumerate().filter(|(_, l)| !l.is_empty()) {
-        list.sort_by(f64::total_cmp);
-        let prior_sigma = c.prior_scale * list[list.len() / 2];
+        let Some(typical) = plumbline_geo::metrics::median(list) else { continue };
+        let prior_sigma = c.prior_scale * typical;
         block_of[s] = Some(blocks.len());
         blocks.push(BiasBlock { frames: sets[s].frames.clone(), prior_sigma, points: list.len() });
     }

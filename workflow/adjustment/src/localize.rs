@@ -18,6 +18,7 @@ use crate::standstill::Standstill;
 use crate::vehicle::Motion;
 use nalgebra::{Vector3, Vector6};
 use plumbline_geo::Trajectory;
+use plumbline_geo::metrics::median;
 
 /// The node epochs inside the flagged intervals.
 pub(crate) fn sub_nodes(flagged: &[WeakLink], c: &JumpLocalizationConfig) -> Vec<f64> {
@@ -98,18 +99,8 @@ impl Reference<'_> {
             return 0.0;
         }
         let span = i.saturating_sub(self.half)..(i + self.half + 1).min(d.len());
-        median_of(span.map(|j| if self.at_rest[j] { 0.0 } else { d[j] }).collect()).unwrap_or(d[i])
+        median(&mut span.map(|j| if self.at_rest[j] { 0.0 } else { d[j] }).collect::<Vec<_>>()).unwrap_or(d[i])
     }
-}
-
-/// The median of some values (None if there are none).
-fn median_of(mut v: Vec<f64>) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mid = v.len() / 2;
-    let (_, m, _) = v.select_nth_unstable_by(mid, f64::total_cmp);
-    Some(*m)
 }
 
 /// The σ of a flagged interval's links: `base` their unweakened σ, `anomaly` their anomalous DG displacement,

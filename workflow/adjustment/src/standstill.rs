@@ -9,6 +9,7 @@
 //! `min_duration` are the standstills.
 
 use plumbline_geo::Trajectory;
+use plumbline_geo::metrics::median;
 use serde::{Deserialize, Serialize};
 
 use crate::config::StandstillConfig;
@@ -35,7 +36,7 @@ pub fn detect_standstills(trajectory: &Trajectory, config: &StandstillConfig) ->
         .map(|j| {
             scratch.clear();
             scratch.extend_from_slice(&speeds[j.saturating_sub(half)..(j + half + 1).min(speeds.len())]);
-            median(&mut scratch) < c.speed_threshold
+            median(&mut scratch).is_some_and(|m| m < c.speed_threshold)
         })
         .collect();
     runs(&times, &still, c.min_duration)
@@ -55,12 +56,6 @@ fn speed_samples(trajectory: &Trajectory, c: &StandstillConfig) -> (Vec<f64>, Ve
         .zip(picked.iter().skip(lag))
         .map(|((ta, pa), (tb, pb))| (0.5 * (ta + tb), (pb - pa).norm() / (tb - ta)))
         .unzip()
-}
-
-fn median(values: &mut [f64]) -> f64 {
-    let mid = values.len() / 2;
-    let (_, m, _) = values.select_nth_unstable_by(mid, f64::total_cmp);
-    *m
 }
 
 /// Runs of `still` samples lasting at least `min_duration`.

@@ -40,6 +40,31 @@ pub fn quantile_sorted(sorted: &[f64], q: f64) -> Option<f64> {
     Some(sorted[lo] + (h - lo as f64) * (sorted[hi] - sorted[lo]))
 }
 
+/// Quantile `q` in [0, 1] of unsorted values, type 7 as [`quantile_sorted`]; sorts `values` in place
+/// (`f64::total_cmp`: filter out NaN first if the values may hold any). `None` for an empty slice.
+pub fn quantile(values: &mut [f64], q: f64) -> Option<f64> {
+    values.sort_by(f64::total_cmp);
+    quantile_sorted(values, q)
+}
+
+/// Median of unsorted values: the 0.5 quantile of [`quantile`], i.e. the middle value, or the mean of the
+/// two middle values for an even count. Reorders `values` (a selection, linear time; `f64::total_cmp`).
+/// `None` for an empty slice. This is the project's one median: every "median" in code and reports means
+/// this.
+pub fn median(values: &mut [f64]) -> Option<f64> {
+    let n = values.len();
+    if n == 0 {
+        return None;
+    }
+    let (lower, upper, _) = values.select_nth_unstable_by(n / 2, f64::total_cmp);
+    let upper = *upper;
+    if n % 2 == 1 {
+        return Some(upper);
+    }
+    let below = lower.iter().copied().max_by(f64::total_cmp).unwrap_or(upper);
+    Some(0.5 * (below + upper))
+}
+
 impl Stats {
     /// Summarise signed differences (statistics of their absolute values; RMS of the values).
     /// Non-finite values are ignored.
@@ -197,6 +222,15 @@ mod tests {
         assert!((quantile_sorted(&v, 0.99).unwrap() - 9.91).abs() < 1e-12);
         assert_eq!(quantile_sorted(&v, 1.0), Some(10.0));
         assert_eq!(quantile_sorted(&[], 0.5), None);
+    }
+
+    #[test]
+    fn median_sorts_and_averages_the_middle_pair() {
+        assert_eq!(median(&mut [3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(&mut [4.0, 1.0, 3.0, 2.0]), Some(2.5));
+        assert_eq!(median(&mut []), None);
+        assert_eq!(median(&mut [7.0, -1.0, 7.0, 2.0, 9.0, 3.0]), Some(5.0));
+        assert_eq!(quantile(&mut [5.0, 1.0, 3.0], 1.0), Some(5.0));
     }
 
     #[test]

@@ -64,9 +64,9 @@ fn percentiles(values: &[f32]) -> (f32, f32) {
         return (0.0, 0.0);
     }
     let step = values.len().div_ceil(STRETCH_SAMPLES);
-    let mut sample: Vec<f32> = values.iter().step_by(step).copied().collect();
-    sample.sort_by(f32::total_cmp);
-    let at = |p: f64| sample[((p * (sample.len() - 1) as f64).round() as usize).min(sample.len() - 1)];
+    let mut sample: Vec<f64> = values.iter().step_by(step).map(|&v| f64::from(v)).collect();
+    sample.sort_by(f64::total_cmp);
+    let at = |p: f64| plumbline_geo::metrics::quantile_sorted(&sample, p).unwrap_or(0.0) as f32;
     (at(LOW_PERCENTILE), at(HIGH_PERCENTILE))
 }
 

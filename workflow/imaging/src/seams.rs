@@ -13,6 +13,8 @@
 //! circle the steps should cancel, and what remains is spread evenly over the seams. The gains are scaled so
 //! that the image's mean log-brightness does not change.
 
+use plumbline_geo::metrics::median;
+
 use crate::image::GrayImage;
 
 /// Settings of [`find_seams`].
@@ -71,16 +73,16 @@ pub fn find_seams(image: &GrayImage, valid: impl Fn(usize, usize) -> bool, confi
             for row in 0..h {
                 let (a, b) = (image.get(c, row), image.get(next, row));
                 if (lo..=hi).contains(&a) && (lo..=hi).contains(&b) && valid(c, row) && valid(next, row) {
-                    ratios.push(log(b) - log(a));
+                    ratios.push(f64::from(log(b) - log(a)));
                 }
             }
-            if ratios.len() < h.min(16) { 0.0 } else { median(&mut ratios) }
+            if ratios.len() < h.min(16) { 0.0 } else { median(&mut ratios).unwrap_or(0.0) as f32 }
         })
         .collect();
     let blend = config.blend_columns.clamp(1, w / 4);
     let steps: Vec<f32> = (0..w).map(|c| (0..blend).map(|k| boundary[(c + w - blend / 2 + k) % w]).sum()).collect();
-    let mut spread: Vec<f32> = steps.iter().map(|s| s.abs()).collect();
-    let mad = median(&mut spread);
+    let mut spread: Vec<f64> = steps.iter().map(|s| f64::from(s.abs())).collect();
+    let mad = median(&mut spread).unwrap_or(0.0) as f32;
     let bound = config.min_step.max(config.robust_z * 1.4826 * mad);
     let spacing = ((config.min_spacing * w as f32) as usize).max(blend);
     let mut taken: Vec<(usize, f32)> = Vec::new();
@@ -132,15 +134,6 @@ pub fn level_seams(image: &mut GrayImage, seams: &Seams) {
     for (i, v) in data.iter_mut().enumerate() {
         *v = ((*v + 1.0) * column_gain[i % w] - 1.0).clamp(0.0, 255.0);
     }
-}
-
-/// The median of a non-empty slice (the upper middle for an even count), reordering it; 0 when empty.
-fn median(v: &mut [f32]) -> f32 {
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    *v.select_nth_unstable_by(mid, f32::total_cmp).1
 }
 
 #[cfg(test)]

@@ -7,7 +7,7 @@
 
 use std::collections::HashMap;
 
-use crate::geometry::{add_scaled, cross, dist, dot, line_angle, median, normal, resample, sub, unit};
+use crate::geometry::{add_scaled, cross, dist, dot, line_angle, median_or_zero, normal, resample, sub, unit};
 use crate::lines::{self, RoadLine};
 use crate::piece::{AssembleConfig, Piece};
 
@@ -288,7 +288,7 @@ impl Samples {
         Some(Piece {
             vertices,
             sigma_m: sigmas,
-            width_m: median(&mut widths),
+            width_m: median_or_zero(&mut widths),
             observations: group.len(),
             panoramas: panoramas.len(),
             closed,

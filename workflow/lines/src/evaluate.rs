@@ -7,7 +7,7 @@ use std::collections::HashMap;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{add_scaled, dist, line_angle, midpoints, quantile, resample, segment_distance, sub, unit};
+use crate::geometry::{add_scaled, dist, line_angle, midpoints, resample, segment_distance, sub, unit};
 use crate::lines::LineKind;
 use crate::piece::Piece;
 
@@ -60,7 +60,7 @@ pub struct LineScore {
     pub vertices: usize,
     /// Number of those within `accuracy_m`.
     pub vertices_within: usize,
-    /// 95 % quantile (nearest rank) of those vertices' distances to the nearest truth centre line, metres.
+    /// 95 % quantile (`plumbline_geo::metrics::quantile`) of those vertices' distances to the nearest truth centre line, metres.
     pub vertex_error_q95_m: f64,
 }
 
@@ -146,7 +146,7 @@ pub fn evaluate(pieces: &[Piece], truth: &[TruthElement], config: &EvaluateConfi
     }
     score.vertices = errors.len();
     score.vertices_within = errors.iter().filter(|&&e| e <= config.accuracy_m).count();
-    score.vertex_error_q95_m = quantile(&mut errors, 0.95);
+    score.vertex_error_q95_m = plumbline_geo::metrics::quantile(&mut errors, 0.95).unwrap_or(0.0);
     score
 }
 

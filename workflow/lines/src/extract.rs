@@ -11,7 +11,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::background::background_difference;
-use crate::geometry::{add_scaled, dot, length, median, normal, sub, unit};
+use crate::geometry::{add_scaled, dot, length, median_or_zero, normal, sub, unit};
 
 /// Settings of the extraction.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -337,7 +337,7 @@ impl Component<'_> {
         let (t0, t1) = (tangents[0], tangents[nb - 1]);
         let (width_px, end0, end1) = if nb >= 3 {
             // Contrast per pixel along, and each end's painted length from the end bin's integral.
-            let q = median(&mut interior.iter().map(|f| f.sum / bin).collect::<Vec<_>>());
+            let q = median_or_zero(&mut interior.iter().map(|f| f.sum / bin).collect::<Vec<_>>());
             if !q.is_finite() || q <= 0.0 {
                 return None;
             }

@@ -100,19 +100,10 @@ pub(crate) fn line_angle(a: [f64; 2], b: [f64; 2]) -> f64 {
     cross(a, b).abs().atan2(dot(a, b).abs())
 }
 
-/// The `q` quantile (nearest rank) of a set of values; 0 for an empty set.
-pub(crate) fn quantile(values: &mut [f64], q: f64) -> f64 {
-    if values.is_empty() {
-        return 0.0;
-    }
-    values.sort_by(f64::total_cmp);
-    let k = ((q * values.len() as f64).ceil() as usize).clamp(1, values.len()) - 1;
-    values[k]
-}
-
-/// The median (lower middle for an even count); 0 for an empty set.
-pub(crate) fn median(values: &mut [f64]) -> f64 {
-    quantile(values, 0.5)
+/// The median of a set of values (the project's one median, `plumbline_geo::metrics::median`); 0 for an
+/// empty set.
+pub(crate) fn median_or_zero(values: &mut [f64]) -> f64 {
+    plumbline_geo::metrics::median(values).unwrap_or(0.0)
 }
 
 #[cfg(test)]
@@ -127,8 +118,8 @@ mod tests {
         assert!(s.windows(2).all(|w| dist(w[0].p, w[1].p) <= 0.2 + 1e-12 && dist(w[0].p, w[1].p) > 0.1));
         let total: f64 = midpoints(&line, 0.1).iter().map(|m| m.weight).sum();
         assert!((total - length(&line)).abs() < 1e-12);
-        assert_eq!(quantile(&mut [3.0, 1.0, 2.0, 4.0], 0.95), 4.0);
-        assert_eq!(median(&mut [3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median_or_zero(&mut [3.0, 1.0, 2.0, 4.0]), 2.5);
+        assert_eq!(median_or_zero(&mut []), 0.0);
         assert!((segment_distance([0.5, 0.3], [0.0, 0.0], [1.0, 0.0]).0 - 0.3).abs() < 1e-12);
         assert!((line_angle([1.0, 0.0], [-1.0, 0.01]) - 0.01).abs() < 1e-4);
     }

@@ -6,7 +6,7 @@
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::geometry::{cross, dot, length, line_angle, median, norm, sub, unit};
+use crate::geometry::{cross, dot, length, line_angle, median_or_zero, norm, sub, unit};
 use crate::piece::{AssembleConfig, Piece};
 
 /// What a road line is.
@@ -219,12 +219,12 @@ fn dashed(
         whole = chain.iter().map(|(i, _)| lengths[*i]).collect();
     }
     let mut widths: Vec<f64> = chain.iter().map(|(i, _)| pieces[*i].width_m).collect();
-    let dash = DashPattern { dash_m: median(&mut whole), gap_m: median(gaps), dashes: chain.len() };
+    let dash = DashPattern { dash_m: median_or_zero(&mut whole), gap_m: median_or_zero(gaps), dashes: chain.len() };
     RoadLine {
         kind: LineKind::Dashed,
         vertices,
         sigma_m,
-        width_m: median(&mut widths),
+        width_m: median_or_zero(&mut widths),
         dash: Some(dash),
         pieces: chain.iter().map(|(i, _)| *i).collect(),
         panoramas: panoramas.len(),

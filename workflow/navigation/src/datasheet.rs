@@ -10,6 +10,7 @@
 use std::fmt;
 use std::str::FromStr;
 
+use plumbline_geo::metrics::median;
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
@@ -252,10 +253,9 @@ pub fn measure_noise(imu: &[ImuSample]) -> Option<MeasuredNoise> {
 
 /// The median absolute deviation from the median (reorders `values`; not empty).
 fn median_abs_deviation(values: &mut [f64]) -> f64 {
-    let mid = values.len() / 2;
-    let median = *values.select_nth_unstable_by(mid, f64::total_cmp).1;
-    values.iter_mut().for_each(|v| *v = (*v - median).abs());
-    *values.select_nth_unstable_by(mid, f64::total_cmp).1
+    let Some(centre) = median(values) else { return f64::NAN };
+    values.iter_mut().for_each(|v| *v = (*v - centre).abs());
+    median(values).unwrap_or(f64::NAN)
 }
 
 impl ImuModel {

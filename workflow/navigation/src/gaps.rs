@@ -16,6 +16,7 @@
 //! in all six channels, but a noise-free simulation does so on every straight, so detection stays off when
 //! the recording's typical residual from linearity is itself at rounding level.
 
+use plumbline_geo::metrics::median;
 use serde::{Deserialize, Serialize};
 
 use crate::config::ImuGapModel;
@@ -91,13 +92,12 @@ fn filled_runs(imu: &[ImuSample], min_filled: usize) -> Vec<ImuGap> {
         return Vec::new();
     }
     let residuals: Vec<f64> = (1..imu.len() - 1).map(|i| residual(imu, i)).collect();
-    let mut sorted: Vec<f64> = residuals.iter().copied().filter(|r| r.is_finite()).collect();
-    sorted.sort_by(f64::total_cmp);
-    let median = sorted.get(sorted.len() / 2).copied().unwrap_or(0.0);
-    if median < NOISY {
+    let mut finite: Vec<f64> = residuals.iter().copied().filter(|r| r.is_finite()).collect();
+    let typical = median(&mut finite).unwrap_or(0.0);
+    if typical < NOISY {
         return Vec::new();
     }
-    let tolerance = (LINEAR_SHARE * median).max(LINEAR_FLOOR);
+    let tolerance = (LINEAR_SHARE * typical).max(LINEAR_FLOOR);
     let mut gaps = Vec::new();
     let mut run_start = None;
     // residuals[j] belongs to sample j + 1; a sentinel closes the last run.
@@ -125,11 +125,10 @@ fn filled_runs(imu: &[ImuSample], min_filled: usize) -> Vec<ImuGap> {
 
 fn missing(imu: &[ImuSample], factor: f64) -> Vec<ImuGap> {
     let mut dts: Vec<f64> = imu.iter().map(|s| s.dt).collect();
-    dts.sort_by(f64::total_cmp);
-    let Some(&median) = dts.get(dts.len() / 2) else { return Vec::new() };
+    let Some(typical) = median(&mut dts) else { return Vec::new() };
     imu.iter()
         .enumerate()
-        .filter(|(_, s)| s.dt > factor * median)
+        .filter(|(_, s)| s.dt > factor * typical)
         .map(|(i, s)| ImuGap { kind: GapKind::Missing, first: i, last: i, start: s.time - s.dt, end: s.time })
         .collect()
 }

@@ -8,6 +8,7 @@
 //! velocity and is left at zero. The mounting itself (`Mounting`, a field of the vehicle constraint) is a
 //! setting and lives in `crate::config`; this module measures it, running the filter.
 
+use plumbline_geo::metrics::median;
 use serde::{Deserialize, Serialize};
 
 use crate::NavError;
@@ -52,10 +53,7 @@ pub fn measure_mounting(
     if seconds < ENOUGH {
         return Ok(None);
     }
-    let median = |v: &mut Vec<f64>| {
-        let mid = v.len() / 2;
-        *v.select_nth_unstable_by(mid, f64::total_cmp).1
-    };
-    let mounting = Mounting { yaw: median(&mut yaws), pitch: median(&mut pitches) };
+    let (Some(yaw), Some(pitch)) = (median(&mut yaws), median(&mut pitches)) else { return Ok(None) };
+    let mounting = Mounting { yaw, pitch };
     Ok(Some(MountingMeasurement { mounting, seconds }))
 }

@@ -386,12 +386,9 @@ fn robust_scale(values: &[Vector3<f64>]) -> Vector3<f64> {
     let mut scale = Vector3::repeat(MIN_SCALE);
     for axis in 0..3 {
         let mut a: Vec<f64> = values.iter().map(|v| v[axis].abs()).filter(|x| x.is_finite()).collect();
-        if a.is_empty() {
-            continue;
+        if let Some(m) = plumbline_geo::metrics::median(&mut a) {
+            scale[axis] = (1.4826 * m).max(MIN_SCALE);
         }
-        let mid = a.len() / 2;
-        let (_, median, _) = a.select_nth_unstable_by(mid, f64::total_cmp);
-        scale[axis] = (1.4826 * *median).max(MIN_SCALE);
     }
     scale
 }

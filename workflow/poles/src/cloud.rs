@@ -389,7 +389,8 @@ fn slice_input(
 ) -> Option<MatchInput> {
     let reliable_range_m = config.reliable_range_m;
     let (origin, dg_sigma_m) = track.at(time)?;
-    let ground = median(stems.iter().map(|s| s.ground_m).collect()).unwrap_or(origin.z);
+    let ground =
+        plumbline_geo::metrics::median(&mut stems.iter().map(|s| s.ground_m).collect::<Vec<_>>()).unwrap_or(origin.z);
     let detections = stems.iter().map(|s| detection(s, &origin, reliable_range_m)).collect();
     let view = ViewSector {
         origin: [origin.x, origin.y],
@@ -534,11 +535,6 @@ fn detection(s: &Stem, origin: &Vector3<f64>, reliable_range_m: f64) -> Detectio
         slices: ((s.extent_m[1] - s.extent_m[0]) / 0.2).round() as usize,
         reliable: range_m <= reliable_range_m,
     }
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied()
 }
 
 #[cfg(test)]

@@ -7,7 +7,6 @@ pub mod aerial;
 pub mod mm;
 pub mod output;
 pub mod pipeline;
-mod stats;
 
 pub use output::{TileResult, TileResultV1};
 pub use pipeline::{PipelineConfig, StageTimings, TileRun, register_tile};

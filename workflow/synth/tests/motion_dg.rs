@@ -14,8 +14,7 @@ fn hour_drive(canyon: Canyon) -> Drive {
 }
 
 fn quantile(mut xs: Vec<f64>, q: f64) -> f64 {
-    xs.sort_by(f64::total_cmp);
-    xs[((xs.len() - 1) as f64 * q).round() as usize]
+    plumbline_geo::metrics::quantile(&mut xs, q).unwrap_or(f64::NAN)
 }
 
 struct Stats {

@@ -205,11 +205,5 @@ fn run(p: &SliceProfile, slice: usize, (a, b): (usize, usize), polar: &Polar, c:
 
 /// Median of finite-or-infinite values (∞ sorts last).
 fn median(values: &[f64]) -> f64 {
-    let mut v = values.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::INFINITY,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
+    plumbline_geo::metrics::median(&mut values.to_vec()).unwrap_or(f64::INFINITY)
 }

@@ -10,12 +10,12 @@
 use std::collections::BTreeSet;
 
 use nalgebra::Matrix3;
+use plumbline_geo::metrics::median;
 use plumbline_imaging::models::Correspondence;
 use plumbline_imaging::ortho::GroundGrid;
 
 use super::consensus::significant_inliers;
 use super::guided::Prior;
-use crate::stats::upper_median as median;
 
 /// The KAZE matches of one window.
 pub(crate) struct WindowMatches<'a> {
@@ -70,8 +70,10 @@ pub(crate) fn pooled_offsets(windows: &[WindowMatches<'_>], threshold_px: f64, f
             })
         })
         .collect();
-    let Some(gsd) = median(windows.iter().map(|w| w.grid.gsd).collect()) else { return Vec::new() };
-    let Some(area_px) = median(windows.iter().map(|w| w.area_px).collect()) else { return Vec::new() };
+    let Some(gsd) = median(&mut windows.iter().map(|w| w.grid.gsd).collect::<Vec<_>>()) else { return Vec::new() };
+    let Some(area_px) = median(&mut windows.iter().map(|w| w.area_px).collect::<Vec<_>>()) else {
+        return Vec::new();
+    };
     let (threshold, area) = (threshold_px * gsd, area_px * gsd * gsd);
     let all: Vec<&Item> = items.iter().collect();
     let needed = significant_inliers(distinct(&all), threshold, area).max(floor);

@@ -174,8 +174,7 @@ fn validate(patch: &MmPatch<'_>) -> Result<f64, String> {
 
 fn median_gsd(views: &[(View<'_>, LocalGeometry)]) -> f64 {
     let mut g: Vec<f64> = views.iter().map(|v| v.1.gsd).collect();
-    g.sort_by(f64::total_cmp);
-    g[g.len() / 2]
+    plumbline_geo::metrics::median(&mut g).unwrap_or(f64::NAN)
 }
 
 /// The diagnostics and the traces, the latter with the correspondences each image finally kept.

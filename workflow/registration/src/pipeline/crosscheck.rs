@@ -311,9 +311,9 @@ fn worst_link(
     best
 }
 
-/// The median of a non-empty list (the upper middle for an even count).
-fn median(v: Vec<f64>) -> f64 {
-    crate::stats::upper_median(v).unwrap_or(f64::NAN)
+/// The median of a list (`plumbline_geo::metrics::median`); NaN when empty.
+fn median(mut v: Vec<f64>) -> f64 {
+    plumbline_geo::metrics::median(&mut v).unwrap_or(f64::NAN)
 }
 
 #[cfg(test)]

@@ -204,12 +204,7 @@ pub(super) fn offset_of(differences: &[[f64; 2]], own: &[[f64; 2]], point_std: f
     finite.then_some(AerialOffset { offset: [east, north], std: [se, sn], points: n })
 }
 
-/// The median of a list (NaN when empty).
+/// The median of a list (`plumbline_geo::metrics::median`); NaN when empty.
 fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    match (v.get(n.wrapping_sub(1) / 2), v.get(n / 2)) {
-        (Some(a), Some(b)) => 0.5 * (a + b),
-        _ => f64::NAN,
-    }
+    plumbline_geo::metrics::median(&mut v).unwrap_or(f64::NAN)
 }
