@@ -13,9 +13,10 @@ use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
 
+use plumbline_campaign::Campaign;
 use plumbline_geo::tiling::{Tile, TileId};
 use plumbline_runtime::{Files, is_invalid};
-use plumbline_scheduler::{Campaign, load_campaign};
+use plumbline_scheduler::load_campaign;
 use plumbline_worker::{WorkerConfig, process_tile, run_tile, tile_key};
 use support::plumbline;
 

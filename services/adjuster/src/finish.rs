@@ -6,11 +6,11 @@ use std::collections::BTreeMap;
 
 use futures::StreamExt as _;
 use plumbline_adjustment::Iteration;
+use plumbline_campaign::Campaign;
 use plumbline_campaign::progress::Progress;
-use plumbline_report::{Figures, Report, Stage};
+use plumbline_report::{Figures, Report, StageLine};
 use plumbline_runtime::trajectory::write_like_input;
 use plumbline_runtime::{Context as _, Files};
-use plumbline_scheduler::Campaign;
 use plumbline_worker::TileOutputV1;
 
 use crate::config::AdjusterConfig;
@@ -134,11 +134,13 @@ fn compute(
 
 /// The tiles' stages (seconds summed over tiles, tiles that ran them, items skipped in them) and the
 /// adjustment (observations it skipped).
-pub fn stages(tiles: &[TileOutputV1], merged: &Merged, solved: &Solved) -> Vec<Stage> {
-    let mut by_name: BTreeMap<&str, Stage> = BTreeMap::new();
+pub fn stages(tiles: &[TileOutputV1], merged: &Merged, solved: &Solved) -> Vec<StageLine> {
+    let mut by_name: BTreeMap<&str, StageLine> = BTreeMap::new();
     for t in tiles {
         for (name, seconds) in &t.seconds {
-            let s = by_name.entry(name.as_str()).or_insert_with(|| Stage { name: name.clone(), ..Stage::default() });
+            let s = by_name
+                .entry(name.as_str())
+                .or_insert_with(|| StageLine { name: name.clone(), ..StageLine::default() });
             s.done += 1;
             s.seconds += seconds;
         }
@@ -147,8 +149,8 @@ pub fn stages(tiles: &[TileOutputV1], merged: &Merged, solved: &Solved) -> Vec<S
         s.total = tiles.len();
         s.skipped = merged.skipped.iter().filter(|k| k.stage.name() == s.name).count();
     }
-    let mut out: Vec<Stage> = by_name.into_values().collect();
-    out.push(Stage {
+    let mut out: Vec<StageLine> = by_name.into_values().collect();
+    out.push(StageLine {
         name: STAGE.name().to_owned(),
         done: 1,
         total: 1,

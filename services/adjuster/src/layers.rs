@@ -6,9 +6,9 @@
 use std::collections::{HashMap, HashSet};
 
 use plumbline_adjustment::{ObservationRef, RejectedObservation};
+use plumbline_campaign::Campaign;
 use plumbline_geo::{PositionInterpolation, Trajectory};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, PointFeature, PointLayer};
-use plumbline_scheduler::Campaign;
 use serde::Serialize;
 
 use crate::merge::{Merged, tile_name};

@@ -4,12 +4,12 @@
 use std::collections::{BTreeMap, HashSet};
 
 use plumbline_adjustment::{AerialFrameSet, ObservationSetV1, TiePoint, TiePointId};
+use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_geo::tiling::TileId;
 use plumbline_navigation::ImageMotion;
 use plumbline_poles::{FrameReport, FrameReportV1};
 use plumbline_registration::TileResultV1;
 use plumbline_report::TileLine;
-use plumbline_scheduler::{SkipReason, SkippedInput, Stage};
 use plumbline_worker::TileOutputV1;
 
 /// What became of one panorama in its tile's registration.

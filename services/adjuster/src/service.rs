@@ -28,13 +28,13 @@ use std::time::Duration;
 use async_nats::jetstream::{self, AckKind, consumer::PullConsumer, kv};
 use futures::StreamExt as _;
 use plumbline_campaign::progress::NoProgress;
+use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::ops::{Ops, Probe, Registry, reply, serve_ops, with_heartbeat};
 use plumbline_runtime::{Error, Files};
 use plumbline_scheduler::bus::{ADJUSTER_CONSUMER, Bus, RESULTS_STREAM};
 use plumbline_scheduler::messages::{Agency, CampaignState, CampaignStatus, DeadLetter, TileDone, TileFailed};
 use plumbline_scheduler::service::{Layout, load_agency_campaign};
-use plumbline_scheduler::{SkipReason, SkippedInput, Stage};
 use plumbline_worker::{TileOutput, TileOutputV1, tile_key};
 use serde::{Deserialize, Serialize};
 

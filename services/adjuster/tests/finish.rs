@@ -133,7 +133,7 @@ fn check_geopackage(
     path: &std::path::Path,
     tiles: &[plumbline_worker::TileOutputV1],
     report: &plumbline_report::Report,
-    campaign: &plumbline_scheduler::Campaign,
+    campaign: &plumbline_campaign::Campaign,
 ) {
     let ds = Dataset::open(path).unwrap();
     let mut names: Vec<String> = ds.layers().map(|l| l.name()).collect();

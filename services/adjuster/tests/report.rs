@@ -66,7 +66,7 @@ fn merge_keeps_every_tile_and_lists_what_was_left_out() {
 struct Run {
     s: adjuster::Scenario,
     m: Merged,
-    c: plumbline_scheduler::Campaign,
+    c: plumbline_campaign::Campaign,
     solved: plumbline_adjuster::Solved,
     r: Report,
 }
@@ -94,12 +94,12 @@ fn report_counts_skips_marks_and_residuals() {
     let Run { s, m, c, solved, r } = run(4);
     assert_eq!(r.tiles, m.tiles);
     let by_reason = r.skipped_by_reason();
-    let count = |stage: &str, reason: &str| {
-        by_reason.iter().find(|(s, k, _)| s == stage && k == reason).map_or(0, |(_, _, n)| *n)
+    let count = |stage: Stage, reason: SkipReason| {
+        by_reason.iter().find(|(s, k, _)| *s == stage && *k == reason).map_or(0, |(_, _, n)| *n)
     };
-    assert_eq!(count("registration", "discard.no_neighbour"), discarded(&s));
-    assert_eq!(count("poles", "decode"), m.tiles.len());
-    assert_eq!(count("adjustment", "duplicate_tie"), 1);
+    assert_eq!(count(Stage::Registration, SkipReason::Discarded("no_neighbour".into())), discarded(&s));
+    assert_eq!(count(Stage::Poles, SkipReason::Decode), m.tiles.len());
+    assert_eq!(count(Stage::Adjustment, SkipReason::DuplicateTie), 1);
     assert_eq!(r.summary.epochs, s.dg.len());
     assert_eq!(r.summary.images, c.plan.panoramas.len());
     assert_eq!(r.summary.images_matched, s.panoramas.len() - discarded(&s));

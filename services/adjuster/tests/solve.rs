@@ -2,6 +2,7 @@
 //! The adjuster's pure path on a simulated deep-canyon drive: merged tile outputs corrected by the global
 //! adjustment, a wrong control point rejected and reported, broken observations skipped and reported.
 
+use plumbline_campaign::{SkipReason, Stage};
 use plumbline_fixtures::adjuster;
 
 use plumbline_adjuster::{AdjusterConfig, build_report, merge, panorama_mount, solve};
@@ -64,8 +65,8 @@ fn a_wrong_pole_is_rejected_and_reported() {
     assert!(poles_rejected <= 1 + poles.len() / 100, "{poles_rejected} poles rejected of {}", poles.len());
 
     let bad = &poles[broken].cadastre_id;
-    let skipped = report.skipped.iter().find(|k| k.stage == "adjustment" && k.item == format!("pole {bad}"));
-    assert!(skipped.is_some_and(|k| k.reason == "bad observed"), "{:?}", report.skipped);
+    let skipped = report.skipped.iter().find(|k| k.stage == Stage::Adjustment && k.item == format!("pole {bad}"));
+    assert!(skipped.is_some_and(|k| k.reason == SkipReason::BadField("observed".into())), "{:?}", report.skipped);
     assert_eq!(report.summary.pole_updates, poles.len() - 1);
 }
 

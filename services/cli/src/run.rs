@@ -13,10 +13,11 @@ use clap::Args as ClapArgs;
 use futures::StreamExt as _;
 use plumbline_adjuster::{AdjusterConfig, Finished, finish};
 use plumbline_campaign::progress::Progress;
+use plumbline_campaign::{Campaign, SkipReason, SkippedInput, Stage};
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::Files;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
-use plumbline_scheduler::{Campaign, SkipReason, SkippedInput, Stage, load_campaign};
+use plumbline_scheduler::load_campaign;
 use plumbline_worker::{TileOutput, TileOutputV1, WorkerConfig, process_tile_reporting, run_tile_reporting, tile_key};
 use serde::{Deserialize, Serialize};
 

@@ -9,8 +9,8 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::Args as ClapArgs;
+use plumbline_campaign::Stage;
 use plumbline_runtime::progress::{ProgressStyle, reporter};
-use plumbline_scheduler::Stage;
 use plumbline_scheduler::api::CampaignView;
 use plumbline_scheduler::messages::CampaignStatus;
 

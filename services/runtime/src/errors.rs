@@ -238,6 +238,13 @@ impl From<plumbline_geo::TrajectoryError> for Error {
     }
 }
 
+/// A manifest or index-row location that does not resolve below where it must (the agency's input).
+impl From<plumbline_campaign::LocationError> for Error {
+    fn from(e: plumbline_campaign::LocationError) -> Self {
+        Self::from_cause(ErrorKind::Invalid, e)
+    }
+}
+
 /// A raster GDAL cannot read or cut as asked: the input's bytes.
 impl From<crate::raster_common::GdalReadError> for Error {
     fn from(e: crate::raster_common::GdalReadError) -> Self {

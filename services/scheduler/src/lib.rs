@@ -4,7 +4,14 @@
 //! Everything a campaign cannot work without is checked here, before any tile is processed: a campaign
 //! whose inputs are unusable as a whole (no trajectory, a CRS PROJ does not know, no panorama index) stops
 //! with an invalid-input [`plumbline_runtime::Error`] naming the file and field. Single bad rows are skipped
-//! and listed in [`Campaign::skipped`].
+//! and listed in [`plumbline_campaign::Campaign::skipped`].
+//!
+//! ```text
+//! load_campaign(&files, manifest_url) → plumbline_campaign::Campaign (manifest validated, CRS checked,
+//!     trajectory in the campaign CRS, index and orientation tables, tile plan, skipped rows)
+//! check_inputs(&files, manifest_url, &manifest) → InputCheck: `plumbline validate`'s look at every named input, without processing
+//! service: POST /v1/campaigns → load → one task per tile on JetStream (fair across agencies) → state in KV
+//! ```
 //!
 //! The distributed path: [`messages`] (versioned task, result and state messages), [`bus`] (the JetStream
 //! streams, consumers and KV bucket), [`service`] (the job API of `plumbline serve scheduler`), [`api`] and
@@ -19,5 +26,4 @@ pub mod messages;
 pub mod service;
 
 pub use check::{InputCheck, check_inputs};
-pub use load::{Campaign, load_campaign, manifest_base, parse_manifest};
-pub use plumbline_campaign::{SkipReason, SkippedInput, Stage};
+pub use load::{load_campaign, manifest_base, parse_manifest};

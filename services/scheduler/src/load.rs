@@ -3,59 +3,15 @@
 //! the tile plan.
 
 use plumbline_campaign::manifest::{CsvTrajectory, SbetTrajectory, TrajectorySource};
-use plumbline_campaign::plan::{CampaignPlan, plan_campaign};
+use plumbline_campaign::plan::plan_campaign;
 use plumbline_campaign::tables::{ExteriorRow, IndexRow, Table, read_exterior, read_index};
-use plumbline_campaign::{Location, Manifest, ManifestV1, Problem, SkipReason, SkippedInput, Stage};
-use plumbline_geo::Trajectory;
+use plumbline_campaign::{Campaign, Location, Manifest, Problem, SkipReason, SkippedInput, Stage};
+use plumbline_campaign::{LoadedTrajectory, TrajectoryFormat};
 use plumbline_geo::formats::AttitudeConvention;
 use plumbline_geo::tiling::TilingParams;
 use plumbline_runtime::errors::{OrInvalid, invalid};
-use plumbline_runtime::trajectory::{LoadedTrajectory, TrajectoryFormat, TrajectoryInput, load_trajectory};
+use plumbline_runtime::trajectory::{TrajectoryInput, load_trajectory};
 use plumbline_runtime::{Files, file_name};
-
-/// A campaign ready to process.
-#[derive(Clone, Debug)]
-pub struct Campaign {
-    /// The manifest's absolute URL: relative locations resolve against it.
-    pub base: String,
-    /// The manifest.
-    pub manifest: ManifestV1,
-    /// The output prefix (absolute, ending in `/`).
-    pub output: String,
-    /// The DG trajectory in the campaign CRS, with how to write it back.
-    pub trajectory: LoadedTrajectory,
-    /// The reference trajectory in the campaign CRS, when the manifest names one that could be read.
-    pub reference: Option<Trajectory>,
-    /// Aerial exterior orientations (frame block), in table order.
-    pub aerial_frames: Vec<ExteriorRow>,
-    /// The tile plan.
-    pub plan: CampaignPlan,
-    /// What was skipped while loading.
-    pub skipped: Vec<SkippedInput>,
-}
-
-impl Campaign {
-    /// The absolute path or URL of a manifest location.
-    pub fn url(&self, location: &Location) -> plumbline_runtime::Result<String> {
-        plumbline_campaign::resolve(&self.base, location.as_str()).or_invalid(location.as_str())
-    }
-
-    /// The URL of a file named by an index row, under the manifest's `images` prefix: a row naming an absolute
-    /// URL or path, or climbing above the prefix with `..`, is refused (another agency's objects, worker-local
-    /// files).
-    pub fn file_url(&self, prefix: &Location, file: &str) -> plumbline_runtime::Result<String> {
-        let mut dir = self.url(prefix)?;
-        if !dir.ends_with('/') {
-            dir.push('/');
-        }
-        plumbline_campaign::resolve_below(&dir, file).or_invalid(file)
-    }
-
-    /// The campaign CRS.
-    pub fn epsg(&self) -> u32 {
-        self.manifest.crs.0
-    }
-}
 
 /// The absolute URL a manifest's relative locations resolve against (plain paths become `file://` URLs).
 pub fn manifest_base(manifest_url: &str) -> String {

@@ -5,6 +5,7 @@ use std::time::Instant;
 
 use plumbline_campaign::manifest::{InteriorOrientation, Orthophoto as OrthophotoSpec};
 use plumbline_campaign::tables::ExteriorRow;
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::camera::{CameraModel, MetricInterior, Pinhole};
 use plumbline_geo::tiling::BBox;
@@ -12,7 +13,6 @@ use plumbline_geo::{Map, MapFromCamera, OmegaPhiKappa, Point3, Pose};
 use plumbline_registration::aerial::{AerialReference, FrameReach, Orthophoto};
 use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, file_name, invalid};
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::skipped;
 use crate::raster::{gray, read_window, terrain};

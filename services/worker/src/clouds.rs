@@ -24,6 +24,7 @@ use std::time::Instant;
 use nalgebra::Vector3;
 use plumbline_campaign::CadastreFeature;
 use plumbline_campaign::manifest::{CloudTime, PointCloud};
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::dg::{Boresight, CameraMount};
@@ -37,7 +38,6 @@ use plumbline_poles::{
 };
 use plumbline_runtime::range_reader::{DEFAULT_WINDOW, RangeReader};
 use plumbline_runtime::{CrsTransform, Files};
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::{blocking, reason_of_store, skipped};
 use crate::output::PoleResults;

@@ -11,9 +11,9 @@
 //! worker configuration. Not in it: the bytes of the files the manifest and index rows name — a file
 //! replaced under the same name is not noticed (give it a new name, or run with `--fresh`).
 
+use plumbline_campaign::Campaign;
 use plumbline_geo::tiling::TileId;
 use plumbline_geo::trajectory::PositionInterpolation;
-use plumbline_scheduler::Campaign;
 use sha2::{Digest as _, Sha256};
 
 use crate::WorkerConfig;

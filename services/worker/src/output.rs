@@ -3,10 +3,10 @@
 //! `clouds`).
 
 use plumbline_adjustment::PoleUpdate;
+use plumbline_campaign::SkippedInput;
 use plumbline_geo::tiling::TileId;
 use plumbline_poles::FrameReport;
 use plumbline_registration::TileResultV1;
-use plumbline_scheduler::SkippedInput;
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 

@@ -6,6 +6,7 @@ use std::sync::Arc;
 
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::plan::PlannedImage;
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::camera::Equirectangular;
 use plumbline_geo::dg::{Boresight, CameraMount};
@@ -19,7 +20,6 @@ use plumbline_registration::mm::{Panorama, PanoramaRig, SubCameras};
 use plumbline_registration::pipeline::PanoramaInfo;
 use plumbline_runtime::gdal_read::MapBox;
 use plumbline_runtime::{Files, invalid};
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::fetch::{blocking, read_all, read_one, refused, skipped};
 use crate::raster::{around, height_at, read_window, terrain};

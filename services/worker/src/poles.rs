@@ -10,13 +10,13 @@ use bytes::Bytes;
 use plumbline_campaign::manifest::{Cadastre, DepthCamera};
 use plumbline_campaign::progress::Progress;
 use plumbline_campaign::{CadastreDiagnostic, CadastreFeature, Consequence};
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_campaign::{SkipReason, Stage};
 use plumbline_geo::TrajectoryRecord;
 use plumbline_geo::tiling::{BBox, TileId};
 use plumbline_poles::{DepthFrame, FrameReport, PoleConfig, PoleStream};
 use plumbline_runtime::Files;
 use plumbline_runtime::cadastre::{CadastreSource, read_cadastre};
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use futures::StreamExt as _;
 

@@ -13,6 +13,7 @@ use std::time::Instant;
 
 use bytes::Bytes;
 use futures::StreamExt as _;
+use plumbline_campaign::SkippedInput;
 use plumbline_campaign::Stage;
 use plumbline_campaign::progress::Progress;
 use plumbline_geo::tiling::TileId;
@@ -24,7 +25,6 @@ use plumbline_registration::pipeline::{
 };
 use plumbline_registration::{PipelineConfig, TileRun};
 use plumbline_runtime::Files;
-use plumbline_scheduler::SkippedInput;
 
 use crate::fetch::{counted, on_rayon, read_one};
 use crate::panoramas::{Placed, STAGE, decode};

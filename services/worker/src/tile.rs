@@ -7,13 +7,13 @@ use std::time::Instant;
 use plumbline_campaign::Stage;
 use plumbline_campaign::manifest::Panoramas;
 use plumbline_campaign::progress::{NoProgress, Progress};
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_geo::tiling::{Tile, TileId};
 use plumbline_geo::{Map, Point3};
 use plumbline_registration::TileResultV1;
 use plumbline_registration::mm::PanoramaRig;
 use plumbline_registration::output::{ImageDiagnostic, TileSummary};
 use plumbline_runtime::{Files, invalid};
-use plumbline_scheduler::{Campaign, SkippedInput};
 use tracing::Instrument as _;
 
 use crate::config::WorkerConfig;

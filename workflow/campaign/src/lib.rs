@@ -26,6 +26,7 @@ pub mod cadastre_features;
 mod epsg;
 mod id;
 mod inputs;
+mod loaded;
 mod location;
 pub mod manifest;
 mod parse;
@@ -42,6 +43,7 @@ pub use cadastre_features::{
 };
 pub use epsg::{EPSG_CRS_RANGE, Epsg, EpsgKind};
 pub use id::{CampaignId, CampaignIdError, MAX_CAMPAIGN_ID_LEN};
+pub use loaded::{Campaign, LoadedTrajectory, LocationError, TrajectoryFormat};
 pub use location::{Location, ResolveError, SCHEMES, resolve, resolve_below};
 pub use manifest::{Manifest, ManifestV1};
 pub use parse::{Format, ParseError, Position, SUPPORTED_VERSIONS};

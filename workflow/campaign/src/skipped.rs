@@ -78,13 +78,15 @@ pub enum SkipReason {
     DeadLettered,
     /// A tile that failed in a one-process run (the run goes on without it).
     Failed,
+    /// An image pair the consistency check against the DG trajectory could not test.
+    Untestable,
     /// A cadastre feature or layer dropped, by its diagnostic.
     Cadastre(DiagnosticKind),
 }
 
 impl SkipReason {
     /// The reasons without a payload.
-    const PLAIN: [Self; 17] = [
+    const PLAIN: [Self; 18] = [
         Self::Missing,
         Self::Read,
         Self::Refused,
@@ -102,6 +104,7 @@ impl SkipReason {
         Self::DuplicateTie,
         Self::DeadLettered,
         Self::Failed,
+        Self::Untestable,
     ];
 
     /// The stable name in files: a word, `bad <field>`, `discard.<key>`, or a cadastre diagnostic's kind.
@@ -124,6 +127,7 @@ impl SkipReason {
             Self::DuplicateTie => "duplicate_tie",
             Self::DeadLettered => "dead-lettered",
             Self::Failed => "failed",
+            Self::Untestable => "untestable",
             Self::BadField(field) => return Cow::Owned(format!("bad {field}")),
             Self::Discarded(key) => return Cow::Owned(format!("discard.{key}")),
             Self::Cadastre(kind) => kind.name(),
@@ -184,7 +188,7 @@ impl JsonSchema for SkipReason {
     fn json_schema(_: &mut SchemaGenerator) -> Schema {
         json_schema!({
             "description": "Why an item was skipped: missing, read, refused, decode, size, url, time, frame, camera, \
-                            open, outside, row, reference, outside_trajectory, duplicate_tie, dead-lettered, failed, \
+                            open, outside, row, reference, outside_trajectory, duplicate_tie, dead-lettered, failed, untestable, \
                             `bad <field>`, `discard.<key>`, or a cadastre diagnostic's kind.",
             "type": "string",
         })

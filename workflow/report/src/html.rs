@@ -268,7 +268,7 @@ fn skipped(s: &mut String, r: &Report) {
     }
     s.push_str("<table><tr><th>stage</th><th>reason</th><th>count</th></tr>");
     for (stage, reason, n) in r.skipped_by_reason() {
-        let _ = write!(s, "<tr><td>{}</td><td>{}</td><td>{n}</td></tr>", escape(&stage), escape(&reason));
+        let _ = write!(s, "<tr><td>{}</td><td>{}</td><td>{n}</td></tr>", escape(stage.name()), escape(&reason.name()));
     }
     s.push_str("</table><table><tr><th>item</th><th>stage</th><th>why</th></tr>");
     for item in r.skipped.iter().take(SKIPPED_LISTED) {
@@ -276,7 +276,7 @@ fn skipped(s: &mut String, r: &Report) {
             s,
             "<tr><td>{}</td><td>{}</td><td style=\"text-align:left\">{}</td></tr>",
             escape(&item.item),
-            escape(&item.stage),
+            escape(item.stage.name()),
             escape(&item.detail)
         );
     }

@@ -2,7 +2,7 @@
 //!
 //! [`Report`] is the data (`report.json`, versioned, schema in `schemas/report.v1.schema.json`);
 //! [`html::render`] turns it into one self-contained page (`report.html`: inline CSS and SVG plots, no
-//! network). The figures are the project's quality measures (DESIGN.md): along-track, cross-track and height
+//! network). The figures are the project's quality measures (docs/design.md): along-track, cross-track and height
 //! differences before and after in the table form of Meyer et al. (2023), registration counts in the form of
 //! Jende et al. (2017), Table 1, and the reasons images or features were skipped.
 //!
@@ -15,8 +15,8 @@ pub mod svg;
 
 pub use model::{
     Accuracy, CampaignInfo, CorrectionSeries, CrossTrackSeries, Figures, FlaggedEpoch, HeightBiasLine, InputWarning,
-    MapData, MapLine, MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, SkippedItem,
-    Stage, Summary, TileLine, TrackPoint,
+    MapData, MapLine, MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, StageLine,
+    Summary, TileLine, TrackPoint,
 };
 
 /// File name of the report schema under `schemas/`.

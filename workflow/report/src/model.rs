@@ -1,5 +1,6 @@
 //! The report's data, version 1: every figure `report.html` shows, in the same units.
 
+use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_geo::metrics::{Comparison, Stats};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
@@ -34,11 +35,11 @@ pub struct Report {
     /// Normalised residuals (residual / σ) per observation kind, for the histograms.
     pub residuals: Vec<Residuals>,
     /// Per-stage progress and time.
-    pub stages: Vec<Stage>,
+    pub stages: Vec<StageLine>,
     /// Per-tile diagnostics.
     pub tiles: Vec<TileLine>,
     /// Every skipped input item, with its reason.
-    pub skipped: Vec<SkippedItem>,
+    pub skipped: Vec<SkippedInput>,
     /// Observations rejected by data snooping.
     pub rejected: Vec<RejectedObservation>,
     /// Epochs flagged by the integrity and consistency tests.
@@ -297,7 +298,7 @@ pub struct Residuals {
 /// One stage of the run.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
-pub struct Stage {
+pub struct StageLine {
     /// Stage name (e.g. `registration`, `poles`, `adjustment`).
     pub name: String,
     /// Items finished.
@@ -326,20 +327,6 @@ pub struct TileLine {
     pub poles: usize,
     /// Items skipped.
     pub skipped: usize,
-}
-
-/// An input item that was skipped, and why.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
-#[serde(deny_unknown_fields)]
-pub struct SkippedItem {
-    /// The stage that skipped it.
-    pub stage: String,
-    /// The item: file, record or feature.
-    pub item: String,
-    /// Short reason class, used for counting (e.g. `decode`, `too_few_aerial`).
-    pub reason: String,
-    /// The full message.
-    pub detail: String,
 }
 
 /// An observation rejected by data snooping.
@@ -394,14 +381,15 @@ impl Report {
         self.rejected.iter().filter(|r| r.follows.is_none()).count()
     }
 
-    /// Skipped items counted by (stage, reason), most frequent first.
-    pub fn skipped_by_reason(&self) -> Vec<(String, String, usize)> {
-        let mut counts: std::collections::BTreeMap<(String, String), usize> = Default::default();
+    /// Skipped items counted by (stage, reason), most frequent first, then by stage and reason name.
+    pub fn skipped_by_reason(&self) -> Vec<(Stage, SkipReason, usize)> {
+        let mut counts: std::collections::BTreeMap<(Stage, String), (SkipReason, usize)> = Default::default();
         for s in &self.skipped {
-            *counts.entry((s.stage.clone(), s.reason.clone())).or_default() += 1;
+            counts.entry((s.stage, s.reason.name().into_owned())).or_insert_with(|| (s.reason.clone(), 0)).1 += 1;
         }
-        let mut out: Vec<(String, String, usize)> = counts.into_iter().map(|((s, r), n)| (s, r, n)).collect();
-        out.sort_by(|a, b| b.2.cmp(&a.2).then_with(|| (&a.0, &a.1).cmp(&(&b.0, &b.1))));
+        let mut out: Vec<(Stage, SkipReason, usize)> =
+            counts.into_iter().map(|((stage, _), (reason, n))| (stage, reason, n)).collect();
+        out.sort_by(|a, b| b.2.cmp(&a.2).then_with(|| (a.0, a.1.name()).cmp(&(b.0, b.1.name()))));
         out
     }
 

@@ -1,9 +1,10 @@
 //! The report's JSON round trip and schema, and the HTML page being self-contained and showing the figures.
 
+use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_geo::metrics::Stats;
 use plumbline_report::{
     Accuracy, CampaignInfo, CorrectionSeries, Figures, HeightBiasLine, MapData, MapLine, MapMark, MarkState,
-    RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, SkippedItem, Summary, TrackPoint, html,
+    RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, Summary, TrackPoint, html,
 };
 
 fn stats(median: f64) -> Stats {
@@ -41,18 +42,8 @@ fn sample() -> Report {
         },
         residuals: vec![Residuals { kind: "pole".into(), normalised: vec![-1.0, 0.2, 0.5, 2.5] }],
         skipped: vec![
-            SkippedItem {
-                stage: "registration".into(),
-                item: "pano7.jpg".into(),
-                reason: "decode".into(),
-                detail: "not a JPEG <broken>".into(),
-            },
-            SkippedItem {
-                stage: "registration".into(),
-                item: "pano8.jpg".into(),
-                reason: "decode".into(),
-                detail: "truncated".into(),
-            },
+            SkippedInput::new(Stage::Registration, "pano7.jpg", SkipReason::Decode, "not a JPEG <broken>"),
+            SkippedInput::new(Stage::Registration, "pano8.jpg", SkipReason::Decode, "truncated"),
         ],
         ..Report::default()
     }

@@ -10,13 +10,12 @@ pub use warnings::input_warnings;
 use std::collections::HashSet;
 
 use plumbline_adjustment::{Adjustment, ObservationRef};
+use plumbline_campaign::{Campaign, SkipReason, SkippedInput, Stage};
 use plumbline_geo::Trajectory;
 use plumbline_geo::metrics::compare;
 use plumbline_report::{
-    Accuracy, CampaignInfo, Figures, FlaggedEpoch, HeightBiasLine, RejectedObservation, Report, SkippedItem, Stage,
-    Summary,
+    Accuracy, CampaignInfo, Figures, FlaggedEpoch, HeightBiasLine, RejectedObservation, Report, StageLine, Summary,
 };
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use crate::merge::Merged;
 use crate::refs;
@@ -30,7 +29,7 @@ pub fn build_report(
     merged: &Merged,
     solved: &Solved,
     reference: Option<&Trajectory>,
-    stages: &[Stage],
+    stages: &[StageLine],
 ) -> Report {
     let dg = &campaign.trajectory.trajectory;
     let result = &solved.adjustment;
@@ -124,30 +123,20 @@ fn summary(
     }
 }
 
-fn item(s: &SkippedInput) -> SkippedItem {
-    SkippedItem {
-        stage: s.stage.name().to_owned(),
-        item: s.item.clone(),
-        reason: s.reason.to_string(),
-        detail: s.detail.clone(),
-    }
-}
-
 /// Everything skipped: while loading, in the tiles (with the registration discards), by the consistency
 /// check and by the adjustment.
-fn skipped(campaign: &Campaign, merged: &Merged, solved: &Solved) -> Vec<SkippedItem> {
-    let mut out: Vec<SkippedItem> = campaign.skipped.iter().chain(&merged.skipped).map(item).collect();
-    out.extend(solved.consistency.skipped.iter().map(|(pair, e)| SkippedItem {
-        stage: "consistency".into(),
-        item: format!("image pair {pair}"),
-        reason: "untestable".into(),
-        detail: e.to_string(),
+fn skipped(campaign: &Campaign, merged: &Merged, solved: &Solved) -> Vec<SkippedInput> {
+    let mut out: Vec<SkippedInput> = campaign.skipped.iter().chain(&merged.skipped).cloned().collect();
+    out.extend(solved.consistency.skipped.iter().map(|(pair, e)| {
+        SkippedInput::new(Stage::Consistency, format!("image pair {pair}"), SkipReason::Untestable, e.to_string())
     }));
-    out.extend(solved.adjustment.skipped.iter().map(|s| SkippedItem {
-        stage: "adjustment".into(),
-        item: format!("{} {}", refs::kind(&s.item), refs::id(&s.item)),
-        reason: format!("bad {}", s.field),
-        detail: format!("{} {}: field `{}` {}", refs::kind(&s.item), refs::id(&s.item), s.field, s.problem),
+    out.extend(solved.adjustment.skipped.iter().map(|s| {
+        SkippedInput::new(
+            Stage::Adjustment,
+            format!("{} {}", refs::kind(&s.item), refs::id(&s.item)),
+            SkipReason::BadField(s.field.to_string()),
+            format!("{} {}: field `{}` {}", refs::kind(&s.item), refs::id(&s.item), s.field, s.problem),
+        )
     }));
     out
 }

@@ -2,14 +2,15 @@
 //! (merged, each observation remembering its file and index there), and optional weak links.
 
 use plumbline_adjustment::{ObservationRef, ObservationSet, ObservationSetV1, WeakLink};
+use plumbline_campaign::TrajectoryFormat;
 use plumbline_geo::formats::AttitudeConvention;
-use plumbline_runtime::trajectory::{TrajectoryFormat, TrajectoryInput, load_trajectory};
+use plumbline_runtime::trajectory::{TrajectoryInput, load_trajectory};
 
 use super::Args;
 use crate::exit::{OrInvalid, invalid};
 use crate::io::{Context, file_name};
 
-pub use plumbline_runtime::trajectory::LoadedTrajectory;
+pub use plumbline_campaign::LoadedTrajectory;
 
 /// Read and project the trajectory `args` names; every defect is invalid input naming file, record, field.
 pub async fn trajectory(ctx: &Context, args: &Args) -> anyhow::Result<LoadedTrajectory> {

@@ -32,7 +32,7 @@ pub enum Format {
     Sbet,
 }
 
-impl From<Format> for plumbline_runtime::trajectory::TrajectoryFormat {
+impl From<Format> for plumbline_campaign::TrajectoryFormat {
     fn from(f: Format) -> Self {
         match f {
             Format::Csv => Self::Csv,

@@ -6,25 +6,10 @@ pub mod crs;
 use plumbline_geo::Trajectory;
 use plumbline_geo::formats::{self, AttitudeConvention, Horizontal, RawTrajectory};
 
+use plumbline_campaign::{LoadedTrajectory, TrajectoryFormat};
+
 use crate::errors::{OrInvalid, invalid};
 use crate::files::{Files, file_name};
-
-/// File formats of trajectories.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TrajectoryFormat {
-    /// Header-driven CSV (projected or geographic columns).
-    Csv,
-    /// Applanix SBET (WGS84 geographic, binary), standard deviations in a companion smrmsg file.
-    Sbet,
-}
-
-impl TrajectoryFormat {
-    /// The format a file name implies: `.sbet`/`.out` are SBET, anything else CSV.
-    pub fn of(url: &str) -> Self {
-        let lower = url.to_ascii_lowercase();
-        if lower.ends_with(".sbet") || lower.ends_with(".out") { Self::Sbet } else { Self::Csv }
-    }
-}
 
 /// Where a trajectory comes from.
 #[derive(Clone, Debug)]
@@ -39,21 +24,6 @@ pub struct TrajectoryInput {
     pub attitude: AttitudeConvention,
     /// EPSG code of a CSV's coordinates (None: projected in `target`, or geographic WGS 84).
     pub epsg: Option<u32>,
-}
-
-/// A trajectory in the campaign CRS, with what is needed to write it back the way it came.
-#[derive(Debug, Clone)]
-pub struct LoadedTrajectory {
-    /// Validated records in the campaign CRS.
-    pub trajectory: Trajectory,
-    /// The file's format.
-    pub format: TrajectoryFormat,
-    /// The file's horizontal coordinates.
-    pub horizontal: Horizontal,
-    /// EPSG code of the campaign CRS (None: a projected CSV of unstated CRS, kept as it is).
-    pub epsg: Option<u32>,
-    /// File name, for messages.
-    pub name: String,
 }
 
 /// Read `input` and bring it into the projected CRS `target`; every defect is invalid input naming the

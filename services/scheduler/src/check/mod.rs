@@ -181,7 +181,7 @@ async fn trajectory(c: &mut Checker<'_>, field: &str, source: &TrajectorySource)
     if let Some(reference) = source.reference() {
         let Ok(url) = resolve(reference) else { return };
         let input = plumbline_runtime::trajectory::TrajectoryInput {
-            format: plumbline_runtime::trajectory::TrajectoryFormat::of(&url),
+            format: plumbline_campaign::TrajectoryFormat::of(&url),
             url,
             smrmsg: None,
             attitude: plumbline_geo::formats::AttitudeConvention::Applanix,

@@ -112,7 +112,7 @@ pub async fn load_agency_campaign(
     manifest_url: &str,
     agency: &Agency,
     id: &CampaignId,
-) -> plumbline_runtime::Result<crate::Campaign> {
+) -> plumbline_runtime::Result<plumbline_campaign::Campaign> {
     let prefix = layout.stored_manifest(manifest_url, agency, id).map_err(plumbline_runtime::invalid)?;
     let campaign = crate::load_campaign(files, manifest_url).await?;
     let outside = check_locations(&campaign.manifest, manifest_url, &prefix);

@@ -10,8 +10,9 @@ use super::auth::Agency;
 use super::error::{ApiError, FieldProblem};
 use super::prefix::check_locations;
 use crate::bus::unix_now;
-use crate::load::{Campaign, load_campaign};
+use crate::load::load_campaign;
 use crate::messages::{CampaignState, CampaignStatus};
+use plumbline_campaign::Campaign;
 
 /// What was submitted, parsed and checked.
 struct Submission {

@@ -14,6 +14,7 @@ use bytes::Bytes;
 use futures::StreamExt as _;
 use plumbline_campaign::SkipReason;
 use plumbline_campaign::manifest::FrameBlock;
+use plumbline_campaign::{Campaign, SkippedInput};
 use plumbline_geo::camera::{CameraModel, Pinhole};
 use plumbline_geo::tiling::BBox;
 use plumbline_geo::{Map, MapFromCamera, Point3};
@@ -23,7 +24,6 @@ use plumbline_imaging::radiometry::gray_from_bands;
 use plumbline_registration::aerial::{AerialFrame, AerialReference, FrameReach};
 use plumbline_runtime::Files;
 use plumbline_runtime::gdal_read::{MAGIC_BYTES, PixelSource, is_tiled_raster};
-use plumbline_scheduler::{Campaign, SkippedInput};
 
 use super::{LoadedReference, STAGE, frame_camera, frame_pose, sees};
 use crate::fetch::{on_rayon, read_one, refused, skipped};

@@ -5,11 +5,11 @@
 
 use std::collections::HashMap;
 
+use plumbline_campaign::Campaign;
 use plumbline_geo::tiling::TileId;
 use plumbline_runtime::Files;
-use plumbline_scheduler::Campaign;
 
-use plumbline_scheduler::SkippedInput;
+use plumbline_campaign::SkippedInput;
 
 use crate::output::read_finished;
 use crate::stages::Timed;
