@@ -3,6 +3,16 @@
 //! depth images and cadastre objects; register the panoramas (Jende et al. 2017) and match the poles
 //! (Meyer et al. 2023); write the versioned [`TileOutput`] under `{output}tiles/`.
 //!
+//! ```text
+//! process_tile(&files, &campaign, &tile, &config) → TileOutputV1
+//!   aerial frames: the windows of the block the tile can reach (or orthophoto + terrain windows)
+//!   panoramas a few at a time: read, decode, prepare (ortho patch, features), register, drop the pixels
+//!   depth images and point clouds in batches → poles detected, matched to the cadastre → pole updates
+//!   → tie points, pole updates, image motions, per-image diagnostics, skipped inputs
+//! run_tile(…) → the same, resumed from or written to {output}tiles/{col}_{row}.json (fingerprinted)
+//! service::serve → the NATS worker loop around run_tile
+//! ```
+//!
 //! One broken input (a corrupt panorama, a missing depth image, a bad cadastre feature) is skipped, counted
 //! and listed in the tile's output; the tile goes on.
 

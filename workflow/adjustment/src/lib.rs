@@ -1,5 +1,13 @@
 //! Global trajectory adjustment: sparse least squares with control, robust estimation and data snooping.
 //!
+//! ```text
+//! AdjustmentInput { DG trajectory, ObservationSet (ties, poles, GNSS, motions), weak links, frame sets }
+//!   → build: nodes, DG chain (jumps localised, standstills), observations linearised → problem
+//!   → lm: Levenberg–Marquardt + Huber IRLS on the sparse normal matrix (faer Cholesky)
+//!   → snooping: Baarda's w-test, reject or widen, re-solve until nothing is left
+//!   → Adjustment (node corrections with covariances, points, rejections, biases) → apply(full-rate trajectory)
+//! ```
+//!
 //! - **Unknowns**: pose corrections [δp; δθ] (position, small-angle rotation vector in the mapping frame,
 //!   R' = Exp(δθ) R) at node epochs — the observation epochs, weak-link boundaries, the trajectory ends and
 //!   optional regular spacing — linearly interpolated in between; plus the coordinates of tie points.

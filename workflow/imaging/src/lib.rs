@@ -1,6 +1,13 @@
 //! Image primitives: bounded decoding of PNG/JPEG bytes, ortho-projection, filters, KAZE/AKAZE, corners, NCC,
 //! least-squares matching, RANSAC.
 //!
+//! ```text
+//! decode (bounded, checked sizes) → GrayImage → ortho / warp (resampling onto a ground grid)
+//!   → radiometry (Wallis, stretch), seams (exposure steps of a panorama levelled)
+//!   → kaze / akaze (FED scale space, keypoints, descriptors) → models + ransac (transformations)
+//!   → corners (Förstner) → ncc (coarse correspondence) → lsm (least-squares matching, sub-pixel)
+//! ```
+//!
 //! Synchronous and I/O-free; rayon parallelism inside. Pixel coordinates follow ARCHITECTURE.md.
 
 pub mod akaze;
