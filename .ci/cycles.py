@@ -1,9 +1,9 @@
 #!/usr/bin/env python3
 """Fails when the modules of a crate import each other in a cycle.
 
-For every crate under workflow/, services/ and tests/, builds the graph "module A mentions `crate::B…` or
-`super::B…` (outside comments and `#[cfg(test)]` code)" over its top-level modules and, inside each
-directory module, over its submodules, and prints every strongly connected component with more than one
+For every crate under workflow/, services/, tests/ and tools/, builds the graph "module A mentions
+`crate::B…` or `super::B…` (outside comments and `#[cfg(test)]` code)" over its top-level modules and, inside
+each directory module, over its submodules, and prints every strongly connected component with more than one
 module. Exit code 1 when there is one. Usage: `python3 .ci/cycles.py [CRATE_SRC_DIR...]`.
 """
 import os
@@ -126,7 +126,7 @@ def main(args):
     root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
     srcs = args or sorted(
         os.path.join(root, group, name, "src")
-        for group in ("workflow", "services", "tests")
+        for group in ("workflow", "services", "tests", "tools")
         for name in os.listdir(os.path.join(root, group))
         if os.path.isdir(os.path.join(root, group, name, "src"))
     )

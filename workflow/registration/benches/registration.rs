@@ -1,257 +1,76 @@
-//! Registration accuracy and speed on a synthetic campaign, per GNSS profile, in the form of Jende et al. (2017),
-//! Table 1: images, images matched, correspondences, share correct (aerial position within 2 aerial pixels of
-//! the true point, horizontally), why images failed, where true correspondences were lost (module `losses`:
-//! every corner search of §3.8 scored against the truth), the points that are not correct, and the time per
-//! stage per panorama.
+//! Registration speed on a synthetic campaign, per GNSS profile: the panoramas, the seconds the campaign took
+//! to build (render, not pipeline), and the time per stage per panorama from [`StageTimings`]. Timing only:
+//! nothing is scored against the truth here. Accuracy (Jende et al. 2017 Table 1, failure reasons, where
+//! true correspondences are lost, image motion, heights, the cross-panorama check) is measured by
+//! `cargo run --release -p plumbline-eval -- registration` (flags for the preset, realism, profiles and
+//! pipeline overrides there).
 //!
-//! `cargo bench -p plumbline-registration --bench registration`; environment: `MM_BENCH_PRESET` (`tiny` |
-//! `district`, default `tiny`), `MM_BENCH_LENGTH` (route metres, default 400), `MM_BENCH_SPACING` (m, 5),
-//! `MM_BENCH_WIDTH` (panorama pixels, 1024), `MM_BENCH_SEED` (1), `MM_BENCH_PROFILES` (`open,urban,canyon`),
-//! `MM_BENCH_MOTION_PAIRS` (set: print every pair's image-derived motion error), `MM_BENCH_FAILED` (set: list
-//! every panorama with markings that was not matched, with each aerial image's fate); for experiments on the
-//! aerial matching (§3.8) `MM_BENCH_MIN_NCC`, `MM_BENCH_TEMPLATE_HALF`, `MM_BENCH_SEARCH_RADIUS` and
-//! `MM_BENCH_DG_SEARCH` (`true`/`false`), `MM_BENCH_MIN_ROUNDNESS` (0: output edge points too),
-//! `MM_BENCH_INITIAL_CANDIDATES`, `MM_BENCH_MIN_INITIAL_INLIERS` and `MM_BENCH_POOL_WINDOWS` (§3.7) and
-//! `MM_BENCH_MIN_MM_POINTS` override the defaults; `MM_BENCH_CROSSCHECK=false` turns the cross-panorama
-//! check off, `MM_BENCH_OFFSETS` (set) lists every checked panorama's aerial offset against the truth.
-//! `MM_BENCH_REALISM` (`ideal` | `default` | `harsh`, default `ideal`) renders the campaign through the
-//! simulator's sensor realism; `MM_BENCH_NUISANCES=1` then also runs it with each nuisance switched off
-//! in turn and prints one summary row per variant, so the cost of each is visible (`=seams,JPEG`: only the
-//! rows whose names contain one of the words). `MM_BENCH_LEVEL_PLANE=1` ortho-projects on the level plane
-//! even where the world has relief (no terrain model).
+//! `cargo bench -p plumbline-registration --bench registration`: the `tiny` world, seed 1, a 400 m route with
+//! panoramas every 5 m at 1024 px, ideal realism, profiles open, urban and canyon.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
-mod diagnosis;
-mod heights;
-mod losses;
-mod motion;
+use std::time::{Duration, Instant};
 
-use std::collections::BTreeMap;
-use std::time::Instant;
-
-use diagnosis::{MARKINGS_MIN_M2, Split};
-use plumbline_fixtures::registration::{AERIAL_GSD, Campaign, MotionCheck, Profile, Spec};
+use plumbline_fixtures::registration::{Campaign, Profile, Spec};
 use plumbline_geo::tiling::TileId;
-use plumbline_registration::mm::TransformSource;
 use plumbline_registration::pipeline::prepare_panoramas;
 use plumbline_registration::{PipelineConfig, StageTimings, register_tile};
-use plumbline_synth::render::{Radiometry, Realism, RealismLevel, Rig};
-use plumbline_synth::world::{self, EpochChanges, Relief};
+use plumbline_synth::render::{Realism, RealismLevel};
+use plumbline_synth::world::Preset;
 
-fn env<T: std::str::FromStr>(name: &str, default: T) -> T {
-    std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default)
-}
-
-/// The default pipeline with the experiment overrides of the module docs.
-fn config() -> PipelineConfig {
-    let mut c = PipelineConfig::default();
-    c.aerial.min_ncc = env("MM_BENCH_MIN_NCC", c.aerial.min_ncc);
-    c.aerial.template_half = env("MM_BENCH_TEMPLATE_HALF", c.aerial.template_half);
-    c.aerial.search_radius = env("MM_BENCH_SEARCH_RADIUS", c.aerial.search_radius);
-    c.aerial.dg_search = env("MM_BENCH_DG_SEARCH", c.aerial.dg_search);
-    c.aerial.min_roundness = env("MM_BENCH_MIN_ROUNDNESS", c.aerial.min_roundness);
-    c.cross_check.enabled = env("MM_BENCH_CROSSCHECK", c.cross_check.enabled);
-    c.aerial.initial_candidates = env("MM_BENCH_INITIAL_CANDIDATES", c.aerial.initial_candidates);
-    c.aerial.min_initial_inliers = env("MM_BENCH_MIN_INITIAL_INLIERS", c.aerial.min_initial_inliers);
-    c.min_mm_points = env("MM_BENCH_MIN_MM_POINTS", c.min_mm_points);
-    c.aerial.pool_windows = env("MM_BENCH_POOL_WINDOWS", c.aerial.pool_windows);
-    c
-}
-
-fn profile(name: &str) -> Option<Profile> {
-    match name {
-        "open" => Some(Profile::Open),
-        "urban" => Some(Profile::Urban),
-        "canyon" => Some(Profile::Canyon),
-        "mixed" => Some(Profile::Mixed),
-        _ => None,
-    }
-}
-
-/// One profile's numbers.
+/// One profile's panoramas, build seconds and stage times.
 struct Row {
-    name: String,
+    name: &'static str,
     images: usize,
-    matched: usize,
-    kaze_pairs: usize,
-    correspondences: usize,
-    correct: usize,
-    median_error: f64,
-    dg_error_median: f64,
-    reasons: BTreeMap<String, usize>,
-    timings: StageTimings,
     build_s: f64,
-    split: Split,
-    /// Correspondences and correct ones of the panoramas with markings.
-    marked_correspondences: (usize, usize),
-    /// Image-derived motions scored against the truth.
-    motions: Vec<MotionCheck>,
-    /// Per motion: flagged by the consistency check.
-    flagged: Vec<bool>,
-    /// Per aerial point: panorama id, height error against the truth, reported σ_H (m).
-    heights: Vec<heights::HeightError>,
-    /// Where true correspondences were lost, by panorama fate (panoramas with markings).
-    losses: BTreeMap<String, losses::Losses>,
-    /// The aerial points that are not correct, described.
-    wrong: Vec<String>,
-    /// The same points explained: truth, MM height, every frame's search (module `diagnosis::wrong`).
-    explained: Vec<String>,
-    /// The panoramas with markings that were not matched, described (`MM_BENCH_FAILED`).
-    failed: Vec<String>,
-    /// The cross-panorama check scored against the truth.
-    crosscheck: diagnosis::crosscheck::Scored,
+    timings: StageTimings,
 }
 
-fn median(mut v: Vec<f64>) -> f64 {
-    v.sort_by(f64::total_cmp);
-    v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
-}
-
-fn run(name: &str, spec: &Spec) -> Row {
+fn run(name: &'static str, profile: Profile) -> Row {
+    let spec = Spec {
+        preset: Preset::Tiny,
+        seed: 1,
+        profile,
+        length: 400.0,
+        spacing: 5.0,
+        width: 1024,
+        window: None,
+        realism: Realism::of(RealismLevel::Ideal),
+    };
     let t0 = Instant::now();
-    let mut campaign = Campaign::build(spec);
-    if std::env::var("MM_BENCH_LEVEL_PLANE").is_ok_and(|v| v == "1") {
-        // Ortho-project on the level plane even where the world has relief (what a campaign without a
-        // terrain model gets).
-        campaign.rig.terrain = None;
-    }
+    let campaign = Campaign::build(&spec);
     let build_s = t0.elapsed().as_secs_f64();
-    let config = config();
+    let config = PipelineConfig::default();
     let t1 = Instant::now();
     let prepared = prepare_panoramas(&campaign.panoramas, &campaign.rig, &config.mm);
     let mut run = register_tile(TileId { col: 0, row: 0 }, &prepared, &campaign.rig, &campaign.reference, &config);
     // The wall time of step 1 and the features (prepared first) and of the pairs.
     run.timings.total = t1.elapsed();
-    let result = run.result.into_latest();
-    let half = PipelineConfig::default().mm.half_extent;
-    let ids = campaign.truth.iter().map(|(id, _)| id.clone());
-    let paint: BTreeMap<String, f64> = ids.clone().zip(campaign.paint_areas(half)).collect();
-    let dg_error: BTreeMap<String, f64> = ids.zip(campaign.dg_error.iter().copied()).collect();
-    let split = Split::of(&result, &paint, &dg_error);
-    let errors = campaign.aerial_errors(&result);
-    let motions = campaign.motion_checks(&result);
-    let image_motions: Vec<_> = result.images.iter().filter_map(|d| d.motion).collect();
-    let flagged = motion::flags(&campaign.panoramas, &image_motions);
-    let horizontal: Vec<f64> = errors.iter().map(|(e, _)| e[0].hypot(e[1])).collect();
-    let marked = |id: &str| paint.get(id).is_some_and(|&a| a >= MARKINGS_MIN_M2);
-    let losses = losses::losses(&campaign, &result, &run.traces, &marked);
-    let explained = diagnosis::wrong::explain(&campaign, &result, &run.traces, 2.0 * AERIAL_GSD);
-    let mut wrong = losses::wrong_points(&campaign, &result, AERIAL_GSD);
-    wrong.push(format!("all points' σ_h q10/50/90/99 {:.3?} m", losses::sigma_quantiles(&result)));
-    wrong.push(diagnosis::wrong::ambiguity(&campaign, &result, &run.traces, 2.0));
-    let failed = losses::failed_panoramas(&campaign, &result, &marked);
-    let crosscheck = diagnosis::crosscheck::score(&campaign, &result);
-    let marked_errors: Vec<f64> = result
-        .ties
-        .iter()
-        .filter(|t| t.aerial.is_some())
-        .zip(&horizontal)
-        .filter(|(t, _)| t.id.0.split(':').next().is_some_and(marked))
-        .map(|(_, e)| *e)
-        .collect();
-    let heights = result
-        .ties
-        .iter()
-        .filter(|t| t.aerial.is_some())
-        .zip(&errors)
-        .map(|(t, (e, s))| (t.id.0.split(':').next().unwrap_or("").to_owned(), e[2], s[2]))
-        .collect();
-    let marked_correspondences =
-        (marked_errors.len(), marked_errors.iter().filter(|&&e| e <= 2.0 * AERIAL_GSD).count());
-    let kaze_pairs = result.images.iter().filter(|d| matches!(d.transform, Some(TransformSource::Kaze { .. }))).count();
-    Row {
-        name: name.to_owned(),
-        images: result.summary.images,
-        matched: result.summary.images_matched,
-        kaze_pairs,
-        correspondences: horizontal.len(),
-        correct: horizontal.iter().filter(|&&e| e <= 2.0 * AERIAL_GSD).count(),
-        median_error: median(horizontal),
-        dg_error_median: median(campaign.dg_error.clone()),
-        reasons: result.summary.discarded,
-        timings: run.timings,
-        build_s,
-        split,
-        marked_correspondences,
-        motions,
-        flagged,
-        heights,
-        losses,
-        wrong,
-        explained,
-        failed,
-        crosscheck,
-    }
+    Row { name, images: campaign.panoramas.len(), build_s, timings: run.timings }
 }
 
-fn print_tables(rows: &[Row]) {
+fn main() {
+    println!("registration timing: tiny, seed 1, route 400 m, panoramas every 5 m at 1024 px, ideal realism");
+    let profiles = [("open", Profile::Open), ("urban", Profile::Urban), ("canyon", Profile::Canyon)];
+    let rows: Vec<Row> = profiles.into_iter().map(|(name, p)| run(name, p)).collect();
     println!(
-        "\n| profile | images | images matched | correspondences | correct (≤ 2 px = {:.2} m) | median horiz. error (m) | median DG error (m) | KAZE pairs |",
-        2.0 * AERIAL_GSD
+        "\n| profile | images | ortho-projection | features | matching | triangulation | aerial | lines | elapsed | build (not pipeline) |"
     );
-    println!("|---|---|---|---|---|---|---|---|");
-    for r in rows {
-        let share = if r.correspondences > 0 { 100.0 * r.correct as f64 / r.correspondences as f64 } else { f64::NAN };
-        println!(
-            "| {} | {} | {} ({:.0} %) | {} | {:.1} % | {:.3} | {:.3} | {} |",
-            r.name,
-            r.images,
-            r.matched,
-            100.0 * r.matched as f64 / r.images.max(1) as f64,
-            r.correspondences,
-            share,
-            r.median_error,
-            r.dg_error_median,
-            r.kaze_pairs
-        );
-    }
-    print_split(rows);
-    let height_rows: Vec<_> = rows.iter().map(|r| (r.name.as_str(), r.heights.as_slice())).collect();
-    heights::print_table(&height_rows);
-    let motion_rows: Vec<_> =
-        rows.iter().map(|r| (r.name.as_str(), r.images, r.motions.as_slice(), r.flagged.as_slice())).collect();
-    motion::print_table(&motion_rows);
-    if std::env::var_os("MM_BENCH_MOTION_PAIRS").is_some() {
-        rows.iter().for_each(|r| motion::print_pairs(&r.name, &r.motions));
-    }
-    println!("\n| profile | why images failed (count) |\n|---|---|");
-    for r in rows {
-        let reasons: Vec<String> = r.reasons.iter().map(|(k, v)| format!("{k}: {v}")).collect();
-        println!("| {} | {} |", r.name, reasons.join(", "));
-    }
-    print_crosscheck(rows);
-    print_causes(rows);
-    let loss_rows: Vec<_> = rows.iter().map(|r| (r.name.as_str(), r.losses.clone())).collect();
-    losses::print(&loss_rows);
-    println!("\nAerial points off by more than 2 aerial pixels: tie, horizontal / height error / σ_H, ×frames\n");
-    for r in rows {
-        println!("- {}: {}", r.name, r.wrong.join("; "));
-    }
-    println!("\nThe same points explained: what the MM ray truly hits, the MM rays' height, each frame's search\n");
-    for r in rows {
-        r.explained.iter().for_each(|line| println!("- {}: {line}", r.name));
-    }
-    if std::env::var_os("MM_BENCH_FAILED").is_some() {
-        println!("\nPanoramas WITH markings not matched: id, fate, true DG error E/N, reported σ; per aerial image:");
-        println!("rejection, KAZE inliers, correlation NCC, offset\n");
-        rows.iter().for_each(|r| r.failed.iter().for_each(|f| println!("- {}: {f}", r.name)));
-    }
-    println!(
-        "\n| profile | ortho-projection | features | matching | triangulation | aerial | elapsed | render (not pipeline) |"
-    );
-    println!("|---|---|---|---|---|---|---|---|");
-    for r in rows {
-        let per = |d: std::time::Duration| 1e3 * d.as_secs_f64() / r.images.max(1) as f64;
+    println!("|---|---|---|---|---|---|---|---|---|---|");
+    for r in &rows {
+        let per = |d: Duration| 1e3 * d.as_secs_f64() / r.images.max(1) as f64;
         let t = &r.timings;
         println!(
-            "| {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.2} ms | {:.0} ms | {:.0} ms | {:.1} s total |",
+            "| {} | {} | {:.0} ms | {:.0} ms | {:.0} ms | {:.2} ms | {:.0} ms | {:.1} ms | {:.0} ms | {:.1} s |",
             r.name,
+            r.images,
             per(t.ortho),
             per(t.features),
             per(t.matching),
             per(t.triangulation),
             per(t.aerial),
+            per(t.lines),
             per(t.total),
             r.build_s
         );
@@ -261,228 +80,4 @@ fn print_tables(rows: &[Row]) {
         "wall time of `prepare_panoramas` + `register_tile` divided by the panoramas, on {} threads.",
         rayon::current_num_threads()
     );
-}
-
-fn reasons(map: &BTreeMap<String, usize>) -> String {
-    map.iter().map(|(k, v)| format!("{k}: {v}")).collect::<Vec<_>>().join(", ")
-}
-
-fn print_split(rows: &[Row]) {
-    println!("\nBy ground truth: a panorama has markings when ≥ {MARKINGS_MIN_M2} m² of road paint visible at both");
-    println!("epochs lies in its ortho patch (lane lines, stop lines, zebra crossings, arrows).");
-    println!("\n| profile | group | images | images matched | correspondences | correct | why images failed |");
-    println!("|---|---|---|---|---|---|---|");
-    for r in rows {
-        let (n, ok) = r.marked_correspondences;
-        let share =
-            |c: usize, n: usize| if n > 0 { format!("{:.1} %", 100.0 * c as f64 / n as f64) } else { "–".into() };
-        let (w, wo) = (&r.split.with, &r.split.without);
-        let (n_wo, ok_wo) = (r.correspondences - n, r.correct - ok);
-        for (name, g, n, ok) in [("markings", w, n, ok), ("no markings", wo, n_wo, ok_wo)] {
-            let matched = format!("{} ({})", g.matched, share(g.matched, g.images));
-            println!(
-                "| {} | {name} | {} | {matched} | {n} | {} | {} |",
-                r.name,
-                g.images,
-                share(ok, n),
-                reasons(&g.reasons)
-            );
-        }
-    }
-}
-
-fn print_crosscheck(rows: &[Row]) {
-    println!(
-        "\nCross-panorama check (Jende et al. 2017 §3.9) against the truth: a registration is truly wrong when its"
-    );
-    println!("offset misses minus the true DG error by more than 2 aerial pixels ({:.2} m).", 2.0 * AERIAL_GSD);
-    println!(
-        "\n| profile | offsets checked | flagged | flagged truly wrong / right | kept truly wrong | kept unverified | motions contradicted: true error (m) | kept: max residual / bound, max residual (m) |"
-    );
-    println!("|---|---|---|---|---|---|---|---|");
-    for r in rows {
-        let c = &r.crosscheck;
-        let right = c.flagged - c.flagged_wrong;
-        let motions: Vec<String> = c.contradicted.iter().map(|(id, e)| format!("{id} {e:.2}")).collect();
-        println!(
-            "| {} | {} | {} | {} / {right} | {} | {} | {} | {:.2}, {:.3} |",
-            r.name,
-            c.checked,
-            c.flagged,
-            c.flagged_wrong,
-            c.kept_wrong,
-            c.unverified,
-            motions.join(", "),
-            c.margin.0,
-            c.margin.1
-        );
-    }
-    println!();
-    rows.iter().for_each(|r| r.crosscheck.lines.iter().for_each(|l| println!("- {}: {l}", r.name)));
-}
-
-fn print_causes(rows: &[Row]) {
-    println!("\nPanoramas WITH markings discarded as too_few_plausible: each overlapping aerial image's fate in §3.7");
-    println!("((a) KAZE found no transform; (b) the transform's offset equals the true DG error within 0.25 m, i.e.");
-    println!("it was right and the bound 3σ + 0.5 m too tight; (c) a wrong transform correctly rejected).");
-    println!("\n| profile | panoramas | aerial images by cause | (b): offset / bound / true DG error, m |");
-    println!("|---|---|---|---|");
-    for r in rows {
-        let c = &r.split.causes;
-        let tight: Vec<String> = c.too_tight.iter().take(8).map(|(o, b, e)| format!("{o:.2}/{b:.2}/{e:.2}")).collect();
-        let more = if c.too_tight.len() > 8 { format!(" … ({} in all)", c.too_tight.len()) } else { String::new() };
-        let images: BTreeMap<String, usize> = c.images.iter().map(|(k, v)| ((*k).to_owned(), *v)).collect();
-        println!("| {} | {} | {} | {}{more} |", r.name, c.panoramas, reasons(&images), tight.join(", "));
-    }
-    println!("\n(a) in detail: KAZE matches / best inliers / whole-patch NCC of the correlation fallback\n");
-    for r in rows {
-        let mut none = r.split.causes.none_found.clone();
-        none.sort_by_key(|n| std::cmp::Reverse(n.1));
-        let items: Vec<String> = none
-            .iter()
-            .take(24)
-            .map(|(m, i, ncc)| format!("{m}/{i}/{}", ncc.map_or("–".into(), |n| format!("{n:.2}"))))
-            .collect();
-        println!("- {}: {}", r.name, items.join(", "));
-    }
-    println!("\nPanoramas WITH markings discarded as too_few_correspondences: MM points triangulated → per aerial");
-    println!(
-        "image that passed §3.7, corner candidates / NCC matches / correspondences kept (10 needed in all images\ntogether, from at least 2 images)\n"
-    );
-    for r in rows {
-        let items: Vec<String> = r
-            .split
-            .causes
-            .starved
-            .iter()
-            .map(|(n, imgs)| {
-                let i: Vec<String> = imgs.iter().map(|(c, m, k)| format!("{c}/{m}/{k}")).collect();
-                format!("{n} → [{}]", i.join(" "))
-            })
-            .collect();
-        println!("- {}: {}", r.name, items.join("; "));
-    }
-}
-
-/// The realism of `MM_BENCH_REALISM`.
-fn realism() -> Realism {
-    Realism::of(match std::env::var("MM_BENCH_REALISM").as_deref() {
-        Ok("default") => RealismLevel::Default,
-        Ok("harsh") => RealismLevel::Harsh,
-        _ => RealismLevel::Ideal,
-    })
-}
-
-/// `base` with one nuisance switched off, by name.
-fn nuisances(base: Realism) -> Vec<(&'static str, Realism)> {
-    let street = |r: Radiometry| Realism { street: r, ..base };
-    let rig = |r: Rig| Realism { rig: r, ..base };
-    let ideal = Radiometry::IDEAL;
-    vec![
-        ("all", base),
-        ("no seams (one centre, one exposure)", rig(Rig { radius_m: 0.0, exposure_step: 0.0, ..base.rig })),
-        ("no parallax at the seams (one centre)", rig(Rig { radius_m: 0.0, ..base.rig })),
-        ("no exposure steps (one exposure)", rig(Rig { exposure_step: 0.0, ..base.rig })),
-        ("no rolling shutter", rig(Rig { readout_s: 0.0, ..base.rig })),
-        ("no motion blur", rig(Rig { exposure_s: 0.0, ..base.rig })),
-        (
-            "aerial: crowns not spread over the road",
-            Realism { world: EpochChanges { crown_spread: 1.0, ..base.world }, ..base },
-        ),
-        ("no pedestrians", Realism { world: EpochChanges { pedestrians_per_100m: 0.0, ..base.world }, ..base }),
-        ("flat ground (no hills, cross-fall or kerbs)", Realism { relief: Relief::FLAT, ..base }),
-        ("street: no white balance error", street(Radiometry { white_balance: [1.0; 3], ..base.street })),
-        ("street: no S-curve", street(Radiometry { s_curve: 0.0, ..base.street })),
-        ("street: no vignetting", street(Radiometry { vignetting: 0.0, ..base.street })),
-        ("street: no noise", street(Radiometry { noise: 0.0, ..base.street })),
-        (
-            "aerial: ideal radiometry",
-            Realism { aerial: Radiometry { jpeg_quality: base.aerial.jpeg_quality, ..ideal }, ..base },
-        ),
-        (
-            "JPEG quality 90 both",
-            Realism {
-                street: Radiometry { jpeg_quality: 90, ..base.street },
-                aerial: Radiometry { jpeg_quality: 90, ..base.aerial },
-                ..base
-            },
-        ),
-    ]
-}
-
-/// One row per nuisance switched off: images with markings matched and their correct share, all images.
-fn print_nuisances(variants: &[(&str, Vec<Row>)]) {
-    println!(
-        "
-Each nuisance switched off in turn (`MM_BENCH_NUISANCES`)
-"
-    );
-    println!("| switched off | profile | with markings matched | their correct share | all matched | correct share |");
-    println!("|---|---|---|---|---|---|");
-    let share = |c: usize, n: usize| if n > 0 { format!("{:.1} %", 100.0 * c as f64 / n as f64) } else { "–".into() };
-    for (name, rows) in variants {
-        for r in rows {
-            let (n, ok) = r.marked_correspondences;
-            let w = &r.split.with;
-            println!(
-                "| {name} | {} | {} of {} ({}) | {} | {} of {} | {} |",
-                r.name,
-                w.matched,
-                w.images,
-                share(w.matched, w.images),
-                share(ok, n),
-                r.matched,
-                r.images,
-                share(r.correct, r.correspondences)
-            );
-        }
-    }
-}
-
-fn main() {
-    let preset = match std::env::var("MM_BENCH_PRESET").as_deref() {
-        Ok("district") => world::Preset::District,
-        _ => world::Preset::Tiny,
-    };
-    let profiles: String = env("MM_BENCH_PROFILES", "open,urban,canyon".to_owned());
-    let base = Spec {
-        preset,
-        seed: env("MM_BENCH_SEED", 1),
-        profile: Profile::Open,
-        length: env("MM_BENCH_LENGTH", 400.0),
-        spacing: env("MM_BENCH_SPACING", 5.0),
-        width: env("MM_BENCH_WIDTH", 1024),
-        window: None,
-        realism: realism(),
-    };
-    println!(
-        "registration bench: preset {preset:?}, seed {}, route {} m, panoramas every {} m at {} px, realism {:?}",
-        base.seed, base.length, base.spacing, base.width, base.realism.level
-    );
-    let rows: Vec<Row> = profiles
-        .split(',')
-        .filter_map(|name| profile(name.trim()).map(|p| (name.trim(), p)))
-        .map(|(name, p)| {
-            let row = run(name, &Spec { profile: p, ..base });
-            eprintln!("{name}: {} of {} images matched", row.matched, row.images);
-            row
-        })
-        .collect();
-    print_tables(&rows);
-    if let Ok(only) = std::env::var("MM_BENCH_NUISANCES") {
-        // `1` (or empty): every nuisance; otherwise comma-separated words, a row runs when its name has one.
-        let wanted = |name: &str| {
-            only.is_empty() || only == "1" || only.split(',').any(|w| name.contains(w.trim())) || name == "all"
-        };
-        let mut variants = Vec::new();
-        for (name, realism) in nuisances(base.realism).into_iter().filter(|(name, _)| wanted(name)) {
-            let rows: Vec<Row> = profiles
-                .split(',')
-                .filter_map(|p| profile(p.trim()).map(|profile| run(p.trim(), &Spec { profile, realism, ..base })))
-                .collect();
-            eprintln!("{name}: done");
-            variants.push((name, rows));
-        }
-        print_nuisances(&variants);
-    }
 }

@@ -8,23 +8,23 @@
 //! `unjoined` leaves them apart (as before the join); `no_elevation_sigma` is `default` with every ray's
 //! σ across used in elevation too; the others change one σ of the unjoined set or drop a kind of tie from it.
 //!
-//! Run: `cargo bench -p plumbline-adjuster --bench rejections -- DIR [VARIANT...]` with DIR a demo folder
-//! (`campaign.toml`, `truth/`, outputs under `results/`); no VARIANT runs `default` and `unjoined`, `all`
-//! every one. The accepted rays' errors are also split into across / elevation by range (`decompose.rs`);
-//! `REJECTIONS_DUMP=FILE` writes those rays as CSV.
-#![allow(clippy::unwrap_used, clippy::expect_used)]
+//! Run: `cargo run --release -p plumbline-eval -- rejections DIR [VARIANT...] [--dump FILE]` with DIR a demo
+//! folder (`campaign.toml`, `truth/`, outputs under `results/`); no VARIANT runs `default` and `unjoined`,
+//! `all` every one. The accepted rays' errors are also split into across / elevation by range
+//! (`decompose.rs`); `--dump FILE` writes those rays as CSV.
 
 mod decompose;
 mod score;
 mod truth;
 
-use plumbline_fixtures::adjuster::tiles::read_tiles;
 use std::collections::BTreeMap;
+use std::path::PathBuf;
 
 use plumbline_adjuster::{AdjusterConfig, Merged, Solved, join_shared_points, merge, panorama_mount, solve};
 use plumbline_adjustment::ObservationRef;
+use plumbline_fixtures::adjuster::tiles::read_tiles;
 use plumbline_geo::camera::Equirectangular;
-use plumbline_geo::metrics::compare;
+use plumbline_geo::metrics::{compare, median};
 use plumbline_runtime::Files;
 
 use score::{Scores, Verdict};
@@ -97,10 +97,28 @@ fn scale_aerial(m: &mut Merged, xy: f64, z: f64) {
     }
 }
 
-fn main() {
-    let args: Vec<String> = std::env::args().skip(1).filter(|a| !a.starts_with("--")).collect();
-    let dir = args.first().expect("usage: rejections DIR [VARIANT...]").trim_end_matches('/').to_owned();
-    let wanted: Vec<&str> = args[1..].iter().map(String::as_str).collect();
+/// The arguments of `plumbline-eval rejections` (see the module docs).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// A finished demo folder: `campaign.toml`, `truth/`, outputs under `results/`.
+    pub dir: String,
+    /// Variants to run: default, unjoined, rays_x1.5, rays_x2, aerial_xy_x1.4, no_mm_only_ties,
+    /// no_height_bias, ray_sigma_by_range, no_elevation_sigma, no_ties_beyond_10m, or `all`; none:
+    /// `default` and `unjoined`.
+    pub variants: Vec<String>,
+    /// Write the accepted later rays of road ties (the range table's rays) to this CSV file.
+    #[arg(long, value_name = "FILE")]
+    pub dump: Option<PathBuf>,
+}
+
+/// `plumbline-eval rejections`: every table of the module docs.
+pub fn main(args: &Args) {
+    let dir = args.dir.trim_end_matches('/').to_owned();
+    let wanted: Vec<&str> = args.variants.iter().map(String::as_str).collect();
+    if let Some(unknown) = wanted.iter().find(|w| **w != "all" && !VARIANTS.iter().any(|v| v.name == **w)) {
+        eprintln!("unknown variant {unknown}");
+        std::process::exit(2);
+    }
     let rt = tokio::runtime::Runtime::new().unwrap();
     let campaign =
         rt.block_on(plumbline_scheduler::load_campaign(&Files::default(), &format!("{dir}/campaign.toml"))).unwrap();
@@ -134,7 +152,7 @@ fn main() {
         print_causes(&merged, &solved, &scores, &truth);
         scores.print_distributions(&solved);
         scores.print_by_class();
-        decompose::print(&scores, &solved, std::f64::consts::TAU / f64::from(camera.width));
+        decompose::print(&scores, &solved, std::f64::consts::TAU / f64::from(camera.width), args.dump.as_deref());
         truth.self_check(&merged);
         scores.print_height_biases(&merged, &solved);
         rows.push(row(v.name, &compare(&solved.corrected, reference).unwrap(), Some(&solved)));
@@ -195,8 +213,7 @@ fn print_causes(merged: &Merged, solved: &Solved, scores: &Scores, truth: &Truth
     println!("| kind | cause | count | adjusted position error there, median m |");
     println!("|---|---|---|---|");
     for ((kind, cause), (n, mut errors)) in table {
-        errors.sort_by(f64::total_cmp);
-        println!("| {kind} | {cause} | {n} | {:.3} |", errors[errors.len() / 2]);
+        println!("| {kind} | {cause} | {n} | {:.3} |", median(&mut errors).unwrap_or(f64::NAN));
     }
     println!();
 }

@@ -1,7 +1,8 @@
-//! The registration bench's image-derived motion table (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1): the
+//! The image-derived motion table of `plumbline-eval registration` (Jende et al. 2017 §3.3, Cazzaniga et al. 2007 §4.1): the
 //! share of pairs with a motion, its error against the true motion (median and 95 % of the horizontal error and
 //! of the heading-change error), the share within 3σ, the median σ, and the DG motion's error beside it.
 
+use plumbline_geo::metrics;
 use plumbline_geo::{Attitude, Trajectory, TrajectoryRecord, ValidationLimits};
 use plumbline_navigation::{ConsistencyConfig, ImageMotion, check_consistency};
 use plumbline_registration::mm::Panorama;
@@ -32,15 +33,9 @@ pub fn flags(panoramas: &[Panorama], motions: &[ImageMotion]) -> Vec<bool> {
     flagged
 }
 
-/// Hyndman–Fan type 7 quantile of `v` (NaN when empty).
+/// Type-7 quantile `q` of `v` (NaN when empty).
 fn quantile(mut v: Vec<f64>, q: f64) -> f64 {
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let h = (v.len() - 1) as f64 * q;
-    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
-    v[lo] + (h - lo as f64) * (v[hi] - v[lo])
+    metrics::quantile(&mut v, q).unwrap_or(f64::NAN)
 }
 
 /// "median / 95 %" of a series, scaled.

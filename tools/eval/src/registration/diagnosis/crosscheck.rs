@@ -2,8 +2,10 @@
 //! offset against minus its true DG error (the offset is aerial − MM, the MM points carry the DG error), so
 //! the bench shows whether the check flags wrong registrations or right ones, and which wrong ones it missed
 //! and why (no partner: the nearest matched panoramas and where the image-motion chain to them breaks), and
-//! how far off the image motions it marked contradicted truly are.
+//! how far off the image motions it marked contradicted truly are. Part of `plumbline-eval registration`
+//! (`--offsets` lists every checked panorama).
 
+use plumbline_geo::metrics::median;
 use plumbline_registration::output::{CrossCheck, ImageDiagnostic};
 use plumbline_registration::pipeline::crosscheck::{self, CrossCheckConfig, Link, Offset, Verdict};
 use plumbline_registration::{PipelineConfig, TileResultV1};
@@ -32,10 +34,10 @@ pub struct Scored {
     pub margin: (f64, f64),
 }
 
-/// Score `result`'s verdicts against the campaign's truth.
-pub fn score(campaign: &Campaign, result: &TileResultV1) -> Scored {
+/// Score `result`'s verdicts against the campaign's truth; `all`: one line per checked panorama with its
+/// offset against the truth (`--offsets`), else only the flagged or truly wrong ones.
+pub fn score(campaign: &Campaign, result: &TileResultV1, all: bool) -> Scored {
     let mut s = Scored::default();
-    let all = std::env::var_os("MM_BENCH_OFFSETS").is_some();
     let errors = campaign.aerial_errors(result);
     let aerial_ties = result.ties.iter().filter(|t| t.aerial.is_some());
     let owner: Vec<&str> = aerial_ties.map(|t| t.id.0.split(':').next().unwrap_or("")).collect();
@@ -61,8 +63,7 @@ pub fn score(campaign: &Campaign, result: &TileResultV1) -> Scored {
             owner.iter().zip(&errors).filter(|(o, _)| **o == d.image).map(|(_, e)| &e.0).collect();
         let median = |c: usize| {
             let mut v: Vec<f64> = mine.iter().map(|e| e[c]).collect();
-            v.sort_by(f64::total_cmp);
-            v.get(v.len() / 2).copied().unwrap_or(f64::NAN)
+            median(&mut v).unwrap_or(f64::NAN)
         };
         if all {
             let truth = format!("aerial − true median E {:+.3} N {:+.3} ({} points)", median(0), median(1), mine.len());

@@ -1,6 +1,9 @@
 //! The aerial points' height errors against the truth (Jende et al. 2017 §3.9: two or three nadir rays from 1500 m
 //! fix the height to metres): their median and spread, how much of it the points of one panorama share
-//! (the same frames, the same orientation errors), and how the reported σ_H compares.
+//! (the same frames, the same orientation errors), and how the reported σ_H compares. Part of
+//! `plumbline-eval registration` (`cargo run --release -p plumbline-eval -- registration`).
+
+use plumbline_geo::metrics;
 
 /// One aerial point: panorama id, height error (triangulated − true, m), reported σ_H (m).
 pub type HeightError = (String, f64, f64);
@@ -43,14 +46,9 @@ pub fn print_table(rows: &[(&str, &[HeightError])]) {
     }
 }
 
+/// The median of `v` (NaN when empty), on a copy.
 fn median(v: &[f64]) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    match v.len() {
-        0 => f64::NAN,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
-    }
+    metrics::median(&mut v.to_vec()).unwrap_or(f64::NAN)
 }
 
 /// 1.4826 · median absolute deviation (σ of a normal distribution).

@@ -19,14 +19,16 @@
 //! three largest cross-track differences near control occur (at least 10 s apart), each with the DG's value,
 //! the speed and what the epoch lies in (a standstill and its fate, a simulated fault, a flagged image pair).
 //!
-//! Run: `cargo bench -p plumbline-navigation --bench accuracy [-- seed] [without=NAME ...]`. `without=` switches
-//! one improvement of the adjustment off to measure what it contributes: `offsets` (one nuisance offset per
-//! cadastre object), `fault-prior` (the prior's floor between DG breaks), `localization` (jumps localised inside
-//! flagged intervals), `kinematic` (nodes where the DG's own motion breaks the vehicle's kinematics), `kinematic-widen`
-//! (those links widened by the anomaly), `crab` (the drive's crab angle estimated and subtracted); `prior-time` switches the per-time prior off where it is on; `prior-time=<s>` switches it on with that time. `ACC_DEBUG=<time>` prints
-//! the faults, flags, standstills, pole updates and errors within 40 s of that time to stderr (errors every
-//! `ACC_DEBUG_STEP` records within `ACC_DEBUG_SPAN` s).
-#![allow(clippy::unwrap_used)]
+//! Run: `cargo run --release -p plumbline-eval -- navigation [--seed N] [--without NAME ...] [--prior-time S]`
+//! (three 2 km drives, each adjusted four ways: seconds in release). `--without NAME` (repeatable)
+//! switches one improvement of the adjustment off to measure what it contributes: `offsets` (one nuisance
+//! offset per cadastre object), `fault-prior` (the prior's floor between DG breaks), `localization` (jumps
+//! localised inside flagged intervals), `kinematic` (nodes where the DG's own motion breaks the vehicle's
+//! kinematics), `kinematic-widen` (those links widened by the anomaly), `crab` (the drive's crab angle
+//! estimated and subtracted), `prior-time` (the per-time prior, where it is on). `--prior-time S` switches
+//! the per-time prior on with that time. `--debug-at T` prints the faults, flags, standstills, pole updates
+//! and errors within 40 s of time T to stderr (errors every `--debug-step` records, default 50, within
+//! `--debug-span` seconds, default 40).
 
 use std::collections::HashMap;
 
@@ -66,12 +68,62 @@ struct Case {
     faults: Vec<(FaultKind, f64, f64)>,
 }
 
-fn main() {
-    let seed: u64 = std::env::args().skip(1).find_map(|a| a.parse().ok()).unwrap_or(1);
-    let without: Vec<String> =
-        std::env::args().skip(1).filter_map(|a| a.strip_prefix("without=").map(String::from)).collect();
-    let mut config = ablated(&without);
-    if let Some(t) = std::env::args().skip(1).find_map(|a| a.strip_prefix("prior-time=").and_then(|v| v.parse().ok())) {
+/// The improvements of the adjustment `--without` can switch off (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Improvement {
+    Offsets,
+    PriorTime,
+    FaultPrior,
+    Localization,
+    Kinematic,
+    Crab,
+    KinematicWiden,
+}
+
+impl Improvement {
+    /// The name on the command line.
+    fn name(self) -> &'static str {
+        match self {
+            Improvement::Offsets => "offsets",
+            Improvement::PriorTime => "prior-time",
+            Improvement::FaultPrior => "fault-prior",
+            Improvement::Localization => "localization",
+            Improvement::Kinematic => "kinematic",
+            Improvement::Crab => "crab",
+            Improvement::KinematicWiden => "kinematic-widen",
+        }
+    }
+}
+
+/// The flags of `plumbline-eval navigation` (see the module docs).
+#[derive(Debug, clap::Args)]
+pub struct Args {
+    /// Seed of the simulated world, drives and observations.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Switch one improvement of the adjustment off (repeatable).
+    #[arg(long, value_enum, value_name = "NAME")]
+    pub without: Vec<Improvement>,
+    /// Count the prior once per this many seconds (`AdjustmentConfig::prior_time`).
+    #[arg(long, value_name = "S")]
+    pub prior_time: Option<f64>,
+    /// Print the faults, flags, standstills, pole updates and errors within 40 s of this time to stderr.
+    #[arg(long, value_name = "T")]
+    pub debug_at: Option<f64>,
+    /// With `--debug-at`: print the errors every this many records (50: one second).
+    #[arg(long, default_value_t = 50)]
+    pub debug_step: usize,
+    /// With `--debug-at`: print the errors within this many seconds of the time.
+    #[arg(long, default_value_t = 40.0)]
+    pub debug_span: f64,
+}
+
+/// `plumbline-eval navigation`: the accuracy table and notes of the module docs.
+pub fn main(args: &Args) {
+    let seed = args.seed;
+    let without: Vec<String> = args.without.iter().map(|w| w.name().to_owned()).collect();
+    let mut config = ablated(&args.without);
+    if let Some(t) = args.prior_time {
         config.prior_time = Some(t);
         println!("Prior counted once per {t} s (prior_time)\n");
     }
@@ -114,8 +166,8 @@ fn main() {
             let control = control_points(obs);
             row(&case, name, &corrected, Some(&control), target);
             let worst = worst_epochs(&case, &corrected, &control, &result.standstills);
-            if let Some(t0) = std::env::var("ACC_DEBUG").ok().and_then(|v| v.parse::<f64>().ok()) {
-                debug_around(&case, &result, &corrected, t0, profile, name);
+            if let Some(t0) = args.debug_at {
+                debug_around(&case, &result, &corrected, (t0, args.debug_step, args.debug_span), profile, name);
             }
             let wrong =
                 ObservationRef::Pole { index: case.wrong, cadastre_id: case.poles[case.wrong].cadastre_id.clone() };
@@ -165,26 +217,25 @@ fn main() {
 
 /// The default configuration with the named improvements switched off (see the file's doc), to measure what
 /// each contributes.
-fn ablated(without: &[String]) -> AdjustmentConfig {
+fn ablated(without: &[Improvement]) -> AdjustmentConfig {
     let mut config = AdjustmentConfig::default();
     for name in without {
-        match name.as_str() {
-            "offsets" => config.pole_offsets = false,
-            "prior-time" => config.prior_time = None,
-            "fault-prior" => config.fault_prior = None,
-            "localization" => config.jump_localization = None,
-            "kinematic" => config.kinematic_jumps = None,
-            "crab" => {
+        match name {
+            Improvement::Offsets => config.pole_offsets = false,
+            Improvement::PriorTime => config.prior_time = None,
+            Improvement::FaultPrior => config.fault_prior = None,
+            Improvement::Localization => config.jump_localization = None,
+            Improvement::Kinematic => config.kinematic_jumps = None,
+            Improvement::Crab => {
                 if let Some(k) = &mut config.kinematic_jumps {
                     k.crab = false;
                 }
             }
-            "kinematic-widen" => {
+            Improvement::KinematicWiden => {
                 if let Some(k) = &mut config.kinematic_jumps {
                     k.widen = false;
                 }
             }
-            other => panic!("unknown improvement {other}"),
         }
     }
     config
@@ -427,7 +478,7 @@ fn debug_around(
     case: &Case,
     result: &plumbline_adjustment::Adjustment,
     corrected: &Trajectory,
-    t0: f64,
+    (t0, step, span): (f64, usize, f64),
     profile: &str,
     name: &str,
 ) {
@@ -456,10 +507,8 @@ fn debug_around(
             p.cadastre_id, p.time, p.sigma_camera, p.sigma_pole
         );
     }
-    // ACC_DEBUG_STEP=<records> (default 50, one second) and ACC_DEBUG_SPAN=<seconds> (default 40) zoom in.
-    let env = |name: &str, default: f64| std::env::var(name).ok().and_then(|v| v.parse().ok()).unwrap_or(default);
-    let (step, span) = (env("ACC_DEBUG_STEP", 50.0).max(1.0) as usize, env("ACC_DEBUG_SPAN", 40.0));
-    for r in corrected.records().iter().zip(case.dg.records()).zip(case.truth.records()).step_by(step) {
+    // `--debug-step` records (default 50, one second) and `--debug-span` seconds (default 40) zoom in.
+    for r in corrected.records().iter().zip(case.dg.records()).zip(case.truth.records()).step_by(step.max(1)) {
         let ((c, d), t) = r;
         if (c.time - t0).abs() <= span {
             let e = c.position.p - t.position.p;

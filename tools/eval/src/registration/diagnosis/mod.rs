@@ -1,6 +1,7 @@
 //! Why panoramas fail to match: matched share split by whether road markings lie around the
 //! panorama (ground truth), failure reasons per group, and what happened in each aerial image of the
-//! panoramas with markings that failed the initial transformation (Jende et al. 2017 §3.7).
+//! panoramas with markings that failed the initial transformation (Jende et al. 2017 §3.7). Part of
+//! `plumbline-eval registration` (`cargo run --release -p plumbline-eval -- registration`).
 
 pub mod crosscheck;
 /// The wrong aerial points explained (shared with the `tiny` test, which prints the same).

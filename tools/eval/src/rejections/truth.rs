@@ -1,12 +1,13 @@
 //! The simulated truth of a campaign written by `plumbline simulate`: the true body pose at every panorama's
 //! exposure (`truth/images.csv`), the surface under every panorama pixel (`truth/pixels/{id}_range.png`,
-//! `_class.png`) and the DG fault intervals (`truth/dg_errors.csv`).
+//! `_class.png`) and the DG fault intervals (`truth/dg_errors.csv`), as `plumbline-eval rejections` reads it.
 
 use std::collections::HashMap;
 
 use nalgebra::{Matrix3, SymmetricEigen, Vector3};
 use plumbline_geo::camera::{CameraModel, Equirectangular, Pixel};
 use plumbline_geo::dg::CameraMount;
+use plumbline_geo::metrics::quantile_sorted;
 use plumbline_geo::{Attitude, MapFromBody, MapFromCamera, Point3};
 
 /// Surface classes of `_class.png` (`plumbline_synth::render::SurfaceClass`).
@@ -125,7 +126,7 @@ impl Truth {
             }
         }
         gaps.sort_by(f64::total_cmp);
-        let q = |p: f64| gaps.get(((gaps.len().max(1) - 1) as f64 * p) as usize).copied().unwrap_or(f64::NAN);
+        let q = |p: f64| quantile_sorted(&gaps, p).unwrap_or(f64::NAN);
         let near = gaps.iter().filter(|g| **g < 0.02).count();
         println!(
             "truth self-check: first ray's true point re-read through the second panorama: {} ties, median gap {:.4} m, \

@@ -1,10 +1,12 @@
 //! Where TRUE aerial correspondences are lost: every corner search of Jende et al. 2017 §3.8 scored against
 //! the ground truth (the corner's true ground point projected into the aerial frame) and followed through
 //! the NCC threshold, the per-image RANSAC, the cross-image consistency with the per-image minimum, and the
-//! multi-image triangulation, per panorama fate.
+//! multi-image triangulation, per panorama fate. Part of `plumbline-eval registration`
+//! (`cargo run --release -p plumbline-eval -- registration`; `--failed` lists the panoramas not matched).
 
 use std::collections::{BTreeMap, BTreeSet};
 
+use plumbline_geo::metrics;
 use plumbline_registration::TileResultV1;
 use plumbline_registration::aerial::ImageTrace;
 
@@ -119,10 +121,9 @@ pub fn losses(
     out
 }
 
+/// Type-7 quantile `q` of `v` (NaN when empty), on a copy.
 fn quantile(v: &[f64], q: f64) -> f64 {
-    let mut v = v.to_vec();
-    v.sort_by(f64::total_cmp);
-    v.get(((v.len() as f64 - 1.0) * q).round() as usize).copied().unwrap_or(f64::NAN)
+    metrics::quantile(&mut v.to_vec(), q).unwrap_or(f64::NAN)
 }
 
 /// The table of [`losses`] for several profiles.

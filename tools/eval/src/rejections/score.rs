@@ -1,5 +1,5 @@
 //! Tie rays and aerial points scored against the truth: the true error of every observation in units of its
-//! own σ, and the verdict on a rejected one.
+//! own σ, and the verdict on a rejected one. Part of `plumbline-eval rejections`.
 
 use std::collections::{HashMap, HashSet};
 use std::fmt;
@@ -7,9 +7,10 @@ use std::fmt;
 use nalgebra::{Matrix2, Vector2, Vector3};
 use plumbline_adjuster::{Merged, Solved};
 use plumbline_adjustment::{ObservationRef, TieRay};
+use plumbline_geo::metrics::quantile_sorted;
 use plumbline_geo::{MapFromCamera, PositionInterpolation};
 
-use crate::truth::{CLASSES, Truth};
+use super::truth::{CLASSES, Truth};
 
 /// |error| / σ beyond which an observation is wrong in truth (the w-test's critical value at α = 0.1 %).
 const WRONG: f64 = 3.29;
@@ -332,12 +333,9 @@ impl Scores {
 /// Values of accepted (`[0]`) and rejected (`[1]`) observations.
 type Accepted = [Vec<f64>; 2];
 
-/// Quantile of sorted values (nearest rank; NaN when empty).
-pub fn q(sorted: &[f64], p: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    sorted[((sorted.len() - 1) as f64 * p).round() as usize]
+/// Type-7 quantile of sorted values, NaN when empty.
+fn q(sorted: &[f64], p: f64) -> f64 {
+    quantile_sorted(sorted, p).unwrap_or(f64::NAN)
 }
 
 /// `n | median | 95 % | max | share beyond | RMS per component` of |normalised errors| of `dof` components.
