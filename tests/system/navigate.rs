@@ -464,6 +464,8 @@ fn the_imus_time_offset_is_measured_reported_and_can_be_given() {
     r.success();
     assert_eq!(summary(&out)["imu_time_offset"]["offset_s"].as_f64(), Some(0.0));
     assert!(r.stderr.contains("no significant time offset against the GNSS"), "{}", r.stderr);
+    let g = &summary(&out)["gnss_error"];
+    assert_eq!((g["mode"].as_str(), g["model"].is_null()), (Some("none"), true), "{g}");
 
     let out = dir.path().join("given");
     let r = run(&imu, &out, &["--imu-time-offset", "-0.07"]);
@@ -472,4 +474,38 @@ fn the_imus_time_offset_is_measured_reported_and_can_be_given() {
     let r = run(&imu, &out, &["--imu-time-offset", "2"]);
     r.failure_with(2);
     assert!(r.stderr.contains("expected `auto` or seconds within ±1"), "{}", r.stderr);
+}
+
+/// `--gnss-error` (`none` by default, checked with the time offset): `auto` measures the fixes' lasting error and records the measurement;
+/// a given model is used and recorded as given; a malformed one is refused naming the form.
+#[test]
+fn the_fixes_lasting_error_can_be_measured_or_given() {
+    let dir = tempfile::tempdir().unwrap();
+    let sim = dir.path().join("sim");
+    simulate(&sim, 3);
+    let run = |out: &Path, extra: &[&str]| {
+        plumbline(&["navigate", "--gnss", sim.join("nav/gnss.csv").to_str().unwrap()])
+            .args(["--imu", sim.join("nav/imu.csv").to_str().unwrap()])
+            .args(["--lever-arm", "0,0,-0.4", "--imu-model", "navigation", "--out", out.to_str().unwrap()])
+            .args(extra.iter().copied())
+            .run()
+    };
+    let out = dir.path().join("auto");
+    let r = run(&out, &["--gnss-error", "auto"]);
+    r.success();
+    let g = &summary(&out)["gnss_error"];
+    assert_eq!(g["mode"].as_str(), Some("auto"), "{g}");
+    assert!(g["measurement"]["fixes"].as_u64().unwrap() > 30, "{g}");
+    assert!(r.stderr.contains("lasting error"), "{}", r.stderr);
+
+    let out = dir.path().join("given");
+    let r = run(&out, &["--gnss-error", "0.1,0.1,0.2@5"]);
+    r.success();
+    let g = &summary(&out)["gnss_error"];
+    assert_eq!((g["mode"].as_str(), g["model"]["correlation_time"].as_f64()), (Some("given"), Some(5.0)), "{g}");
+    assert!(r.stderr.contains("lasting error estimated as a state with the given σ 0.10/0.10/0.20 m"), "{}", r.stderr);
+
+    let r = run(&out, &["--gnss-error", "0.1,0.1@5"]);
+    r.failure_with(2);
+    assert!(r.stderr.contains("expected `auto`, `none` or σ east,north,up"), "{}", r.stderr);
 }

@@ -16,12 +16,13 @@ use anyhow::Context as _;
 use clap::{Args as ClapArgs, ValueEnum};
 use plumbline_geo::Vec3;
 use plumbline_navigation::{
-    Adaptation, AlignmentConfig, Earth, EpisodeEnd, FixNoise, GapKind, Implausible, ImuClass, ImuDatasheet, ImuGap,
-    ImuGapModel, ImuModel, ImuSample, IntegrityConfig, MeasuredNoise, NavConfig, NavError, Physics, Plausibility,
-    Runaway, STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest, TimeOffsetMeasurement, VehicleConstraint,
-    align, angle_random_walk_deg_per_sqrt_h, divergences, filter, filter_adaptive, filter_screened, measure_fix_noise,
-    measure_mounting, measure_noise, measure_time_offset, screen_fixes, shift_samples, smooth, test_innovations,
-    to_trajectory, velocity_random_walk_m_per_s_per_sqrt_h,
+    Adaptation, AlignmentConfig, CorrelatedGnssError, Earth, EpisodeEnd, FixNoise, GapKind, GnssCorrelation,
+    Implausible, ImuClass, ImuDatasheet, ImuGap, ImuGapModel, ImuModel, ImuSample, IntegrityConfig, MeasuredNoise,
+    NavConfig, NavError, Physics, Plausibility, Runaway, STANDARD_GRAVITY, Screened, ScreenedFix, StepScreen, StepTest,
+    TimeOffsetMeasurement, VehicleConstraint, align, angle_random_walk_deg_per_sqrt_h, divergences, filter,
+    filter_adaptive, filter_excluding, filter_screened, measure_fix_noise, measure_gnss_correlation, measure_mounting,
+    measure_noise, measure_time_offset, screen_fixes, shift_samples, smooth, test_innovations, to_trajectory,
+    velocity_random_walk_m_per_s_per_sqrt_h,
 };
 
 use crate::adjust::triple;
@@ -63,6 +64,34 @@ fn time_offset(text: &str) -> Result<TimeOffset, String> {
         Ok(v) if v.is_finite() && v.abs() <= 1.0 => Ok(TimeOffset::Fixed(v)),
         _ => Err(format!("expected `auto` or seconds within ±1 (e.g. 0.065), got {text:?}")),
     }
+}
+
+/// The GNSS fixes' lasting error: measured, none, or given.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum GnssErrorArg {
+    Auto,
+    None,
+    Given(CorrelatedGnssError),
+}
+
+fn gnss_error(text: &str) -> Result<GnssErrorArg, String> {
+    match text {
+        "auto" => return Ok(GnssErrorArg::Auto),
+        "none" => return Ok(GnssErrorArg::None),
+        _ => {}
+    }
+    let bad = || {
+        format!(
+            "expected `auto`, `none` or σ east,north,up in m and a correlation time in s as E,N,U@T (e.g. 0.2,0.2,0.4@10), got {text:?}"
+        )
+    };
+    let (stds, time) = text.split_once('@').ok_or_else(bad)?;
+    let std: Vec<f64> =
+        stds.split(',').map(|v| v.trim().parse::<f64>()).collect::<Result<_, _>>().map_err(|_| bad())?;
+    let [e, n, u] = std[..] else { return Err(bad()) };
+    let model = CorrelatedGnssError { std: [e, n, u], correlation_time: time.trim().parse().map_err(|_| bad())? };
+    model.check().map_err(|e| e.to_string())?;
+    Ok(GnssErrorArg::Given(model))
 }
 
 /// Arguments of `navigate`.
@@ -123,6 +152,12 @@ pub struct Args {
     /// the outputs are in GNSS time. `0` takes the tags as they are
     #[arg(long, value_name = "SECONDS|auto", default_value = "auto", value_parser = time_offset, allow_negative_numbers = true)]
     pub imu_time_offset: TimeOffset,
+    /// The lasting part of the fixes' error, estimated as a state (a first-order Gauss–Markov process per
+    /// axis): `auto` measures its σ and correlation time from the data and uses it when a likelihood-ratio
+    /// test finds it, `none` takes the fixes' errors as white, `E,N,U@T` gives σ east, north, up (m) and the
+    /// correlation time (s)
+    #[arg(long, value_name = "auto|none|E,N,U@T", default_value = "none", value_parser = gnss_error)]
+    pub gnss_error: GnssErrorArg,
     /// Directory or object-store prefix for the results.
     #[arg(long, value_name = "DIR|URL")]
     pub out: String,
@@ -374,6 +409,48 @@ fn imu_name_of(args: &Args) -> String {
 }
 
 /// The IMU's time offset on stderr: what was measured and whether it was applied.
+/// What `--gnss-error` came to: the model the final passes ran with, and the measurement behind it.
+fn report_gnss_error(
+    mode: GnssErrorArg,
+    (measured, model): &(Option<GnssCorrelation>, Option<CorrelatedGnssError>),
+    gnss: &str,
+) {
+    let describe = |m: &CorrelatedGnssError| {
+        format!(
+            "σ {:.2}/{:.2}/{:.2} m east/north/up, correlation time {:.0} s",
+            m.std[0], m.std[1], m.std[2], m.correlation_time
+        )
+    };
+    match (mode, measured, model) {
+        (GnssErrorArg::None, ..) => {}
+        (GnssErrorArg::Given(_), _, Some(m)) => {
+            eprintln!(
+                "{gnss}: the fixes' lasting error estimated as a state with the given {} (--gnss-error)",
+                describe(m)
+            );
+        }
+        (_, None, _) => {
+            eprintln!("note: {gnss}: too few fixes to measure their lasting (correlated) error; taken as white")
+        }
+        (_, Some(c), Some(m)) => eprintln!(
+            "{gnss}: the fixes carry a lasting error: {} (measured over {} fixes: −2 log-likelihood {:.0} → {:.0}, \
+             needed a fall of {:.1}); estimated as a state",
+            describe(m),
+            c.fixes,
+            c.cost_white,
+            c.cost,
+            c.critical
+        ),
+        (_, Some(c), None) => eprintln!(
+            "{gnss}: no significant lasting error in the fixes (best {} lowers −2 log-likelihood by {:.1}, needed \
+             {:.1}); their errors taken as white",
+            describe(&c.best),
+            c.cost_white - c.cost,
+            c.critical
+        ),
+    }
+}
+
 fn report_time_offset(mode: TimeOffset, measured: Option<&TimeOffsetMeasurement>, imu: &str) {
     match (mode, measured) {
         (TimeOffset::Fixed(v), _) => {
@@ -460,7 +537,14 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     let (model, noise) = noise_floor(&datasheet, &imu, &imu_name);
     let vehicle = (!args.no_vehicle_constraint).then(VehicleConstraint::default);
     let gaps = (!args.ignore_imu_gaps).then(ImuGapModel::default);
-    let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle, gaps };
+    let given = match args.gnss_error {
+        GnssErrorArg::Given(m) => Some(m),
+        GnssErrorArg::Auto | GnssErrorArg::None => None,
+    };
+    if let Some(g) = &given {
+        g.check().or_invalid("--gnss-error")?;
+    }
+    let config = NavConfig { imu: model, lever_arm: lever, earth, vehicle, gaps, gnss_error: None };
     config.check().or_invalid("navigation config")?;
     let integrity = if args.no_adapt { Integrity::None } else { args.integrity };
     let gnss_name = file_name(&args.gnss).to_owned();
@@ -468,7 +552,8 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     report_screened(&screened.rejected, gnss.len(), &gnss_name);
     let rejected = screened.rejected.clone();
     let time_offset = args.imu_time_offset;
-    let (forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset, fix_noise) =
+    let gnss_error = args.gnss_error;
+    let (forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset, fix_noise, correlation) =
         tokio::task::spawn_blocking(move || -> anyhow::Result<_> {
             let Screened { kept: gnss, index, .. } = screened;
             let mut imu = imu;
@@ -497,15 +582,36 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
                 shift_samples(&mut imu, m.offset);
                 initial = align(&imu, &gnss, &lever, &alignment).or_invalid("coarse alignment")?;
             }
+            // The fixes' lasting error, after the mounting and the time offset (those are measured against
+            // white fixes) and after the step test (its exclusions stand for the measurement and the final
+            // pass).
             let (mut forward, steps) = match integrity {
                 Integrity::Steps => {
                     let (forward, steps) = filter_screened(&imu, &gnss, &initial, &config, &step_test).map_err(name)?;
-                    (forward, Some(steps))
+                    (Some(forward), Some(steps))
                 }
-                Integrity::Online => {
-                    (filter_adaptive(&imu, &gnss, &initial, &config, &adaptation).map_err(name)?, None)
+                Integrity::Online | Integrity::None => (None, None),
+            };
+            let excluded = steps.as_ref().map_or(Vec::new(), |s| s.excluded.clone());
+            let correlation = match gnss_error {
+                GnssErrorArg::Auto => {
+                    measure_gnss_correlation(&imu, &gnss, &initial, &config, &excluded).map_err(name)?
                 }
-                Integrity::None => (filter(&imu, &gnss, &initial, &config).map_err(name)?, None),
+                GnssErrorArg::None | GnssErrorArg::Given(_) => None,
+            };
+            config.gnss_error = given.or(correlation.and_then(|c| c.model()));
+            if config.gnss_error.is_some() {
+                forward = None;
+            }
+            let mut forward = match (forward, integrity) {
+                (Some(forward), _) => forward,
+                (None, Integrity::Steps) => {
+                    filter_excluding(&imu, &gnss, &initial, &config, &excluded).map_err(name)?
+                }
+                (None, Integrity::Online) => {
+                    filter_adaptive(&imu, &gnss, &initial, &config, &adaptation).map_err(name)?
+                }
+                (None, Integrity::None) => filter(&imu, &gnss, &initial, &config).map_err(name)?,
             };
             let steps = steps.map(|mut s| {
                 for e in &mut s.episodes {
@@ -540,7 +646,19 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
             };
             let tests = IntegrityConfig { alpha: adaptation.alpha, window: adaptation.window };
             let flags = test_innovations(&forward.innovations, &tests).context("innovation tests")?;
-            Ok((forward, trajectory, flags, initial, diverged, steps, mounting, measured_offset, fix_noise))
+            let correlation = (correlation, config.gnss_error);
+            Ok((
+                forward,
+                trajectory,
+                flags,
+                initial,
+                diverged,
+                steps,
+                mounting,
+                measured_offset,
+                fix_noise,
+                correlation,
+            ))
         })
         .await
         .context("navigation task")??;
@@ -562,6 +680,7 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
         );
     }
     report_time_offset(time_offset, measured_offset.as_ref(), &imu_name_of(&args));
+    report_gnss_error(args.gnss_error, &correlation, &gnss_name);
     if let Some(steps) = &steps {
         report_steps(steps, &gnss_name);
     }
@@ -576,6 +695,15 @@ pub async fn run(ctx: &Context, args: Args) -> anyhow::Result<ExitCode> {
     summary["fix_noise"] = serde_json::to_value(fix_noise)?;
     summary["imu_gaps"] = serde_json::to_value(forward.imu_gaps())?;
     summary["mounting"] = serde_json::to_value(mounting)?;
+    summary["gnss_error"] = serde_json::json!({
+        "mode": match args.gnss_error {
+            GnssErrorArg::Auto => "auto",
+            GnssErrorArg::None => "none",
+            GnssErrorArg::Given(_) => "given",
+        },
+        "model": correlation.1,
+        "measurement": correlation.0,
+    });
     summary["imu_time_offset"] = serde_json::json!({
         "mode": if time_offset == TimeOffset::Auto { "auto" } else { "given" },
         "offset_s": match time_offset {

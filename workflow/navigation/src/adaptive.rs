@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 use crate::NavError;
 use crate::chi2::chi2_critical;
 use crate::config::ImuModel;
-use crate::state::{BA, BG, Mat15, POS, VEL};
+use crate::state::{BA, BG, ErrMat, POS, VEL};
 
 /// Parameters of the adaptive filter.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -223,7 +223,7 @@ impl Monitor {
 /// also position and velocity to the size of the innovation (`v`) and its growth over `elapsed` seconds.
 /// The smoother spreads the position part over the interval since the last used fix (see `smoother`), so
 /// the smoothed trajectory does not step where the filter re-initialised.
-pub(crate) fn reopen(p: &mut Mat15, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64, scale: f64) {
+pub(crate) fn reopen(p: &mut ErrMat, decision: Decision, imu: &ImuModel, v: &Vector3<f64>, elapsed: f64, scale: f64) {
     if matches!(decision, Decision::Used | Decision::Excluded) {
         return;
     }

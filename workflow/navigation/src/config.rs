@@ -47,6 +47,44 @@ pub struct NavConfig {
     /// Find the IMU recording's unrecorded stretches (filled or lost samples) and add process noise for
     /// the motion they hide ([`crate::find_imu_gaps`]), or `None` to take every sample as measured.
     pub gaps: Option<ImuGapModel>,
+    /// The lasting part of the GNSS positions' error, estimated as a state, or `None` to take the fixes'
+    /// errors as white (`navigate` measures it: [`crate::measure_gnss_correlation`]).
+    pub gnss_error: Option<CorrelatedGnssError>,
+}
+
+/// The part of the GNSS positions' error that lasts from one fix to the next: a first-order Gauss–Markov
+/// process per axis, added to the antenna position the fixes observe. A receiver's own filter, multipath
+/// that changes slowly and an unmodelled atmosphere leave such errors (decimetres for seconds); white noise
+/// cannot describe them, and a filter that assumes it flags every run of them.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, schemars::JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct CorrelatedGnssError {
+    /// Steady σ east, north, up, m.
+    pub std: [f64; 3],
+    /// Correlation time, s.
+    pub correlation_time: f64,
+}
+
+impl CorrelatedGnssError {
+    /// No lasting error: the state held at a σ far below any receiver's (it keeps the smoother's
+    /// covariances invertible).
+    pub const NONE: Self = Self { std: [1e-6; 3], correlation_time: 1.0 };
+
+    /// Check every parameter; the error names the first bad one.
+    pub fn check(&self) -> Result<(), NavError> {
+        let fields = [
+            ("gnss_error.std[0]", self.std[0]),
+            ("gnss_error.std[1]", self.std[1]),
+            ("gnss_error.std[2]", self.std[2]),
+            ("gnss_error.correlation_time", self.correlation_time),
+        ];
+        for (field, value) in fields {
+            if !(value.is_finite() && value > 0.0) {
+                return Err(NavError::Config { field, value, expected: "a finite number > 0" });
+            }
+        }
+        Ok(())
+    }
 }
 
 /// A wheeled vehicle does not slide sideways or lift off: the body's lateral and vertical velocity stay
@@ -115,6 +153,11 @@ pub struct InitialState {
 }
 
 impl NavConfig {
+    /// The GNSS error model the filter runs with ([`CorrelatedGnssError::NONE`] when none is set).
+    pub fn gnss_error_model(&self) -> CorrelatedGnssError {
+        self.gnss_error.unwrap_or(CorrelatedGnssError::NONE)
+    }
+
     /// Check every parameter; the error names the first bad one.
     pub fn check(&self) -> Result<(), NavError> {
         let m = &self.imu;
@@ -136,6 +179,9 @@ impl NavConfig {
             v.check()?;
         }
         if let Some(g) = &self.gaps {
+            g.check()?;
+        }
+        if let Some(g) = &self.gnss_error {
             g.check()?;
         }
         let positive = [("imu.bias_correlation_time", m.bias_correlation_time)];

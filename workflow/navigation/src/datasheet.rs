@@ -3,9 +3,9 @@
 //!
 //! A datasheet's "bias instability" (the Allan-deviation floor) is taken as the σ of a first-order
 //! Gauss–Markov bias with the stated correlation time; its turn-on bias (run-to-run repeatability) as the
-//! initial σ of the bias states. Scale-factor errors are not states of the 15-state filter: the
-//! accelerometers' error on gravity (the one specific force always present) joins their turn-on bias; the
-//! gyros' scale factor is kept with the datasheet but not modelled (150 ppm of a 90° turn is 0.01°).
+//! initial σ of the bias states. Scale-factor errors are not states of the filter: the accelerometers'
+//! error on gravity (the one specific force always present) joins their turn-on bias; the gyros' scale
+//! factor is kept with the datasheet but not modelled (150 ppm of a 90° turn is 0.01°).
 
 use std::fmt;
 use std::str::FromStr;

@@ -10,8 +10,8 @@ use crate::adaptive::{Decision, Monitor, reopen};
 use crate::config::{InitialState, NavConfig, VehicleConstraint};
 use crate::gaps::{GapNoise, ImuGap};
 use crate::inputs::{GnssFix, ImuSample};
-use crate::state::{ATT, BA, BG, POS, VEL};
-use crate::state::{Mat15, Nominal, Vec15, predict_cov, process_noise, skew};
+use crate::state::{ATT, BA, BG, GNSS, N, POS, VEL};
+use crate::state::{ErrMat, ErrVec, Nominal, predict_cov, process_noise, skew};
 use crate::{NavError, check_fix};
 
 /// Smallest initial bias σ, so that the covariance stays invertible for a perfect IMU model.
@@ -54,11 +54,11 @@ pub struct SkippedFix {
 pub(crate) struct Checkpoint {
     pub epoch: usize,
     /// C_{k|k−1}.
-    pub prior: Mat15,
+    pub prior: ErrMat,
     /// C_{k|k}.
-    pub posterior: Mat15,
+    pub posterior: ErrMat,
     /// The error-state estimate injected at this epoch (zero where nothing was observed).
-    pub update: Vec15,
+    pub update: ErrVec,
     /// The part of `prior`'s position block that re-opening added: the smoother spreads it as a position
     /// random walk over the interval from the previous checkpoint (zero where nothing was re-opened; see
     /// [`spread_back`] for re-openings after vehicle-constraint checkpoints).
@@ -91,13 +91,13 @@ impl ForwardPass {
     }
 
     /// Process noise of sample `k`: the IMU model's, plus a gap's where sample `k` lies in one.
-    pub(crate) fn noise(&self, k: usize) -> Vec15 {
+    pub(crate) fn noise(&self, k: usize) -> ErrVec {
         noise_of(&self.config, &self.gap_noise, k, &self.samples[k])
     }
 }
 
-fn noise_of(config: &NavConfig, gaps: &GapNoise, k: usize, s: &ImuSample) -> Vec15 {
-    let q = process_noise(&config.imu, s.dt);
+fn noise_of(config: &NavConfig, gaps: &GapNoise, k: usize, s: &ImuSample) -> ErrVec {
+    let q = process_noise(&config.imu, &config.gnss_error_model(), s.dt);
     gaps.at(k, s.dt).map_or(q, |extra| q + extra)
 }
 
@@ -111,7 +111,7 @@ pub(crate) fn run_once(
     monitor: Option<Monitor>,
     excluded: &[bool],
     gaps: GapNoise,
-    corrections: &[(usize, Vec15)],
+    corrections: &[(usize, ErrVec)],
 ) -> ForwardPass {
     let mut run = Run::new(imu, initial, config, monitor);
     run.excluded = excluded;
@@ -133,7 +133,7 @@ struct Run<'a> {
     config: &'a NavConfig,
     imu: &'a [ImuSample],
     state: Nominal,
-    p: Mat15,
+    p: ErrMat,
     next_fix: usize,
     /// Time of the next vehicle-constraint update, s.
     next_constraint: f64,
@@ -141,7 +141,7 @@ struct Run<'a> {
     /// Fixes decided out before the run (by index).
     excluded: &'a [bool],
     /// A re-linearisation shift to inject at the next epoch.
-    pending: Option<Vec15>,
+    pending: Option<ErrVec>,
     out: ForwardPass,
 }
 
@@ -155,6 +155,7 @@ impl<'a> Run<'a> {
             attitude,
             accel_bias: Vector3::zeros(),
             gyro_bias: Vector3::zeros(),
+            gnss_error: Vector3::zeros(),
         };
         let p = initial_covariance(init, config);
         let mut nominal = Vec::with_capacity(imu.len() + 1);
@@ -168,7 +169,7 @@ impl<'a> Run<'a> {
                 epoch: 0,
                 prior: p,
                 posterior: p,
-                update: Vec15::zeros(),
+                update: ErrVec::zeros(),
                 spread: Matrix3::zeros(),
                 fix: true,
             }],
@@ -182,9 +183,12 @@ impl<'a> Run<'a> {
 
     /// Prediction (Cazzaniga et al. 2007 §2.1): mechanise the nominal state, propagate the error covariance.
     fn predict(&mut self, k: usize, s: &ImuSample) {
-        let f = self.state.transition(s, self.config.imu.bias_correlation_time, &self.config.earth);
+        let gnss_tau = self.config.gnss_error_model().correlation_time;
+        let f = self.state.transition(s, self.config.imu.bias_correlation_time, gnss_tau, &self.config.earth);
         self.p = predict_cov(&f, &self.p, &noise_of(self.config, &self.out.gap_noise, k, s));
         self.state = self.state.propagate(s, &self.config.earth);
+        // The GNSS error's expected value decays as the Gauss–Markov process does.
+        self.state.gnss_error *= (-s.dt / gnss_tau).exp();
         self.out.nominal.push(self.state);
         self.out.position_cov.push(self.p.fixed_view::<3, 3>(POS, POS).into_owned());
     }
@@ -194,7 +198,7 @@ impl<'a> Run<'a> {
     fn updates_at(&mut self, gnss: &[GnssFix], half: f64, sample: Option<&ImuSample>) {
         let epoch = self.out.nominal.len() - 1;
         let mut prior = self.p;
-        let mut update = Vec15::zeros();
+        let mut update = ErrVec::zeros();
         let mut spread = Matrix3::zeros();
         let mut fix = false;
         if let Some(dx) = self.pending.take() {
@@ -228,7 +232,7 @@ impl<'a> Run<'a> {
                 spread += reopened.fixed_view::<3, 3>(POS, POS);
             }
         }
-        if update != Vec15::zeros() {
+        if update != ErrVec::zeros() {
             self.out.position_cov[epoch] = self.p.fixed_view::<3, 3>(POS, POS).into_owned();
             *self.out.nominal.last_mut().expect("the initial epoch is always present") = self.state;
             self.out.checkpoints.push(Checkpoint { epoch, prior, posterior: self.p, update, spread, fix });
@@ -237,13 +241,15 @@ impl<'a> Run<'a> {
 
     /// Update (Cazzaniga et al. 2007 §2.1) with one antenna position; returns the injected error-state estimate and the
     /// covariance the adaptive filter added before the update.
-    fn update(&mut self, index: usize, fix: &GnssFix) -> (Vec15, Mat15) {
+    fn update(&mut self, index: usize, fix: &GnssFix) -> (ErrVec, ErrMat) {
         let c = self.state.attitude.to_rotation_matrix().into_inner();
         let arm = c * self.config.lever_arm.v;
-        let predicted = self.state.position + self.state.velocity * (fix.time - self.state.time) + arm;
+        let predicted =
+            self.state.position + self.state.velocity * (fix.time - self.state.time) + arm + self.state.gnss_error;
         let residual = fix.position.p - predicted;
-        let mut h = SMatrix::<f64, 3, 15>::zeros();
+        let mut h = SMatrix::<f64, 3, N>::zeros();
         h.fixed_view_mut::<3, 3>(0, POS).copy_from(&Matrix3::identity());
+        h.fixed_view_mut::<3, 3>(0, GNSS).copy_from(&Matrix3::identity());
         // Antenna = p + Exp(φ)·C·l ≈ p + C·l − (C·l)×φ.
         h.fixed_view_mut::<3, 3>(0, ATT).copy_from(&(-skew(&arm)));
         let r = Matrix3::from_diagonal(&Vector3::from(fix.std.map(|s| s * s)));
@@ -262,7 +268,7 @@ impl<'a> Run<'a> {
         self.out.innovations.push(Innovation { time: fix.time, fix: index, residual, covariance: s, decision });
         let reopened = self.p - before;
         if decision == Decision::Excluded {
-            return (Vec15::zeros(), reopened);
+            return (ErrVec::zeros(), reopened);
         }
         (self.correct(&h, &r, &residual), reopened)
     }
@@ -272,17 +278,17 @@ impl<'a> Run<'a> {
     /// injected error state (zero when the innovation covariance cannot be inverted).
     fn correct<const M: usize>(
         &mut self,
-        h: &SMatrix<f64, M, 15>,
+        h: &SMatrix<f64, M, N>,
         r: &SMatrix<f64, M, M>,
         residual: &SMatrix<f64, M, 1>,
-    ) -> Vec15 {
+    ) -> ErrVec {
         let ph = self.p * h.transpose();
         let Some(s_inv) = (h * ph + r).try_inverse() else {
-            return Vec15::zeros();
+            return ErrVec::zeros();
         };
         let k = ph * s_inv;
         let dx = k * residual;
-        let ikh = Mat15::identity() - k * h;
+        let ikh = ErrMat::identity() - k * h;
         self.p = ikh * self.p * ikh.transpose() + k * r * k.transpose();
         self.state = self.state.inject(&dx);
         dx
@@ -290,12 +296,12 @@ impl<'a> Run<'a> {
 
     /// The vehicle constraint (see [`VehicleConstraint`]): the vehicle's lateral and vertical velocity
     /// observed as zero. With C = R_B^M and C_true = Exp(φ)·C, v_body = Cᵀ(v + δv) + Cᵀ[v]×φ to first order.
-    fn constrain(&mut self, vehicle: &VehicleConstraint, s: &ImuSample) -> Vec15 {
+    fn constrain(&mut self, vehicle: &VehicleConstraint, s: &ImuSample) -> ErrVec {
         // Map to the vehicle's axes (the IMU's, turned by its mounting).
         let ct = vehicle.mounting.to_vehicle() * self.state.attitude.to_rotation_matrix().into_inner().transpose();
         let body = ct * self.state.velocity;
         let turning = ct * skew(&self.state.velocity);
-        let mut h = SMatrix::<f64, 2, 15>::zeros();
+        let mut h = SMatrix::<f64, 2, N>::zeros();
         for (row, axis) in [(0, 1), (1, 2)] {
             for j in 0..3 {
                 h[(row, VEL + j)] = ct[(axis, j)];
@@ -317,7 +323,7 @@ impl<'a> Run<'a> {
         }
         let epoch = self.out.nominal.len() - 1;
         if self.out.checkpoints.last().is_none_or(|c| c.epoch != epoch) {
-            let (prior, posterior, update, spread) = (self.p, self.p, Vec15::zeros(), Matrix3::zeros());
+            let (prior, posterior, update, spread) = (self.p, self.p, ErrVec::zeros(), Matrix3::zeros());
             self.out.checkpoints.push(Checkpoint { epoch, prior, posterior, update, spread, fix: false });
         }
         let nominal = &self.out.nominal;
@@ -357,16 +363,17 @@ fn spread_back(checkpoints: &mut [Checkpoint], time: impl Fn(usize) -> f64) {
 }
 
 /// C_0 from the initial σ and the IMU's turn-on biases.
-fn initial_covariance(init: &InitialState, config: &NavConfig) -> Mat15 {
-    let mut d = Vec15::zeros();
+fn initial_covariance(init: &InitialState, config: &NavConfig) -> ErrMat {
+    let mut d = ErrVec::zeros();
     for a in 0..3 {
         d[POS + a] = init.position_std.powi(2);
         d[VEL + a] = init.velocity_std.powi(2);
         d[ATT + a] = init.attitude_std[a].powi(2);
         d[BA + a] = config.imu.accel_bias.max(MIN_BIAS_STD).powi(2);
         d[BG + a] = config.imu.gyro_bias.max(MIN_BIAS_STD).powi(2);
+        d[GNSS + a] = config.gnss_error_model().std[a].powi(2);
     }
-    Mat15::from_diagonal(&d)
+    ErrMat::from_diagonal(&d)
 }
 
 impl ForwardPass {

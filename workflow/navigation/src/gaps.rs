@@ -21,7 +21,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::ImuGapModel;
 use crate::inputs::ImuSample;
-use crate::state::{ATT, VEL, Vec15};
+use crate::state::{ATT, ErrVec, VEL};
 
 /// What kind of unrecorded stretch.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize, schemars::JsonSchema)]
@@ -135,9 +135,9 @@ fn missing(imu: &[ImuSample], factor: f64) -> Vec<ImuGap> {
 
 /// The process noise a gap adds to one of its samples of length `dt`: a gap of length T reaches σ = rate·T
 /// in heading, `tilt_std` in roll and pitch, accel·T in velocity.
-pub(crate) fn gap_noise(model: &ImuGapModel, gap: &ImuGap, dt: f64) -> Vec15 {
+pub(crate) fn gap_noise(model: &ImuGapModel, gap: &ImuGap, dt: f64) -> ErrVec {
     let span = gap.duration().max(dt);
-    let mut q = Vec15::zeros();
+    let mut q = ErrVec::zeros();
     for a in 0..3 {
         q[VEL + a] = model.accel_std.powi(2) * span * dt;
     }
@@ -165,7 +165,7 @@ impl GapNoise {
     }
 
     /// The extra noise of sample `k` of length `dt`, if it lies in a gap.
-    pub fn at(&self, k: usize, dt: f64) -> Option<Vec15> {
+    pub fn at(&self, k: usize, dt: f64) -> Option<ErrVec> {
         let model = self.model.as_ref()?;
         let i = self.gaps.partition_point(|g| g.last < k);
         self.gaps.get(i).filter(|g| g.first <= k).map(|g| gap_noise(model, g, dt))
@@ -244,7 +244,7 @@ mod tests {
     fn noise_grows_heading_with_the_gap_and_bounds_tilt() {
         let model = ImuGapModel::default();
         let gap = ImuGap { kind: GapKind::Filled, first: 0, last: 159, start: 0.0, end: 1.6 };
-        let total: Vec15 = (0..160).map(|_| gap_noise(&model, &gap, 0.01)).sum();
+        let total: ErrVec = (0..160).map(|_| gap_noise(&model, &gap, 0.01)).sum();
         assert!((total[ATT + 2].sqrt() - 0.15 * 1.6).abs() < 1e-9);
         assert!((total[ATT].sqrt() - 0.02).abs() < 1e-9);
         assert!((total[VEL].sqrt() - 0.3 * 1.6).abs() < 1e-9);

@@ -1,7 +1,8 @@
 //! GNSS/INS navigation for campaigns that supply raw GNSS positions and IMU increments (Cazzaniga et al. 2007 §2–3):
-//! a loosely coupled 15-state error-state Kalman filter with strapdown mechanisation in the map frame, the
-//! RTS smoother, innovation-based integrity tests, and the consistency check of the DG trajectory against
-//! image-derived motion (Cazzaniga et al. 2007 §4). Synchronous and I/O-free.
+//! a loosely coupled error-state Kalman filter (15 navigation states and the GNSS fixes' lasting error) with
+//! strapdown mechanisation in the map frame, the RTS smoother, innovation-based integrity tests, and the
+//! consistency check of the DG trajectory against image-derived motion (Cazzaniga et al. 2007 §4).
+//! Synchronous and I/O-free.
 //!
 //! The mechanisation runs in the east-north-up map frame on an [`Earth`]: flat with constant gravity along
 //! −z (the model `plumbline_synth::motion::imu` simulates), or WGS 84 at the campaign's latitude with Earth
@@ -26,6 +27,8 @@
 //!     innovations' capped χ² sum, kept when a likelihood-ratio test finds it) → shift_samples
 //! measure_fix_noise(&forward, gnss) → FixNoise: per axis, the factor by which the fixes' scatter exceeds
 //!     the σ the receiver stated (most likely given the innovations; a likelihood-ratio test)
+//! measure_gnss_correlation(…, &excluded) → GnssCorrelation: the fixes' lasting error (correlation time
+//!     from the innovations, σ per axis by likelihood) → NavConfig::gnss_error, a Gauss–Markov state per axis
 //! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
@@ -39,13 +42,14 @@
 //! - `screen`, `consistency`, `align`, `datasheet`; `state` (the error state and its propagation);
 //! - `adaptive`, `gaps`; `filter` (one forward pass); `smoother`, `guard`, `integrity`, `noise`;
 //! - `passes` (the forward pass as callers run it, re-linearised over gaps); `latency`, `mount` (measures
-//!   the mounting), `steps`.
+//!   the mounting), `correlation` (measures the fixes' lasting error), `steps`.
 
 mod adaptive;
 mod align;
 mod chi2;
 mod config;
 mod consistency;
+mod correlation;
 mod datasheet;
 mod earth;
 mod filter;
@@ -65,8 +69,11 @@ mod steps;
 pub use adaptive::{Adaptation, Decision};
 pub use align::{AlignmentConfig, align};
 pub use chi2::{chi2_cdf, chi2_critical};
-pub use config::{ImuGapModel, ImuModel, InitialState, Mounting, NavConfig, STANDARD_GRAVITY, VehicleConstraint};
+pub use config::{
+    CorrelatedGnssError, ImuGapModel, ImuModel, InitialState, Mounting, NavConfig, STANDARD_GRAVITY, VehicleConstraint,
+};
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
+pub use correlation::{FACTORS as GNSS_ERROR_FACTORS, GnssCorrelation, measure_gnss_correlation};
 pub use datasheet::{
     ImuClass, ImuDatasheet, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
     velocity_random_walk_m_per_s_per_sqrt_h,

@@ -119,7 +119,7 @@ fn most_likely_factor(terms: &[[f64; 3]]) -> f64 {
 const FACTOR_RANGE: (f64, f64) = (1e-3, 1e4);
 
 /// Lag-1 autocorrelation of `z` about its mean (0 for fewer than 3 values or no spread).
-fn lag_one(z: &[f64]) -> f64 {
+pub(crate) fn lag_one(z: &[f64]) -> f64 {
     if z.len() < 3 {
         return 0.0;
     }

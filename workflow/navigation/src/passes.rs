@@ -9,7 +9,7 @@ use crate::filter::{ForwardPass, run_once};
 use crate::gaps::{GapNoise, find_imu_gaps};
 use crate::inputs::{GnssFix, ImuSample};
 use crate::smoother::smooth_errors;
-use crate::state::{ATT, BA, Vec15};
+use crate::state::{ATT, BA, ErrVec, N};
 
 /// Run the filter over `imu` (contiguous increments starting at `initial.time`) and `gnss` (time-sorted),
 /// using every valid fix as it comes.
@@ -68,7 +68,7 @@ fn run_filter(
     if gaps.gaps().is_empty() {
         return Ok(pass);
     }
-    let mut corrections: Vec<(usize, Vec15)> = Vec::new();
+    let mut corrections: Vec<(usize, ErrVec)> = Vec::new();
     for _ in 0..RELINEARISATIONS {
         // A pass the smoother cannot take is kept as it is.
         let Ok(found) = hidden_motion(&pass) else { break };
@@ -100,13 +100,13 @@ const RELINEARISATIONS: usize = 3;
 const LINEAR_ENOUGH: f64 = 0.009;
 
 /// Per gap of `pass`: the sample it ends with, and the motion the smoother found hidden in it, x̂(end) −
-/// Φ·x̂(start) (position, velocity and attitude; the biases have no gap noise).
-fn hidden_motion(pass: &ForwardPass) -> Result<Vec<(usize, Vec15)>, NavError> {
+/// Φ·x̂(start) (position, velocity and attitude; the biases and the GNSS error have no gap noise).
+fn hidden_motion(pass: &ForwardPass) -> Result<Vec<(usize, ErrVec)>, NavError> {
     let gaps = pass.imu_gaps();
-    let mut wanted: std::collections::HashMap<usize, Vec15> = std::collections::HashMap::new();
+    let mut wanted: std::collections::HashMap<usize, ErrVec> = std::collections::HashMap::new();
     for g in gaps {
-        wanted.insert(g.first, Vec15::zeros());
-        wanted.insert(g.last + 1, Vec15::zeros());
+        wanted.insert(g.first, ErrVec::zeros());
+        wanted.insert(g.last + 1, ErrVec::zeros());
     }
     smooth_errors(pass, |k, s, _| {
         if let Some(slot) = wanted.get_mut(&k) {
@@ -114,15 +114,16 @@ fn hidden_motion(pass: &ForwardPass) -> Result<Vec<(usize, Vec15)>, NavError> {
         }
     })?;
     let tau = pass.config.imu.bias_correlation_time;
+    let gnss_tau = pass.config.gnss_error_model().correlation_time;
     Ok(gaps
         .iter()
         .map(|g| {
             let mut carried = wanted[&g.first];
             for k in g.first..=g.last {
-                carried = pass.nominal[k].transition(&pass.samples[k], tau, &pass.config.earth) * carried;
+                carried = pass.nominal[k].transition(&pass.samples[k], tau, gnss_tau, &pass.config.earth) * carried;
             }
             let mut dx = wanted[&(g.last + 1)] - carried;
-            dx.fixed_rows_mut::<6>(BA).fill(0.0);
+            dx.rows_mut(BA, N - BA).fill(0.0);
             (g.last, dx)
         })
         .collect())

@@ -8,12 +8,12 @@
 //! so x̂_{k|k} = 0 around the nominal state and x̂_{j+1|T} − x̂_{j+1|j} is the smoothed error plus the update
 //! the filter injected at j+1.
 
-use nalgebra::{Cholesky, Matrix3, SMatrix, U15, UnitQuaternion, Vector3};
+use nalgebra::{Cholesky, Matrix3, U18, UnitQuaternion, Vector3};
 use plumbline_geo::{Attitude, Map, Point3, PoseStd, Rotation, Trajectory, TrajectoryRecord, ValidationLimits, Vec3};
 
 use crate::NavError;
 use crate::filter::ForwardPass;
-use crate::state::{ATT, Mat15, POS, VEL, Vec15, euler_jacobian, predict_cov};
+use crate::state::{ATT, ErrMat, ErrVec, POS, VEL, euler_jacobian, predict_cov, sandwich};
 
 /// One smoothed epoch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -43,11 +43,11 @@ pub fn smooth(forward: &ForwardPass) -> Result<Vec<SmoothedEpoch>, NavError> {
 /// pass's nominal state) to `visit`, from the last epoch back to the first.
 pub(crate) fn smooth_errors(
     forward: &ForwardPass,
-    mut visit: impl FnMut(usize, &Vec15, &Mat15),
+    mut visit: impl FnMut(usize, &ErrVec, &ErrMat),
 ) -> Result<(), NavError> {
     let cps = &forward.checkpoints;
     let last = cps.last().ok_or(NavError::Empty)?;
-    let mut s_next = Vec15::zeros();
+    let mut s_next = ErrVec::zeros();
     let mut p_next = last.posterior;
     visit(last.epoch, &s_next, &p_next);
     for c in (0..cps.len().saturating_sub(1)).rev() {
@@ -67,8 +67,8 @@ pub(crate) fn smooth_errors(
 /// What the next checkpoint hands back to an interval: λ and Λ there, and the re-opened position variance to
 /// spread over the interval.
 struct Gains {
-    lambda: Vec15,
-    big_lambda: Mat15,
+    lambda: ErrVec,
+    big_lambda: ErrMat,
     spread: Matrix3<f64>,
 }
 
@@ -82,18 +82,19 @@ fn interval(
     fw: &ForwardPass,
     from: usize,
     to: usize,
-    p_from: &Mat15,
+    p_from: &ErrMat,
     gains: Gains,
-    visit: &mut impl FnMut(usize, &Vec15, &Mat15),
-) -> (Vec15, Mat15) {
+    visit: &mut impl FnMut(usize, &ErrVec, &ErrMat),
+) -> (ErrVec, ErrMat) {
     let tau = fw.config.imu.bias_correlation_time;
+    let gnss_tau = fw.config.gnss_error_model().correlation_time;
     let span: f64 = fw.samples[from..to].iter().map(|s| s.dt).sum();
     let Gains { mut lambda, mut big_lambda, spread } = gains;
     let mut steps = Vec::with_capacity(to - from);
     let mut p = *p_from;
     for k in from..to {
         let sample = &fw.samples[k];
-        let f = fw.nominal[k].transition(sample, tau, &fw.config.earth);
+        let f = fw.nominal[k].transition(sample, tau, gnss_tau, &fw.config.earth);
         steps.push((f, p));
         p = predict_cov(&f, &p, &fw.noise(k));
         if span > 0.0 {
@@ -101,10 +102,10 @@ fn interval(
             block += spread * (sample.dt / span);
         }
     }
-    let mut result = (Vec15::zeros(), *p_from);
+    let mut result = (ErrVec::zeros(), *p_from);
     for (i, (f, p)) in steps.iter().enumerate().rev() {
         lambda = f.transpose() * lambda;
-        big_lambda = f.transpose() * big_lambda * f;
+        big_lambda = sandwich(&f.transpose(), &big_lambda);
         // Cazzaniga et al. 2007 §2.1: x̂_{k|T} = x̂_{k|k} + B_k(…), C_{k|T} = C_{k|k} + B_k(C_{k+1|T} − C_{k+1|k})B_kᵀ
         let s = p * lambda;
         let ps = p + p * big_lambda * p;
@@ -115,7 +116,7 @@ fn interval(
 }
 
 /// The smoothed epoch: nominal state ⊕ smoothed error, with σ from the smoothed covariance.
-fn epoch(fw: &ForwardPass, k: usize, s: &Vec15, p: &Mat15) -> SmoothedEpoch {
+fn epoch(fw: &ForwardPass, k: usize, s: &ErrVec, p: &ErrMat) -> SmoothedEpoch {
     let n = &fw.nominal[k];
     let block = |o: usize| Vector3::new(s[o], s[o + 1], s[o + 2]);
     let attitude = UnitQuaternion::from_scaled_axis(block(ATT)) * n.attitude;
@@ -152,28 +153,28 @@ pub fn to_trajectory(epochs: &[SmoothedEpoch]) -> Result<Trajectory, NavError> {
     Ok(Trajectory::new(records, &ValidationLimits::default())?)
 }
 
-/// Cholesky of D·C·D with D = diag(C)^−½: the states span 15 orders of magnitude.
+/// Cholesky of D·C·D with D = diag(C)^−½: the states' variances span many orders of magnitude.
 struct ScaledCholesky {
-    chol: Cholesky<f64, U15>,
-    scale: Vec15,
+    chol: Cholesky<f64, U18>,
+    scale: ErrVec,
 }
 
 impl ScaledCholesky {
-    fn new(c: &Mat15) -> Option<Self> {
-        let scale = Vec15::from_fn(|i, _| 1.0 / c[(i, i)].sqrt());
+    fn new(c: &ErrMat) -> Option<Self> {
+        let scale = ErrVec::from_fn(|i, _| 1.0 / c[(i, i)].sqrt());
         if !scale.iter().all(|s| s.is_finite()) {
             return None;
         }
-        let scaled = Mat15::from_fn(|i, j| c[(i, j)] * scale[i] * scale[j]);
+        let scaled = ErrMat::from_fn(|i, j| c[(i, j)] * scale[i] * scale[j]);
         Some(Self { chol: Cholesky::new(scaled)?, scale })
     }
 
-    fn solve_vec(&self, b: &Vec15) -> Vec15 {
+    fn solve_vec(&self, b: &ErrVec) -> ErrVec {
         self.chol.solve(&b.component_mul(&self.scale)).component_mul(&self.scale)
     }
 
-    fn solve_mat(&self, b: &SMatrix<f64, 15, 15>) -> Mat15 {
-        let d = Mat15::from_diagonal(&self.scale);
+    fn solve_mat(&self, b: &ErrMat) -> ErrMat {
+        let d = ErrMat::from_diagonal(&self.scale);
         d * self.chol.solve(&(d * b))
     }
 }

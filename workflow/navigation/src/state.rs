@@ -3,18 +3,22 @@
 //! Mechanisation in the map frame (east-north-up) on the configured [`Earth`]: flat, not rotating, gravity
 //! along −z (the model the simulator, `plumbline_synth::motion::imu`, generates increments with), or WGS 84
 //! with Earth rate, transport rate, Coriolis and normal gravity. Error state
-//! (15): δp, δv (map), φ (attitude error, map-frame rotation vector, C_true = Exp(φ)·C), δb_a, δb_g (body).
+//! (18): δp, δv (map), φ (attitude error, map-frame rotation vector, C_true = Exp(φ)·C), δb_a, δb_g (body),
+//! and δe, the lasting part of the GNSS positions' error (map; a first-order Gauss–Markov process per axis,
+//! [`crate::CorrelatedGnssError`]; held near zero when none is modelled).
 
 use nalgebra::{Matrix3, SMatrix, SVector, UnitQuaternion, Vector3};
 
-use crate::config::ImuModel;
+use crate::config::{CorrelatedGnssError, ImuModel};
 use crate::earth::Earth;
 use crate::inputs::ImuSample;
 
-/// 15 × 15 matrix of the error state.
-pub(crate) type Mat15 = SMatrix<f64, 15, 15>;
+/// Dimension of the error state.
+pub(crate) const N: usize = 18;
+/// N × N matrix of the error state.
+pub(crate) type ErrMat = SMatrix<f64, N, N>;
 /// Error-state vector.
-pub(crate) type Vec15 = SVector<f64, 15>;
+pub(crate) type ErrVec = SVector<f64, N>;
 
 /// Offsets of the error-state blocks.
 pub(crate) const POS: usize = 0;
@@ -22,6 +26,7 @@ pub(crate) const VEL: usize = 3;
 pub(crate) const ATT: usize = 6;
 pub(crate) const BA: usize = 9;
 pub(crate) const BG: usize = 12;
+pub(crate) const GNSS: usize = 15;
 
 /// The nominal (whole) state at one epoch.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -33,6 +38,8 @@ pub(crate) struct Nominal {
     pub attitude: UnitQuaternion<f64>,
     pub accel_bias: Vector3<f64>,
     pub gyro_bias: Vector3<f64>,
+    /// The GNSS positions' lasting error (fix = antenna + this + white noise), m.
+    pub gnss_error: Vector3<f64>,
 }
 
 /// Skew-symmetric matrix: `skew(a) * b == a × b`.
@@ -79,7 +86,7 @@ impl Nominal {
     }
 
     /// Inject an error-state estimate (closed loop): the corrected nominal state.
-    pub fn inject(&self, dx: &Vec15) -> Self {
+    pub fn inject(&self, dx: &ErrVec) -> Self {
         let block = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
         Self {
             time: self.time,
@@ -88,15 +95,18 @@ impl Nominal {
             attitude: UnitQuaternion::from_scaled_axis(block(ATT)) * self.attitude,
             accel_bias: self.accel_bias + block(BA),
             gyro_bias: self.gyro_bias + block(BG),
+            gnss_error: self.gnss_error + block(GNSS),
         }
     }
 
-    /// Error-state transition F over the interval of `s` (first order in dt).
-    pub fn transition(&self, s: &ImuSample, tau: f64, earth: &Earth) -> Mat15 {
+    /// Error-state transition F over the interval of `s` (first order in dt): `tau` is the IMU biases'
+    /// correlation time, `gnss_tau` the GNSS error's.
+    pub fn transition(&self, s: &ImuSample, tau: f64, gnss_tau: f64, earth: &Earth) -> ErrMat {
         let c = self.attitude.to_rotation_matrix().into_inner();
         let decay = (-s.dt / tau).exp();
+        let gnss_decay = (-s.dt / gnss_tau).exp();
         let (ie, en) = self.frame_rate(earth);
-        let mut f = Mat15::identity();
+        let mut f = ErrMat::identity();
         f.fixed_view_mut::<3, 3>(POS, VEL).copy_from(&(Matrix3::identity() * s.dt));
         // The frame's rotation turns the attitude error, Coriolis the velocity error (rate derivatives by
         // position and velocity are below the tactical gyro noise and left out).
@@ -105,30 +115,60 @@ impl Nominal {
         f.fixed_view_mut::<3, 3>(VEL, ATT).copy_from(&(-skew(&self.map_delta_v(s))));
         f.fixed_view_mut::<3, 3>(VEL, BA).copy_from(&(-c * s.dt));
         f.fixed_view_mut::<3, 3>(ATT, BG).copy_from(&(-c * s.dt));
-        for i in BA..15 {
+        for i in BA..GNSS {
             f[(i, i)] = decay;
+        }
+        for i in GNSS..N {
+            f[(i, i)] = gnss_decay;
         }
         f
     }
 }
 
-/// Diagonal process noise of one interval from the IMU model (random walks and Gauss–Markov biases).
-pub(crate) fn process_noise(imu: &ImuModel, dt: f64) -> Vec15 {
+/// Diagonal process noise of one interval from the IMU model (random walks and Gauss–Markov biases) and
+/// the GNSS error's Gauss–Markov model (steady σ `gnss.std`).
+pub(crate) fn process_noise(imu: &ImuModel, gnss: &CorrelatedGnssError, dt: f64) -> ErrVec {
     let gm = 1.0 - (-2.0 * dt / imu.bias_correlation_time).exp();
-    let mut q = Vec15::zeros();
+    let gnss_gm = 1.0 - (-2.0 * dt / gnss.correlation_time).exp();
+    let mut q = ErrVec::zeros();
     for a in 0..3 {
         q[VEL + a] = imu.accel_random_walk.powi(2) * dt;
         q[ATT + a] = imu.gyro_random_walk.powi(2) * dt;
         q[BA + a] = imu.accel_bias_instability.powi(2) * gm;
         q[BG + a] = imu.gyro_bias_instability.powi(2) * gm;
+        q[GNSS + a] = gnss.std[a].powi(2) * gnss_gm;
     }
     q
 }
 
+/// F·M·Fᵀ for a matrix F shaped like [`Nominal::transition`]'s (or its transpose): the navigation states'
+/// block (0..`GNSS`) dense, the GNSS error's block diagonal and coupled to nothing. About (15/18)³ of the
+/// dense product's work, which the filter and the smoother do at every IMU sample.
+pub(crate) fn sandwich(f: &ErrMat, m: &ErrMat) -> ErrMat {
+    debug_assert!(f.fixed_view::<GNSS, 3>(0, GNSS).iter().all(|v| *v == 0.0));
+    debug_assert!(f.fixed_view::<3, GNSS>(GNSS, 0).iter().all(|v| *v == 0.0));
+    let a = f.fixed_view::<GNSS, GNSS>(0, 0);
+    let d = [0, 1, 2].map(|i| f[(GNSS + i, GNSS + i)]);
+    let mut out = ErrMat::zeros();
+    out.fixed_view_mut::<GNSS, GNSS>(0, 0).copy_from(&(a * m.fixed_view::<GNSS, GNSS>(0, 0) * a.transpose()));
+    let upper = a * m.fixed_view::<GNSS, 3>(0, GNSS);
+    let lower = m.fixed_view::<3, GNSS>(GNSS, 0) * a.transpose();
+    for j in 0..3 {
+        for i in 0..GNSS {
+            out[(i, GNSS + j)] = upper[(i, j)] * d[j];
+            out[(GNSS + j, i)] = lower[(j, i)] * d[j];
+        }
+        for i in 0..3 {
+            out[(GNSS + i, GNSS + j)] = d[i] * m[(GNSS + i, GNSS + j)] * d[j];
+        }
+    }
+    out
+}
+
 /// One covariance prediction: F P Fᵀ + Q.
-pub(crate) fn predict_cov(f: &Mat15, p: &Mat15, q: &Vec15) -> Mat15 {
-    let mut out = f * p * f.transpose();
-    for i in 0..15 {
+pub(crate) fn predict_cov(f: &ErrMat, p: &ErrMat, q: &ErrVec) -> ErrMat {
+    let mut out = sandwich(f, p);
+    for i in 0..N {
         out[(i, i)] += q[i];
     }
     out
@@ -185,6 +225,7 @@ mod tests {
             attitude: *Attitude::new(0.03, -0.02, 1.2).to_rotation().quaternion(),
             accel_bias: Vector3::new(1e-3, -2e-3, 5e-4),
             gyro_bias: Vector3::new(1e-5, 2e-5, -1e-5),
+            gnss_error: Vector3::new(0.1, -0.2, 0.3),
         };
         let s = ImuSample {
             time: 0.01,
@@ -193,19 +234,50 @@ mod tests {
             delta_v: plumbline_geo::Vec3::new(0.02, 0.01, -0.098),
         };
         let earth = Earth::Flat { gravity: 9.8 };
-        let f = nominal.transition(&s, 3600.0, &earth);
+        let f = nominal.transition(&s, 3600.0, 10.0, &earth);
         let base = nominal.propagate(&s, &earth);
-        let dx = Vec15::from_fn(|i, _| {
-            [1e-3, -2e-3, 1e-3, 1e-3, 2e-3, -1e-3, 1e-4, -2e-4, 3e-4, 1e-3, 2e-3, -1e-3, 1e-4, 2e-4, 1e-4][i]
+        let dx = ErrVec::from_fn(|i, _| {
+            [
+                1e-3, -2e-3, 1e-3, 1e-3, 2e-3, -1e-3, 1e-4, -2e-4, 3e-4, 1e-3, 2e-3, -1e-3, 1e-4, 2e-4, 1e-4, 0.1, 0.1,
+                0.1,
+            ][i]
         });
         let moved = nominal.inject(&dx).propagate(&s, &earth);
         let predicted = f * dx;
+        // The GNSS error block decays with its own correlation time (the filter decays the nominal value alike).
+        let decay = (-s.dt / 10.0f64).exp();
+        assert!((predicted.fixed_rows::<3>(GNSS) - Vector3::repeat(0.1 * decay)).norm() < 1e-12);
         let err =
             |o: usize, got: Vector3<f64>| (got - Vector3::new(predicted[o], predicted[o + 1], predicted[o + 2])).norm();
         assert!(err(POS, moved.position - base.position) < 1e-6);
         assert!(err(VEL, moved.velocity - base.velocity) < 1e-6);
         let dphi = (moved.attitude * base.attitude.inverse()).scaled_axis();
         assert!(err(ATT, dphi) < 1e-7, "attitude {dphi:?} vs {:?}", predicted.fixed_rows::<3>(ATT));
+    }
+
+    /// The block product equals the dense one for a transition and its transpose.
+    #[test]
+    fn sandwich_matches_the_dense_product() {
+        let nominal = Nominal {
+            time: 0.0,
+            position: Vector3::new(1.0, 2.0, 3.0),
+            velocity: Vector3::new(8.0, -3.0, 0.1),
+            attitude: *Attitude::new(0.03, -0.02, 1.2).to_rotation().quaternion(),
+            accel_bias: Vector3::zeros(),
+            gyro_bias: Vector3::zeros(),
+            gnss_error: Vector3::zeros(),
+        };
+        let s = ImuSample {
+            time: 0.01,
+            dt: 0.01,
+            delta_theta: plumbline_geo::Vec3::new(0.001, -0.002, 0.004),
+            delta_v: plumbline_geo::Vec3::new(0.02, 0.01, -0.098),
+        };
+        let f = nominal.transition(&s, 3600.0, 5.0, &Earth::Flat { gravity: 9.8 });
+        let m = ErrMat::from_fn(|i, j| 1.0 / (1.0 + (i + 2 * j) as f64) + if i == j { 2.0 } else { 0.0 });
+        assert!((sandwich(&f, &m) - f * m * f.transpose()).norm() < 1e-12);
+        let ft = f.transpose();
+        assert!((sandwich(&ft, &m) - ft * m * f).norm() < 1e-12);
     }
 
     /// An IMU at rest on the rotating Earth (gyros sensing Earth rate, accelerometers normal gravity) stays
@@ -221,6 +293,7 @@ mod tests {
             attitude,
             accel_bias: Vector3::zeros(),
             gyro_bias: Vector3::zeros(),
+            gnss_error: Vector3::zeros(),
         };
         let dt = 0.01;
         let rate = attitude.inverse() * earth.earth_rate();

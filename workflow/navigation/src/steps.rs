@@ -161,7 +161,7 @@ pub fn filter_screened(
     test.check()?;
     config.check()?;
     let gaps = config.gaps.map(|m| find_imu_gaps(imu, &m)).unwrap_or_default();
-    let first = filter(imu, gnss, initial, &NavConfig { gaps: None, ..*config })?;
+    let first = filter(imu, gnss, initial, &NavConfig { gaps: None, gnss_error: None, ..*config })?;
     let screen = screen_steps(&first, gnss, test);
     // Nothing excluded and nothing loosened: the first pass is the final one.
     let forward = if screen.excluded_count() == 0 && gaps.is_empty() {

@@ -5,7 +5,10 @@
 
 use plumbline_fixtures::navigation;
 
-use plumbline_navigation::{Component, Flag, IntegrityConfig, TestKind, filter, measure_fix_noise, test_innovations};
+use plumbline_navigation::{
+    Component, Flag, IntegrityConfig, NavConfig, TestKind, filter, measure_fix_noise, measure_gnss_correlation,
+    test_innovations,
+};
 use plumbline_synth::motion::imu::ImuErrors;
 use rand::SeedableRng;
 
@@ -119,4 +122,45 @@ fn fix_noise_needs_enough_fixes() {
     let s = navigation::scenario(3, &navigation::block_route(1), &ImuErrors::NAVIGATION, 100.0, 5.0);
     let fw = filter(&s.imu, &s.gnss[..20], &s.initial, &s.config).unwrap();
     assert!(measure_fix_noise(&fw, &s.gnss[..20]).is_none());
+}
+
+/// A lasting error in the fixes — a Gauss–Markov process of 3 × their stated σ with a 5 s correlation time,
+/// as a receiver's filter or slow multipath leaves — is found and taken as a state; fixes whose errors
+/// are white get no model. With the state, the local test flags far fewer of the good fixes.
+#[test]
+fn a_lasting_gnss_error_is_measured_and_modelled() {
+    let local = IntegrityConfig { alpha: 0.01, window: 10 };
+    for seed in [1, 2] {
+        let mut s = navigation::scenario(seed, &navigation::block_route(2), &ImuErrors::NAVIGATION, 100.0, 1.0);
+        let white = measure_gnss_correlation(&s.imu, &s.gnss, &s.initial, &s.config, &[]).unwrap().unwrap();
+        println!("seed {seed}, white fixes: {white:?}");
+        assert!(!white.significant(), "{white:?}");
+        let (tau, factor) = (5.0, 3.0);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed + 10);
+        let mut error = [0.0f64; 3];
+        let mut last = s.gnss[0].time;
+        for f in &mut s.gnss {
+            let phi = (-(f.time - last) / tau).exp();
+            last = f.time;
+            for (a, e) in error.iter_mut().enumerate() {
+                *e = phi * *e + (1.0 - phi * phi).sqrt() * factor * f.std[a] * navigation::gauss(&mut rng);
+                f.position.p[a] += *e;
+            }
+        }
+        let found = measure_gnss_correlation(&s.imu, &s.gnss, &s.initial, &s.config, &[]).unwrap().unwrap();
+        println!("seed {seed}, lasting error σ 3 × stated, 5 s: {found:?}");
+        let model = found.model().expect("a lasting error of 3 × the stated σ is significant");
+        assert!((1.5..20.0).contains(&model.correlation_time), "{model:?}");
+        assert!(model.std.iter().zip(&s.gnss[0].std).all(|(m, stated)| m / stated >= 2.0), "{model:?}");
+        let flagged = |config| {
+            let fw = filter(&s.imu, &s.gnss, &s.initial, config).unwrap();
+            let flags = test_innovations(&fw.innovations, &local).unwrap();
+            (flags.iter().filter(|f| f.test == TestKind::LocalOverall).count(), fw.innovations.len())
+        };
+        let (as_white, n) = flagged(&s.config);
+        let (as_state, _) = flagged(&NavConfig { gnss_error: Some(model), ..s.config });
+        println!("seed {seed}: local test flags {as_white} of {n} taken as white, {as_state} with the state");
+        assert!(as_state * 3 <= as_white, "{as_state} with the state against {as_white} as white");
+        assert!(within_binomial(as_state, n, 0.01) || as_state as f64 <= n as f64 * 0.01, "{as_state} of {n}");
+    }
 }
