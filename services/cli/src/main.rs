@@ -1,6 +1,14 @@
 //! The `plumbline` command-line tool: run campaigns (`run`, `demo`), validate manifests, simulate, and the
 //! tools for trajectories, matching, cadastres, adjustment and navigation.
 //!
+//! ```text
+//! plumbline run MANIFEST (one process; `serve` splits the same steps over scheduler, workers, adjuster):
+//!   plumbline_scheduler::load_campaign → Campaign (manifest, trajectory, tables, tile plan)
+//!   per tile, on a bounded pool: plumbline_worker::run_tile → {output}tiles/{col}_{row}.json (resumable)
+//!   plumbline_adjuster::finish → corrected trajectory, corrections.csv, observations.gpkg, report
+//! plumbline demo = simulate (a synthetic campaign with its truth) + run + the table against the truth
+//! ```
+//!
 //! Exit codes: 0 success, 1 failure while working (I/O, store, internal; `match` finding no reliable
 //! transform), 2 invalid input (a bad manifest, a malformed or implausible trajectory, an unknown CRS, a bad
 //! argument, an image over its pixel budget).

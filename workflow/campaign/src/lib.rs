@@ -4,6 +4,14 @@
 //! Synchronous and I/O-free: callers pass text in and get values and errors back. Locations in a
 //! manifest are resolved against the manifest's own URL with [`resolve`] by the service layer.
 //!
+//! ```text
+//! Manifest::from_toml_str / from_json_str → Manifest (versioned) → validate() → ValidManifest (every
+//!     problem named by field path)
+//! tables::read_index / read_exterior → Table (good rows kept, bad rows listed with line and field)
+//! plan::plan_campaign(panoramas, depth, trajectory, tiling) → CampaignPlan (tiles, owned and context images)
+//! Campaign: all of it loaded (the scheduler loads it); Campaign::url / file_url resolve its locations
+//! ```
+//!
 //! ```
 //! let text = r#"
 //! version = "1"
