@@ -12,11 +12,15 @@
 //!   observations simulated from the truth, in the table form of Meyer et al. (2023) (module
 //!   [`navigation`]).
 //!
+//! - `poles [--cloud-only] [--missed] …`: pole recall, matching precision and the coordinate updates' χ² on
+//!   a `district` drive, depth camera and roof laser scanner (module [`poles`]).
+//!
 //! `cargo run --release -p plumbline-eval -- help SUBCOMMAND` lists each one's flags. None of it runs in CI.
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
 mod navigation;
+mod poles;
 mod registration;
 mod rejections;
 
@@ -38,6 +42,8 @@ enum Command {
     Rejections(rejections::Args),
     /// The global adjustment's accuracy on district drives with observations simulated from the truth.
     Navigation(navigation::Args),
+    /// Pole detection and matching on a district drive (depth camera and roof laser scanner) against the truth.
+    Poles(poles::Args),
 }
 
 fn main() {
@@ -45,5 +51,6 @@ fn main() {
         Command::Registration(args) => registration::main(&args),
         Command::Rejections(args) => rejections::main(&args),
         Command::Navigation(args) => navigation::main(&args),
+        Command::Poles(args) => poles::main(&args),
     }
 }
