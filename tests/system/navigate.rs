@@ -465,7 +465,7 @@ fn the_imus_time_offset_is_measured_reported_and_can_be_given() {
     assert_eq!(summary(&out)["imu_time_offset"]["offset_s"].as_f64(), Some(0.0));
     assert!(r.stderr.contains("no significant time offset against the GNSS"), "{}", r.stderr);
     let g = &summary(&out)["gnss_error"];
-    assert_eq!((g["mode"].as_str(), g["model"].is_null()), (Some("none"), true), "{g}");
+    assert_eq!(g["mode"].as_str(), Some("auto"), "{g}");
 
     let out = dir.path().join("given");
     let r = run(&imu, &out, &["--imu-time-offset", "-0.07"]);
@@ -476,7 +476,7 @@ fn the_imus_time_offset_is_measured_reported_and_can_be_given() {
     assert!(r.stderr.contains("expected `auto` or seconds within ±1"), "{}", r.stderr);
 }
 
-/// `--gnss-error` (`none` by default, checked with the time offset): `auto` measures the fixes' lasting error and records the measurement;
+/// `--gnss-error` (`auto` by default, checked with the time offset): `auto` measures the fixes' lasting error and records the measurement;
 /// a given model is used and recorded as given; a malformed one is refused naming the form.
 #[test]
 fn the_fixes_lasting_error_can_be_measured_or_given() {

@@ -153,10 +153,10 @@ pub struct Args {
     #[arg(long, value_name = "SECONDS|auto", default_value = "auto", value_parser = time_offset, allow_negative_numbers = true)]
     pub imu_time_offset: TimeOffset,
     /// The lasting part of the fixes' error, estimated as a state (a first-order Gauss–Markov process per
-    /// axis): `auto` measures its σ and correlation time from the data and uses it when a likelihood-ratio
-    /// test finds it, `none` takes the fixes' errors as white, `E,N,U@T` gives σ east, north, up (m) and the
-    /// correlation time (s)
-    #[arg(long, value_name = "auto|none|E,N,U@T", default_value = "none", value_parser = gnss_error)]
+    /// axis): `auto` takes the σ the fixes state, measures the correlation time from the data and uses the
+    /// state when a likelihood-ratio test finds it, `none` takes the fixes' errors as white, `E,N,U@T` gives
+    /// σ east, north, up (m) and the correlation time (s)
+    #[arg(long, value_name = "auto|none|E,N,U@T", default_value = "auto", value_parser = gnss_error)]
     pub gnss_error: GnssErrorArg,
     /// Directory or object-store prefix for the results.
     #[arg(long, value_name = "DIR|URL")]

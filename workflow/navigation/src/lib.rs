@@ -28,7 +28,8 @@
 //! measure_fix_noise(&forward, gnss) → FixNoise: per axis, the factor by which the fixes' scatter exceeds
 //!     the σ the receiver stated (most likely given the innovations; a likelihood-ratio test)
 //! measure_gnss_correlation(…, &excluded) → GnssCorrelation: the fixes' lasting error (correlation time
-//!     from the innovations, σ per axis by likelihood) → NavConfig::gnss_error, a Gauss–Markov state per axis
+//!     from the innovations, σ as the fixes state it; a likelihood-ratio test) → NavConfig::gnss_error, a
+//!     Gauss–Markov state per axis
 //! divergences(&forward, &Physics) → spans where the state left what a road vehicle and its IMU can be
 //! smooth(&forward) → Vec<SmoothedEpoch> → to_trajectory → plumbline_geo::Trajectory with σ (a
 //!     re-initialisation's re-opened position is spread over the interval before it: a bend, not a step)
@@ -73,7 +74,7 @@ pub use config::{
     CorrelatedGnssError, ImuGapModel, ImuModel, InitialState, Mounting, NavConfig, STANDARD_GRAVITY, VehicleConstraint,
 };
 pub use consistency::{ConsistencyConfig, ConsistencyFlag, ConsistencyReport, ImageMotion, check_consistency};
-pub use correlation::{FACTORS as GNSS_ERROR_FACTORS, GnssCorrelation, measure_gnss_correlation};
+pub use correlation::{GnssCorrelation, measure_gnss_correlation};
 pub use datasheet::{
     ImuClass, ImuDatasheet, MeasuredNoise, angle_random_walk_deg_per_sqrt_h, measure_noise,
     velocity_random_walk_m_per_s_per_sqrt_h,

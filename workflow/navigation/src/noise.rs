@@ -120,7 +120,12 @@ const FACTOR_RANGE: (f64, f64) = (1e-3, 1e4);
 
 /// Lag-1 autocorrelation of `z` about its mean (0 for fewer than 3 values or no spread).
 pub(crate) fn lag_one(z: &[f64]) -> f64 {
-    if z.len() < 3 {
+    autocorrelation(z, 1)
+}
+
+/// Lag-`k` autocorrelation of `z` about its mean (0 for fewer than k + 2 values or no spread).
+pub(crate) fn autocorrelation(z: &[f64], k: usize) -> f64 {
+    if k == 0 || z.len() < k + 2 {
         return 0.0;
     }
     let mean = z.iter().sum::<f64>() / z.len() as f64;
@@ -128,5 +133,5 @@ pub(crate) fn lag_one(z: &[f64]) -> f64 {
     if var <= 0.0 {
         return 0.0;
     }
-    z.windows(2).map(|w| (w[0] - mean) * (w[1] - mean)).sum::<f64>() / var
+    z.iter().zip(&z[k..]).map(|(a, b)| (a - mean) * (b - mean)).sum::<f64>() / var
 }
