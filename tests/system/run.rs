@@ -185,6 +185,16 @@ fn check_road_lines(campaign: &Path, results: &Path, gpkg: &Dataset) {
     // Seed 2's DG is off by 0.49 m RMSE: its lines are less often on the paint (0.88 of their length here).
     assert!(correct > 0.9 && correct > correct_dg, "correct {correct:.3}, DG {correct_dg:.3}");
     assert!(recovered > 0.3 && within > 0.6, "recovered {recovered:.3}, within 5 cm {within:.3}");
+    // Per kind of the reference's markings: the kinds' lengths add up to the whole, and so do the
+    // recovered lengths at most (a piece near two kinds counts for both).
+    let kinds = scores["road_lines"]["by_kind"].as_array().unwrap();
+    let sum = |key: &str| kinds.iter().map(|k| k[key].as_f64().unwrap()).sum::<f64>();
+    let whole = scores["road_lines"]["truth_length_m"].as_f64().unwrap();
+    assert!((sum("truth_length_m") - whole).abs() < 1e-6 * whole, "{kinds:?} against {whole}");
+    assert!(sum("recovered_length_m") >= scores["road_lines"]["recovered_length_m"].as_f64().unwrap() - 1e-6);
+    assert!(
+        kinds.iter().any(|k| k["kind"] == "solid") && kinds.iter().all(|k| k["truth_length_m"].as_f64() > Some(0.0))
+    );
 
     let geojson = results.join("road_lines.geojson");
     let export = ["lines", "export", "--format", "geojson", observations.to_str().unwrap(), "--out"];

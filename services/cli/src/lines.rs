@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand, ValueEnum};
-use plumbline_lines::{EvaluateConfig, LineScore, Piece, within_reach};
+use plumbline_lines::{EvaluateConfig, LineKind, LineScore, Piece, TruthElement, within_reach};
 use plumbline_runtime::gdal_write::{FieldValue, LineLayer, geopackage_with_lines};
 use plumbline_runtime::line_io::{LineReadError, geojson_lines, read_line_layer, read_points};
 
@@ -140,18 +140,74 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
         eprintln!("WARNING {}: no marking lies within {} m of a panorama", args.reference, args.reach_m);
     }
     let mut scores = Vec::new();
+    let mut kinds = Vec::new();
     for name in plumbline_adjuster::LINE_LAYERS {
         let read = read_layer(ctx, &args.observations, name).await?;
-        scores.push((name, plumbline_lines::evaluate(&pieces_of(&read.layer), &truth, &config)));
+        let pieces = pieces_of(&read.layer);
+        scores.push((name, plumbline_lines::evaluate(&pieces, &truth, &config)));
+        kinds.push(by_kind(&pieces, &truth, &config));
     }
     if args.json {
-        let json: serde_json::Map<String, serde_json::Value> =
-            scores.iter().map(|(n, s)| ((*n).to_owned(), serde_json::to_value(s).unwrap_or_default())).collect();
+        let json: serde_json::Map<String, serde_json::Value> = scores
+            .iter()
+            .zip(&kinds)
+            .map(|((n, s), k)| {
+                let mut v = serde_json::to_value(s).unwrap_or_default();
+                v["by_kind"] = serde_json::to_value(k).unwrap_or_default();
+                ((*n).to_owned(), v)
+            })
+            .collect();
         println!("{}", serde_json::to_string_pretty(&json)?);
     } else {
         print!("{}", table(&args.reference, &scores[1].1, &scores[0].1, &config));
+        print!("{}", kind_table(&kinds[1], &kinds[0]));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Per kind of the reference's markings: their length and the share of it recovered.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct KindRecall {
+    pub kind: &'static str,
+    pub truth_length_m: f64,
+    pub recovered_length_m: f64,
+}
+
+/// The recall of `pieces` per kind of the reference's markings (kinds with no marking length left out). A piece
+/// near a marking of another kind counts for that marking too: this is recall, not classification.
+fn by_kind(pieces: &[Piece], truth: &[TruthElement], config: &EvaluateConfig) -> Vec<KindRecall> {
+    LineKind::ALL
+        .iter()
+        .filter_map(|kind| {
+            let of_kind: Vec<TruthElement> = truth.iter().filter(|t| t.kind == *kind).cloned().collect();
+            if of_kind.is_empty() {
+                return None;
+            }
+            let score = plumbline_lines::evaluate(pieces, &of_kind, config);
+            (score.truth_length_m > 0.0).then_some(KindRecall {
+                kind: kind.as_str(),
+                truth_length_m: score.truth_length_m,
+                recovered_length_m: score.recovered_length_m,
+            })
+        })
+        .collect()
+}
+
+/// The per-kind recall rows: DG beside corrected.
+fn kind_table(dg: &[KindRecall], corrected: &[KindRecall]) -> String {
+    let pct = |k: &KindRecall| {
+        if k.truth_length_m > 0.0 {
+            format!("{:.1} %", 100.0 * k.recovered_length_m / k.truth_length_m)
+        } else {
+            "–".into()
+        }
+    };
+    let mut s = String::new();
+    for (d, c) in dg.iter().zip(corrected) {
+        let label = format!("  recovered, {} ({:.0} m)", c.kind, c.truth_length_m);
+        s += &format!("{label:<34} {:>10} {:>10}\n", pct(d), pct(c));
+    }
+    s
 }
 
 /// The lines of a layer as pieces for [`plumbline_lines::evaluate`]: a dashed line's dashes are its
@@ -226,5 +282,7 @@ pub fn demo_table(reference: &str, text: &str, lines: &plumbline_adjuster::RoadL
     let config = EvaluateConfig::default();
     let corrected = plumbline_lines::evaluate(&lines.corrected.pieces, &truth, &config);
     let dg = plumbline_lines::evaluate(&lines.dg.pieces, &truth, &config);
-    Ok(table(reference, &dg, &corrected, &config))
+    let kinds =
+        kind_table(&by_kind(&lines.dg.pieces, &truth, &config), &by_kind(&lines.corrected.pieces, &truth, &config));
+    Ok(table(reference, &dg, &corrected, &config) + &kinds)
 }

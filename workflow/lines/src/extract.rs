@@ -101,10 +101,14 @@ pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &Extr
         config,
         gsd: grid.gsd,
     };
-    components(&bright, width, height)
-        .into_iter()
-        .filter(|pixels| pixels.len() >= min_pixels)
-        .filter_map(|pixels| ctx.stroke(&pixels))
+    let mut raws = Vec::new();
+    for pixels in components(&bright, width, height).into_iter().filter(|pixels| pixels.len() >= min_pixels) {
+        match ctx.stroke(&pixels) {
+            Some(raw) => raws.push(raw),
+            None => raws.extend(ctx.in_chunks(&pixels, CHUNK_M / grid.gsd, min_pixels)),
+        }
+    }
+    raws.into_iter()
         .map(|(points, width_m, sigma_m, open)| Stroke {
             points: points.iter().map(|p| grid.to_map(p[0], p[1])).collect(),
             width_m,
@@ -112,6 +116,24 @@ pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &Extr
             open,
         })
         .collect()
+}
+
+/// A component rejected whole is judged again in chunks of at most this length along its principal axis,
+/// metres: one cluttered stretch of a line crossing the patch (a bright kerb, a crossing stripe, a car's
+/// glare) then costs that stretch, not the line.
+const CHUNK_M: f64 = 4.0;
+
+/// Fewest consecutive line-like chunks kept from a component rejected whole: an arrow's shaft or a blob's
+/// arm is one chunk long.
+const MIN_RUN: usize = 2;
+
+/// Where a chunk of a component was cut: the parent's principal axis (pixels) and whether the chunk's low /
+/// high end along it is a cut.
+#[derive(Clone, Copy, Debug)]
+struct Cut {
+    axis: [f64; 2],
+    low: bool,
+    high: bool,
 }
 
 /// 8-connected components of the set pixels, each as its row-major indices.
@@ -262,6 +284,80 @@ impl Component<'_> {
     /// Whether any component pixel whose along position satisfies `near` lies at an edge.
     fn end_open(&self, pixels: &[usize], along: &[f64], near: impl Fn(f64) -> bool) -> bool {
         pixels.iter().zip(along).filter(|(_, s)| near(**s)).any(|(&i, _)| self.at_edge(i))
+    }
+
+    /// A component as chunks of at most about `chunk` pixels along its principal axis, equal in length.
+    fn chunked(&self, pixels: &[usize], chunk: f64) -> Vec<(Vec<usize>, Cut)> {
+        let pts: Vec<[f64; 2]> = pixels.iter().map(|&i| self.pixel(i)).collect();
+        let count = pts.len() as f64;
+        let m = [pts.iter().map(|p| p[0]).sum::<f64>() / count, pts.iter().map(|p| p[1]).sum::<f64>() / count];
+        let (mut cxx, mut cyy, mut cxy) = (0.0, 0.0, 0.0);
+        for p in &pts {
+            let d = sub(*p, m);
+            (cxx, cyy, cxy) = (cxx + d[0] * d[0], cyy + d[1] * d[1], cxy + d[0] * d[1]);
+        }
+        let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+        let axis = [theta.cos(), theta.sin()];
+        let along: Vec<f64> = pts.iter().map(|p| dot(sub(*p, m), axis)).collect();
+        let lo = along.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = along.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let n = ((hi - lo + 1.0) / chunk).ceil().max(1.0) as usize;
+        if n == 1 || !chunk.is_finite() || chunk <= 0.0 {
+            return vec![(pixels.to_vec(), Cut { axis, low: false, high: false })];
+        }
+        let step = (hi - lo + 1.0) / n as f64;
+        let mut parts = vec![Vec::new(); n];
+        for (&i, &s) in pixels.iter().zip(&along) {
+            parts[(((s - lo) / step).floor().max(0.0) as usize).min(n - 1)].push(i);
+        }
+        parts.into_iter().enumerate().map(|(k, part)| (part, Cut { axis, low: k > 0, high: k + 1 < n })).collect()
+    }
+
+    /// The strokes of a component rejected whole: its chunks judged one by one, each run of at least
+    /// [`MIN_RUN`] consecutive line-like chunks vectorised together and kept when it passes as a whole (an
+    /// arrow's shaft and head can each pass alone); an end made by a cut is open.
+    fn in_chunks(&self, pixels: &[usize], chunk: f64, min_pixels: usize) -> Vec<RawStroke> {
+        let chunks = self.chunked(pixels, chunk);
+        if chunks.len() < MIN_RUN {
+            return Vec::new();
+        }
+        let line_like: Vec<bool> =
+            chunks.iter().map(|(part, _)| part.len() >= min_pixels && self.stroke(part).is_some()).collect();
+        let with_cuts = |(mut points, width, sigma, mut open): RawStroke, first: &Cut, last: &Cut| {
+            // The vertices run along the axis or against it; a cut end is not the element's end.
+            let ahead = match (points.first(), points.last()) {
+                (Some(a), Some(b)) => dot(sub(*b, *a), first.axis) >= 0.0,
+                _ => true,
+            };
+            let (low, high) = if ahead { (0, 1) } else { (1, 0) };
+            open[low] |= first.low;
+            open[high] |= last.high;
+            if points.len() < 2 {
+                points.clear();
+            }
+            (points, width, sigma, open)
+        };
+        let mut out = Vec::new();
+        let mut k = 0;
+        while k < chunks.len() {
+            if !line_like[k] {
+                k += 1;
+                continue;
+            }
+            let start = k;
+            while k < chunks.len() && line_like[k] {
+                k += 1;
+            }
+            if k - start < MIN_RUN {
+                continue;
+            }
+            let union: Vec<usize> = chunks[start..k].iter().flat_map(|(part, _)| part.iter().copied()).collect();
+            if let Some(raw) = self.stroke(&union) {
+                out.push(with_cuts(raw, &chunks[start].1, &chunks[k - 1].1));
+            }
+        }
+        out.retain(|(points, ..)| points.len() >= 2);
+        out
     }
 
     /// The stroke of one component in pixel coordinates (vertices, width m, σ m, open), or `None` for a blob.

@@ -26,6 +26,9 @@ pub enum LineKind {
 }
 
 impl LineKind {
+    /// Every kind, in the order tables list them.
+    pub const ALL: [Self; 5] = [Self::Solid, Self::Dashed, Self::StopLine, Self::ZebraStripe, Self::Other];
+
     /// The snake_case name, as serialised.
     pub fn as_str(&self) -> &'static str {
         match self {
