@@ -42,6 +42,12 @@ pub struct ExtractConfig {
     pub open_margin_px: usize,
     /// Floor of a stroke's across σ, metres.
     pub sigma_floor_m: f64,
+    /// Split components that are rejected whole by the local direction of their pixels, so that markings
+    /// touching each other (a stop line meeting a lane line, a lane line running into a zebra stripe) come
+    /// apart into their lines. Off by default: on the simulated `tiny` campaign it raises the length
+    /// recovered from 65 to 82 % but lets bright kerb rims through, and the extracted length that is
+    /// correct falls from 95.5 to 90 %.
+    pub split_junctions: bool,
 }
 
 impl Default for ExtractConfig {
@@ -59,6 +65,7 @@ impl Default for ExtractConfig {
             flank_ratio: 0.5,
             open_margin_px: 2,
             sigma_floor_m: 0.005,
+            split_junctions: false,
         }
     }
 }
@@ -102,10 +109,21 @@ pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &Extr
         gsd: grid.gsd,
     };
     let mut raws = Vec::new();
+    let radius = (DIRECTION_RADIUS_M / grid.gsd).round().max(2.0) as usize;
     for pixels in components(&bright, width, height).into_iter().filter(|pixels| pixels.len() >= min_pixels) {
-        match ctx.stroke(&pixels) {
-            Some(raw) => raws.push(raw),
-            None => raws.extend(ctx.in_chunks(&pixels, CHUNK_M / grid.gsd, min_pixels)),
+        if let Some(raw) = ctx.stroke(&pixels) {
+            raws.push(raw);
+            continue;
+        }
+        let parts = if config.split_junctions { ctx.by_direction(&pixels, radius, min_pixels) } else { Vec::new() };
+        if parts.is_empty() {
+            raws.extend(ctx.in_chunks(&pixels, CHUNK_M / grid.gsd, min_pixels));
+        }
+        for part in parts {
+            match ctx.stroke(&part) {
+                Some(raw) => raws.push(raw),
+                None => raws.extend(ctx.in_chunks(&part, CHUNK_M / grid.gsd, min_pixels)),
+            }
         }
     }
     raws.into_iter()
@@ -122,6 +140,16 @@ pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &Extr
 /// metres: one cluttered stretch of a line crossing the patch (a bright kerb, a crossing stripe, a car's
 /// glare) then costs that stretch, not the line.
 const CHUNK_M: f64 = 4.0;
+
+/// Half the side of the square around each pixel whose component pixels give its local direction, metres:
+/// twice the widest stripe, so that a stripe's neighbourhood is clearly elongated.
+const DIRECTION_RADIUS_M: f64 = 0.6;
+
+/// Smallest elongation (λ₁ − λ₂) / (λ₁ + λ₂) of a pixel's neighbourhood for it to have a direction.
+const MIN_ELONGATION: f64 = 0.6;
+
+/// Pixels within this angle of a dominant direction belong to it, radians (15°).
+const DIRECTION_TOLERANCE: f64 = 0.2618;
 
 /// Fewest consecutive line-like chunks kept from a component rejected whole: an arrow's shaft or a blob's
 /// arm is one chunk long.
@@ -311,6 +339,105 @@ impl Component<'_> {
             parts[(((s - lo) / step).floor().max(0.0) as usize).min(n - 1)].push(i);
         }
         parts.into_iter().enumerate().map(|(k, part)| (part, Cut { axis, low: k > 0, high: k + 1 < n })).collect()
+    }
+
+    /// A component rejected whole, split by the local direction of its pixels: each pixel's neighbourhood
+    /// (component pixels within ±`radius` on both axes) gives an orientation and an elongation; elongated
+    /// pixels are grouped around the dominant directions (the fullest 10° bin first, its pixels within 15°
+    /// taken, then again among the rest), and each group's 8-connected parts of at least `min_pixels` are
+    /// returned when two directions or more have one (none otherwise). A stop line meeting a lane line, or a
+    /// line running into a zebra crossing, comes apart into its arms; the pixels of a junction's corner or of
+    /// a wide area have no direction and belong to none.
+    fn by_direction(&self, pixels: &[usize], radius: usize, min_pixels: usize) -> Vec<Vec<usize>> {
+        let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+        for &i in pixels {
+            let (c, r) = (i % self.width, i / self.width);
+            (c0, c1, r0, r1) = (c0.min(c), c1.max(c), r0.min(r), r1.max(r));
+        }
+        if pixels.is_empty() {
+            return Vec::new();
+        }
+        let (w, h) = (c1 - c0 + 1, r1 - r0 + 1);
+        // Integral images of 1, x, y, x², y², xy over the component's pixels (local coordinates).
+        let stride = w + 1;
+        let mut sums = vec![[0.0f64; 6]; stride * (h + 1)];
+        let mut inside = vec![false; w * h];
+        for &i in pixels {
+            inside[(i / self.width - r0) * w + (i % self.width - c0)] = true;
+        }
+        for r in 0..h {
+            let mut row = [0.0f64; 6];
+            for c in 0..w {
+                if inside[r * w + c] {
+                    let (x, y) = (c as f64, r as f64);
+                    for (acc, v) in row.iter_mut().zip([1.0, x, y, x * x, y * y, x * y]) {
+                        *acc += v;
+                    }
+                }
+                let above = sums[r * stride + c + 1];
+                sums[(r + 1) * stride + c + 1] = std::array::from_fn(|k| above[k] + row[k]);
+            }
+        }
+        let window = |c: usize, r: usize| -> [f64; 6] {
+            let (a0, a1) = (c.saturating_sub(radius), (c + radius + 1).min(w));
+            let (b0, b1) = (r.saturating_sub(radius), (r + radius + 1).min(h));
+            let at = |cc: usize, rr: usize| sums[rr * stride + cc];
+            let (p, q, u, v) = (at(a1, b1), at(a0, b1), at(a1, b0), at(a0, b0));
+            std::array::from_fn(|k| p[k] - q[k] - u[k] + v[k])
+        };
+        // Each pixel's orientation in [0, π), or none where its neighbourhood is not elongated.
+        let orientation: Vec<Option<f64>> = pixels
+            .iter()
+            .map(|&i| {
+                let [n, sx, sy, sxx, syy, sxy] = window(i % self.width - c0, i / self.width - r0);
+                let (mx, my) = (sx / n, sy / n);
+                let (cxx, cyy, cxy) = (sxx / n - mx * mx, syy / n - my * my, sxy / n - mx * my);
+                let (half_trace, root) = (0.5 * (cxx + cyy), (0.25 * (cxx - cyy).powi(2) + cxy * cxy).sqrt());
+                let elongation = if half_trace > 0.0 { root / half_trace } else { 0.0 };
+                let theta = (0.5 * (2.0 * cxy).atan2(cxx - cyy)).rem_euclid(std::f64::consts::PI);
+                (elongation >= MIN_ELONGATION).then_some(theta)
+            })
+            .collect();
+        let mut unassigned: Vec<usize> = (0..pixels.len()).filter(|&k| orientation[k].is_some()).collect();
+        let (mut parts, mut directions) = (Vec::new(), 0);
+        const BINS: usize = 18;
+        for _ in 0..4 {
+            let mut histogram = [0usize; BINS];
+            for &k in &unassigned {
+                let theta = orientation[k].unwrap_or(0.0);
+                histogram[((theta / std::f64::consts::PI * BINS as f64) as usize).min(BINS - 1)] += 1;
+            }
+            let Some((peak, &count)) = histogram.iter().enumerate().max_by_key(|(_, c)| **c) else { break };
+            if count < min_pixels {
+                break;
+            }
+            let direction = (peak as f64 + 0.5) * std::f64::consts::PI / BINS as f64;
+            let close = |theta: f64| {
+                let d = (theta - direction).rem_euclid(std::f64::consts::PI);
+                d.min(std::f64::consts::PI - d) <= DIRECTION_TOLERANCE
+            };
+            let (group, rest): (Vec<usize>, Vec<usize>) =
+                unassigned.iter().partition(|&&k| orientation[k].is_some_and(close));
+            unassigned = rest;
+            let mut set = vec![false; w * h];
+            for &k in &group {
+                let i = pixels[k];
+                set[(i / self.width - r0) * w + (i % self.width - c0)] = true;
+            }
+            let before = parts.len();
+            for part in components(&set, w, h) {
+                if part.len() >= min_pixels {
+                    parts.push(part.into_iter().map(|j| (j / w + r0) * self.width + j % w + c0).collect());
+                }
+            }
+            directions += usize::from(parts.len() > before);
+        }
+        // One direction is no junction: a line with clutter beside it, or the rim of a bright area, which
+        // the split would carve out of it. The caller judges such a component in chunks instead.
+        if directions < 2 {
+            parts.clear();
+        }
+        parts
     }
 
     /// The strokes of a component rejected whole: its chunks judged one by one, each run of at least
@@ -503,7 +630,7 @@ impl Component<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geometry::{cross, dist};
+    use crate::geometry::{cross, dist, length};
     use crate::scene::{PAINT, Road, Shape, WORN, distractors, render};
 
     fn grid(size: usize) -> GroundGrid {
@@ -564,12 +691,13 @@ mod tests {
             shapes.push(Shape::Stripe { line: road.line(1.0, y, 1.0, y + 3.0), width: 0.12, value: PAINT });
         }
         let (image, valid) = render(&g, &shapes, noise, 7, Some((road.map(-2.0, 0.5), 0.8)));
-        let truths = [(-2.0, -20.0, 20.0), (1.0, -5.0, -2.0), (1.0, 4.0, 7.0)].map(|(x, y0, y1)| Truth {
-            a: road.map(x, y0),
-            b: road.map(x, y1),
-            width: 0.12,
-        });
-        (extract(&image, &valid, &g, &ExtractConfig::default()), truths.into())
+        let mut truths: Vec<Truth> = [(-2.0, -20.0, 20.0), (1.0, -5.0, -2.0), (1.0, 4.0, 7.0)]
+            .map(|(x, y0, y1)| Truth { a: road.map(x, y0), b: road.map(x, y1), width: 0.12 })
+            .into();
+        // The arrow's shaft is paint of its own (the simulator's truth lists it, kind `other`); its head is not
+        // a line. Found or not, nothing may be drawn on the head.
+        truths.push(Truth { a: road.map(2.5, 0.0), b: road.map(2.5, 3.5), width: 0.3 });
+        (extract(&image, &valid, &g, &ExtractConfig::default()), truths)
     }
 
     fn check_lane_scene(noise: f32, tol: f64) {
@@ -638,6 +766,47 @@ mod tests {
     fn a_stop_line_and_zebra_stripes_are_strokes_of_half_a_metre() {
         check_crossing(0.0, 0.01);
         check_crossing(0.03, 0.02);
+    }
+
+    /// A stop line whose end meets a solid lane line, and a lane line running into a zebra stripe: each
+    /// pair is one component of L or T shape, rejected whole, and comes apart by direction into its lines.
+    /// Next to the junction the other line's paint lies inside a vertex's across window and pulls it (up to
+    /// 6 cm here), hence the looser tolerance than for lone lines.
+    #[test]
+    fn touching_markings_come_apart_by_direction() {
+        for (noise, tol) in [(0.0, 0.08), (0.03, 0.08)] {
+            let g = grid(500);
+            let road = Road { origin: g.centre, heading: 0.2 };
+            let elements = [
+                (road.line(-1.5, -6.0, -1.5, 6.0), 0.12, (-1.5, -6.0, -1.5, 6.0)),
+                (road.line(-1.44, 1.0, 2.5, 1.0), 0.5, (-1.44, 1.0, 2.5, 1.0)),
+                (road.line(4.0, -6.0, 4.0, -1.0), 0.12, (4.0, -6.0, 4.0, -1.0)),
+                (road.line(2.5, -0.75, 5.5, -0.75), 0.5, (2.5, -0.75, 5.5, -0.75)),
+            ];
+            let shapes: Vec<Shape> = elements
+                .iter()
+                .map(|(line, width, _)| Shape::Stripe { line: line.clone(), width: *width, value: PAINT })
+                .collect();
+            let truths: Vec<Truth> = elements
+                .iter()
+                .map(|(_, width, (x0, y0, x1, y1))| Truth {
+                    a: road.map(*x0, *y0),
+                    b: road.map(*x1, *y1),
+                    width: *width,
+                })
+                .collect();
+            let (image, valid) = render(&g, &shapes, noise, 5, None);
+            let split = ExtractConfig { split_junctions: true, ..ExtractConfig::default() };
+            let strokes = extract(&image, &valid, &g, &split);
+            let whole = extract(&image, &valid, &g, &ExtractConfig::default());
+            assert!(whole.len() < strokes.len(), "without the split {whole:?}");
+            let per = assign(&strokes, &truths, tol);
+            for (k, (truth, found)) in truths.iter().zip(&per).enumerate() {
+                let seen: f64 = found.iter().map(|s| length(&s.points)).sum();
+                let len = dist(truth.a, truth.b);
+                assert!(seen > 0.7 * len, "noise {noise}, element {k}: {seen:.2} of {len:.2} m; {strokes:?}");
+            }
+        }
     }
 
     #[test]
