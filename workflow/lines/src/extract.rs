@@ -11,7 +11,7 @@ use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
 use crate::background::background_difference;
-use crate::geometry::{add_scaled, dot, length, median_or_zero, normal, sub, unit};
+use crate::geometry::{add_scaled, dot, length, median_or_zero, normal, principal_axis, sub, unit};
 
 /// Settings of the extraction.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
@@ -326,16 +326,7 @@ impl Component<'_> {
     /// A component as chunks of at most about `chunk` pixels along its principal axis, equal in length.
     fn chunked(&self, pixels: &[usize], chunk: f64) -> Vec<(Vec<usize>, Cut)> {
         let pts: Vec<[f64; 2]> = pixels.iter().map(|&i| self.pixel(i)).collect();
-        let count = pts.len() as f64;
-        let m = [pts.iter().map(|p| p[0]).sum::<f64>() / count, pts.iter().map(|p| p[1]).sum::<f64>() / count];
-        let (mut cxx, mut cyy, mut cxy) = (0.0, 0.0, 0.0);
-        for p in &pts {
-            let d = sub(*p, m);
-            (cxx, cyy, cxy) = (cxx + d[0] * d[0], cyy + d[1] * d[1], cxy + d[0] * d[1]);
-        }
-        let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
-        let axis = [theta.cos(), theta.sin()];
-        let along: Vec<f64> = pts.iter().map(|p| dot(sub(*p, m), axis)).collect();
+        let (_, axis, along) = principal_axis(&pts);
         let lo = along.iter().copied().fold(f64::INFINITY, f64::min);
         let hi = along.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let n = ((hi - lo + 1.0) / chunk).ceil().max(1.0) as usize;
@@ -501,15 +492,7 @@ impl Component<'_> {
         let cfg = self.config;
         let pts: Vec<[f64; 2]> = pixels.iter().map(|&i| self.pixel(i)).collect();
         let count = pts.len() as f64;
-        let m = [pts.iter().map(|p| p[0]).sum::<f64>() / count, pts.iter().map(|p| p[1]).sum::<f64>() / count];
-        let (mut cxx, mut cyy, mut cxy) = (0.0, 0.0, 0.0);
-        for p in &pts {
-            let d = sub(*p, m);
-            (cxx, cyy, cxy) = (cxx + d[0] * d[0], cyy + d[1] * d[1], cxy + d[0] * d[1]);
-        }
-        let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
-        let a = [theta.cos(), theta.sin()];
-        let along: Vec<f64> = pts.iter().map(|p| dot(sub(*p, m), a)).collect();
+        let (m, a, along) = principal_axis(&pts);
         let smin = along.iter().copied().fold(f64::INFINITY, f64::min);
         let smax = along.iter().copied().fold(f64::NEG_INFINITY, f64::max);
         let extent = smax - smin + 1.0;

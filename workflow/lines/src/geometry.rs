@@ -42,6 +42,22 @@ pub(crate) fn normal(t: [f64; 2]) -> [f64; 2] {
     [-t[1], t[0]]
 }
 
+/// The centroid of `points` and the unit direction of their largest spread (principal axis), with each
+/// point's position along it from the centroid.
+pub(crate) fn principal_axis(points: &[[f64; 2]]) -> ([f64; 2], [f64; 2], Vec<f64>) {
+    let count = points.len() as f64;
+    let m = [points.iter().map(|p| p[0]).sum::<f64>() / count, points.iter().map(|p| p[1]).sum::<f64>() / count];
+    let (mut cxx, mut cyy, mut cxy) = (0.0, 0.0, 0.0);
+    for p in points {
+        let d = sub(*p, m);
+        (cxx, cyy, cxy) = (cxx + d[0] * d[0], cyy + d[1] * d[1], cxy + d[0] * d[1]);
+    }
+    let theta = 0.5 * (2.0 * cxy).atan2(cxx - cyy);
+    let axis = [theta.cos(), theta.sin()];
+    let along = points.iter().map(|p| dot(sub(*p, m), axis)).collect();
+    (m, axis, along)
+}
+
 /// Total length of a polyline.
 pub(crate) fn length(points: &[[f64; 2]]) -> f64 {
     points.windows(2).map(|w| dist(w[0], w[1])).sum()
