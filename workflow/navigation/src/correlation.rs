@@ -5,9 +5,9 @@
 //! as a first-order Gauss–Markov state per axis ([`CorrelatedGnssError`]), the run is explained by the
 //! state and the tests judge what is left.
 //!
-//! The correlation time comes from the white model's innovations: their lag-1 autocorrelation ρ between
-//! consecutive used fixes (normalised, averaged over the axes) at the fixes' median interval Δt gives
-//! τ = −Δt / ln ρ. The σ per axis is the fixes' median stated σ: a receiver's σ describes its whole error,
+//! The correlation time comes from the white model's innovations between consecutive used fixes: the ratio
+//! φ of their lag-2 to their lag-1 autocorrelation (see `correlation_time`) at the fixes' median interval
+//! Δt gives τ = −Δt / ln φ. The σ per axis is the fixes' median stated σ: a receiver's σ describes its whole error,
 //! and how much of it lasts is what the data cannot tell apart from the IMU's own drift (below). The filter
 //! then runs over the same fixes with the state (the fixes the step test excluded left out, gap noise
 //! included, no re-linearisation), and each axis's −2 log-likelihood of the used innovations, Σ ln Cₐₐ +
