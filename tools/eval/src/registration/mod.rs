@@ -20,6 +20,8 @@
 //! `--min-roundness` (0: output edge points too); the initial transformation (§3.7) `--initial-candidates`,
 //! `--min-initial-inliers`, `--pool-windows true|false`; `--min-mm-points`; `--crosscheck false` turns the
 //! cross-panorama check off. The timing alone: `cargo bench -p plumbline-registration --bench registration`.
+//! The panoramas are rendered once per realism variant: the images depend on the true drive alone, so each
+//! further profile re-uses them with its own DG poses.
 
 mod diagnosis;
 mod heights;
@@ -189,15 +191,39 @@ struct Row {
     crosscheck: diagnosis::crosscheck::Scored,
 }
 
-fn run(name: &str, spec: &Spec, args: &Args) -> Row {
-    let t0 = Instant::now();
-    let mut campaign = Campaign::build(spec);
-    if args.level_plane {
-        // Ortho-project on the level plane even where the world has relief (what a campaign without a
-        // terrain model gets).
-        campaign.rig.terrain = None;
+/// One row per profile in `profiles` (comma-separated; unknown names skipped) of `base`'s campaign. The
+/// panoramas are rendered once: the next profile only replaces the DG poses (`Campaign::reprofile`).
+fn rows(profiles: &str, base: &Spec, args: &Args) -> Vec<Row> {
+    let mut previous: Option<Campaign> = None;
+    let mut rows = Vec::new();
+    for (name, profile) in profiles.split(',').filter_map(|name| profile(name.trim()).map(|p| (name.trim(), p))) {
+        let spec = Spec { profile, ..*base };
+        let t0 = Instant::now();
+        let mut campaign = match previous.take() {
+            Some(mut campaign) => {
+                if campaign.reprofile(&spec) {
+                    campaign
+                } else {
+                    Campaign::build(&spec)
+                }
+            }
+            None => Campaign::build(&spec),
+        };
+        if args.level_plane {
+            // Ortho-project on the level plane even where the world has relief (what a campaign without a
+            // terrain model gets).
+            campaign.rig.terrain = None;
+        }
+        let row = run(name, &campaign, t0.elapsed().as_secs_f64(), args);
+        eprintln!("{name}: {} of {} images matched", row.matched, row.images);
+        rows.push(row);
+        previous = Some(campaign);
     }
-    let build_s = t0.elapsed().as_secs_f64();
+    rows
+}
+
+/// The row of one profile's `campaign`, built (or re-profiled) in `build_s` seconds.
+fn run(name: &str, campaign: &Campaign, build_s: f64, args: &Args) -> Row {
     let config = config(args);
     let t1 = Instant::now();
     let prepared = prepare_panoramas(&campaign.panoramas, &campaign.rig, &config.mm);
@@ -216,13 +242,13 @@ fn run(name: &str, spec: &Spec, args: &Args) -> Row {
     let flagged = motion::flags(&campaign.panoramas, &image_motions);
     let horizontal: Vec<f64> = errors.iter().map(|(e, _)| e[0].hypot(e[1])).collect();
     let marked = |id: &str| paint.get(id).is_some_and(|&a| a >= MARKINGS_MIN_M2);
-    let losses = losses::losses(&campaign, &result, &run.traces, &marked);
-    let explained = diagnosis::wrong::explain(&campaign, &result, &run.traces, 2.0 * AERIAL_GSD);
-    let mut wrong = losses::wrong_points(&campaign, &result, AERIAL_GSD);
+    let losses = losses::losses(campaign, &result, &run.traces, &marked);
+    let explained = diagnosis::wrong::explain(campaign, &result, &run.traces, 2.0 * AERIAL_GSD);
+    let mut wrong = losses::wrong_points(campaign, &result, AERIAL_GSD);
     wrong.push(format!("all points' σ_h q10/50/90/99 {:.3?} m", losses::sigma_quantiles(&result)));
-    wrong.push(diagnosis::wrong::ambiguity(&campaign, &result, &run.traces, 2.0));
-    let failed = losses::failed_panoramas(&campaign, &result, &marked);
-    let crosscheck = diagnosis::crosscheck::score(&campaign, &result, args.offsets);
+    wrong.push(diagnosis::wrong::ambiguity(campaign, &result, &run.traces, 2.0));
+    let failed = losses::failed_panoramas(campaign, &result, &marked);
+    let crosscheck = diagnosis::crosscheck::score(campaign, &result, args.offsets);
     let marked_errors: Vec<f64> = result
         .ties
         .iter()
@@ -342,10 +368,9 @@ fn print_tables(rows: &[Row], args: &Args) {
         );
     }
     println!("\nStage times are thread-time per panorama (stages run in parallel on rayon's pool); `elapsed` is the");
-    println!(
-        "wall time of `prepare_panoramas` + `register_tile` divided by the panoramas, on {} threads.",
-        rayon::current_num_threads()
-    );
+    println!("wall time of `prepare_panoramas` + `register_tile` divided by the panoramas; the render is the first");
+    println!("profile's (the others re-use its panoramas with their own DG poses: seconds),");
+    println!("on {} threads.", rayon::current_num_threads());
 }
 
 fn reasons(map: &BTreeMap<String, usize>) -> String {
@@ -545,16 +570,8 @@ pub fn main(args: &Args) {
         "registration bench: preset {preset:?}, seed {}, route {} m, panoramas every {} m at {} px, realism {:?}",
         base.seed, base.length, base.spacing, base.width, base.realism.level
     );
-    let rows: Vec<Row> = profiles
-        .split(',')
-        .filter_map(|name| profile(name.trim()).map(|p| (name.trim(), p)))
-        .map(|(name, p)| {
-            let row = run(name, &Spec { profile: p, ..base }, args);
-            eprintln!("{name}: {} of {} images matched", row.matched, row.images);
-            row
-        })
-        .collect();
-    print_tables(&rows, args);
+    let table = rows(profiles, &base, args);
+    print_tables(&table, args);
     if let Some(only) = &args.nuisances {
         // No FILTER (or `1`, as before): every nuisance; otherwise comma-separated words, a row runs when its
         // name has one.
@@ -563,12 +580,7 @@ pub fn main(args: &Args) {
         };
         let mut variants = Vec::new();
         for (name, realism) in nuisances(base.realism).into_iter().filter(|(name, _)| wanted(name)) {
-            let rows: Vec<Row> = profiles
-                .split(',')
-                .filter_map(|p| {
-                    profile(p.trim()).map(|profile| run(p.trim(), &Spec { profile, realism, ..base }, args))
-                })
-                .collect();
+            let rows = rows(profiles, &Spec { realism, ..base }, args);
             eprintln!("{name}: done");
             variants.push((name, rows));
         }
