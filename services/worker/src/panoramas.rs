@@ -59,6 +59,19 @@ pub(crate) fn dg_at(campaign: &Campaign, time: f64) -> Result<TrajectoryRecord, 
         .map_err(|e| format!("DG trajectory at time {time}: {e}"))
 }
 
+/// Half the span the DG velocity at an image's time is differenced over, seconds.
+const VELOCITY_HALF_SPAN_S: f64 = 0.05;
+
+/// The vehicle's velocity at `time` from the DG trajectory (central difference over ±50 ms, one-sided at
+/// the trajectory's ends), m/s; `None` where the trajectory does not cover it.
+pub(crate) fn velocity(campaign: &Campaign, time: f64) -> Option<[f64; 3]> {
+    let at = |t: f64| dg_at(campaign, t).ok().map(|r| (t, r.position));
+    let h = VELOCITY_HALF_SPAN_S;
+    let ((t0, a), (t1, b)) = (at(time - h).or_else(|| at(time))?, at(time + h).or_else(|| at(time))?);
+    let dt = t1 - t0;
+    (dt > 0.0).then(|| [(b.x() - a.x()) / dt, (b.y() - a.y()) / dt, (b.z() - a.z()) / dt])
+}
+
 /// 1σ horizontal DG position error of a record, metres.
 pub(crate) fn position_sigma(record: &TrajectoryRecord) -> f64 {
     record.std.map_or(DEFAULT_DG_SIGMA_M, |s| s.east.max(s.north))
@@ -96,6 +109,7 @@ pub(crate) fn place(
                     time: image.time,
                     pose: record.pose(),
                     position_sigma: position_sigma(&record),
+                    velocity: velocity(campaign, image.time),
                     owned: k < owned,
                 },
                 url,
@@ -143,6 +157,7 @@ pub(crate) fn decode(placed: &Placed, bytes: &[u8], part: &ImagePart) -> Result<
         part: *part,
         pose: info.pose,
         position_sigma: info.position_sigma,
+        velocity: info.velocity,
     })
 }
 
@@ -244,7 +259,8 @@ pub(crate) async fn rig(
         None => None,
     };
     let sub_cameras = spec.rig.map(|r| SubCameras { count: r.cameras, radius_m: r.radius_m });
-    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height, sub_cameras, terrain: None })
+    let readout_s = spec.readout_s.unwrap_or(0.0);
+    Ok(PanoramaRig { camera, mount: mount(spec), vehicle_mask, camera_height, sub_cameras, terrain: None, readout_s })
 }
 
 #[cfg(test)]
@@ -262,7 +278,8 @@ mod tests {
 
     fn placed(url: &str) -> Placed {
         let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0, 800.0, 40.0));
-        let info = PanoramaInfo { id: "pano7".into(), time: 12.5, pose, position_sigma: 0.2, owned: true };
+        let info =
+            PanoramaInfo { id: "pano7".into(), time: 12.5, pose, position_sigma: 0.2, velocity: None, owned: true };
         Placed { url: url.into(), info }
     }
 

@@ -233,6 +233,7 @@ mod tests {
             camera_height: 2.5,
             sub_cameras: None,
             terrain: None,
+            readout_s: 0.0,
         });
         let mut config = PipelineConfig::default();
         config.mm.half_extent = 3.0;
@@ -268,7 +269,7 @@ mod tests {
                 std::fs::write(&path, bytes).unwrap();
                 let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0 + 5.0 * k as f64, 800.0, 40.0));
                 let id = name.trim_end_matches(".jpg").trim_end_matches(".png").to_owned();
-                let info = PanoramaInfo { id, time: k as f64, pose, position_sigma: 0.2, owned: true };
+                let info = PanoramaInfo { id, time: k as f64, pose, position_sigma: 0.2, velocity: None, owned: true };
                 Placed { url: path.to_str().unwrap().to_owned(), info }
             })
             .collect();
@@ -295,8 +296,14 @@ mod tests {
                 let path = dir.join(format!("s{k:03}.jpg"));
                 std::fs::write(&path, &bytes).unwrap();
                 let pose = MapFromBody::new(Rotation::identity(), Point3::new(500.0 + 2.0 * k as f64, 800.0, 40.0));
-                let info =
-                    PanoramaInfo { id: format!("s{k:03}"), time: k as f64, pose, position_sigma: 0.2, owned: true };
+                let info = PanoramaInfo {
+                    id: format!("s{k:03}"),
+                    time: k as f64,
+                    pose,
+                    position_sigma: 0.2,
+                    velocity: None,
+                    owned: true,
+                };
                 Placed { url: path.to_str().unwrap().to_owned(), info }
             })
             .collect()

@@ -91,6 +91,28 @@ fn panoramas_and_mounts() {
         &format!("{PANORAMAS}{mount}[panoramas.rig]\ncameras = 1\nradius_m = -0.1\n"),
         &["panoramas.rig.cameras", "panoramas.rig.radius_m"],
     );
+    // A rolling shutter's readout: 0–0.5 s.
+    check(
+        &format!(
+            "{PANORAMAS}readout_s = 0.033
+{mount}"
+        ),
+        &[],
+    );
+    check(
+        &format!(
+            "{PANORAMAS}readout_s = -0.01
+{mount}"
+        ),
+        &["panoramas.readout_s"],
+    );
+    check(
+        &format!(
+            "{PANORAMAS}readout_s = 2.0
+{mount}"
+        ),
+        &["panoramas.readout_s"],
+    );
 }
 
 /// A depth camera with the extra keys `keys` and the intrinsics table `intrinsics`.

@@ -136,7 +136,7 @@ fn ortho_bench() -> f64 {
     let pose = MapFromBody::new(Attitude::from_degrees(0.5, -1.0, 30.0).to_rotation(), Point3::new(100.0, 200.0, 0.5));
     let mount = CameraMount::new([0.0, 0.0, -2.0], &Boresight::default());
     let grid = GroundGrid::new([100.0, 200.0], 0.03, 400, 400, 0.0).unwrap();
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     time(5, || ortho_project(&pano, None, &exposure, &grid, |_, _| 0.0).unwrap())
 }
 

@@ -48,6 +48,10 @@ pub struct Panorama {
     pub pose: MapFromBody,
     /// 1σ horizontal uncertainty of the DG position, metres.
     pub position_sigma: f64,
+    /// The vehicle's velocity at `time` (mapping frame: east, north, up; m/s) from the trajectory: what a
+    /// rolling-shutter rig ([`PanoramaRig::readout_s`]) moved while reading the rows (`None`: unknown, the
+    /// rows are taken as read at once).
+    pub velocity: Option<[f64; 3]>,
 }
 
 /// What all panoramas of a campaign share: the camera model, its mounting and the vehicle mask.
@@ -67,6 +71,10 @@ pub struct PanoramaRig {
     /// A terrain model (DTM) under the panoramas: the ortho-projection follows its relief around the ground
     /// under the camera instead of a level plane ([`OrthoPatch::height_at`]; `None`: the plane).
     pub terrain: Option<Arc<Terrain>>,
+    /// Seconds from the readout of the panorama's top row to its bottom row's (a rolling shutter; the
+    /// panorama's time is its middle row's). 0: a global shutter. The ortho-projection sees each ground
+    /// point from where the rig was when its row was read ([`plumbline_imaging::ortho::RollingShutter`]).
+    pub readout_s: f64,
 }
 
 /// Parameters of steps 1–4 (Jende et al. 2017 §3.2–§3.5); `Default` gives the paper's values where it states them.

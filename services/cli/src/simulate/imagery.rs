@@ -118,12 +118,14 @@ pub(crate) fn for_each_in_flight<T: Sync>(
 }
 
 /// The manifest's `[panoramas]` for the IMU `imu_height` above the road, with the ring of cameras the
-/// panoramas were rendered through when the realism level has one (as a real rig's calibration gives it).
+/// panoramas were rendered through when the realism level has one (as a real rig's calibration gives it),
+/// and its rolling shutter's readout time.
 pub(crate) fn panorama_section(sizes: &Sizes, imu_height: f64) -> String {
     let (w, h) = (sizes.panorama_width, sizes.panorama_width / 2);
     // The IMU rides `imu_height` above the road; the lever arm's z points down.
     let camera_height = imu_height - Mount::PANORAMA.lever_arm_m[2];
     let rig = sizes.realism.rig;
+    let readout = if rig.readout_s > 0.0 { format!("readout_s = {:?}\n", rig.readout_s) } else { String::new() };
     let ring = if rig.sub_cameras > 1 {
         format!("\n[panoramas.rig]\ncameras = {}\nradius_m = {:?}\n", rig.sub_cameras, rig.radius_m)
     } else {
@@ -131,7 +133,7 @@ pub(crate) fn panorama_section(sizes: &Sizes, imu_height: f64) -> String {
     };
     format!(
         "[panoramas]\nindex = \"panoramas/index.csv\"\nimages = \"panoramas/\"\nwidth_px = {w}\nheight_px = {h}\n\
-         vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{}{ring}",
+         vehicle_mask = \"panoramas/vehicle_mask.png\"\ncamera_height_m = {camera_height:?}\n{readout}{}{ring}",
         mount("panoramas", &Mount::PANORAMA)
     )
 }

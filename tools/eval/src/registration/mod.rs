@@ -527,15 +527,17 @@ fn print_nuisances(variants: &[(&str, Vec<Row>)]) {
 Each nuisance switched off in turn (`--nuisances`)
 "
     );
-    println!("| switched off | profile | with markings matched | their correct share | all matched | correct share |");
-    println!("|---|---|---|---|---|---|");
+    println!(
+        "| switched off | profile | with markings matched | their correct share | all matched | correct share | median horiz. error (m) |"
+    );
+    println!("|---|---|---|---|---|---|---|");
     let share = |c: usize, n: usize| if n > 0 { format!("{:.1} %", 100.0 * c as f64 / n as f64) } else { "–".into() };
     for (name, rows) in variants {
         for r in rows {
             let (n, ok) = r.marked_correspondences;
             let w = &r.split.with;
             println!(
-                "| {name} | {} | {} of {} ({}) | {} | {} of {} | {} |",
+                "| {name} | {} | {} of {} ({}) | {} | {} of {} | {} | {:.3} |",
                 r.name,
                 w.matched,
                 w.images,
@@ -543,7 +545,8 @@ Each nuisance switched off in turn (`--nuisances`)
                 share(ok, n),
                 r.matched,
                 r.images,
-                share(r.correct, r.correspondences)
+                share(r.correct, r.correspondences),
+                r.median_error
             );
         }
     }

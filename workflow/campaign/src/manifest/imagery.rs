@@ -43,6 +43,11 @@ pub struct Panoramas {
     /// For panoramas stitched from a ring of cameras: the ring (each camera's own centre makes near ground
     /// shift between the slices; the ortho-projection undoes it).
     pub rig: Option<StitchedRig>,
+    /// A rolling shutter: seconds from the readout of a panorama's top row to its bottom row's, the
+    /// panorama's time being its middle row's (cameras whose sensor rows run along the panorama's rows).
+    /// The ortho-projection then sees each ground point from where the vehicle was when its row was read.
+    /// Absent or 0: all rows read at once.
+    pub readout_s: Option<f64>,
 }
 
 /// A panoramic rig of cameras in a ring around the horizon, stitched at infinity into the equirectangular
@@ -147,6 +152,9 @@ impl Panoramas {
         self.mount.check(&at.field("mount"), c);
         if let Some(height) = self.camera_height_m {
             c.in_range(&at.field("camera_height_m"), height, 0.5, 10.0, " m");
+        }
+        if let Some(readout) = self.readout_s {
+            c.in_range(&at.field("readout_s"), readout, 0.0, 0.5, " s");
         }
         if let Some(rig) = &self.rig {
             c.count(&at.field("rig").field("cameras"), rig.cameras, 2, 32);

@@ -1,5 +1,3 @@
-use std::time::Instant;
-
 use ::image::{ImageBuffer, Luma, Rgb};
 use plumbline_testkit::images::{png_bomb, png_claiming};
 
@@ -55,7 +53,6 @@ fn a_forged_header_over_the_budget_is_refused_before_decoding_naming_file_size_a
 /// limits stop a decoder whose output would exceed what its header was checked for.
 #[test]
 fn a_real_decompression_bomb_is_refused_and_the_limits_are_a_second_guard() {
-    let t0 = Instant::now();
     let bomb = png_bomb(12_000, 12_000);
     assert!(bomb.len() < 1 << 20, "{} bytes", bomb.len());
     let budget = Bounds::budget(64_000_000);
@@ -74,7 +71,6 @@ fn a_real_decompression_bomb_is_refused_and_the_limits_are_a_second_guard() {
     let mut reader = ImageReader::with_format(Cursor::new(&bomb[..]), ImageFormat::Png);
     reader.limits(tight);
     assert!(matches!(reader.decode(), Err(ImageError::Limits(_))));
-    assert!(t0.elapsed().as_secs_f64() < 2.0, "{:?}", t0.elapsed());
 }
 
 #[test]

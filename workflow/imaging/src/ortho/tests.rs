@@ -81,7 +81,7 @@ fn vehicle() -> (MapFromBody, CameraMount) {
 fn panorama_ortho_image_puts_the_ground_pattern_within_a_fifth_of_a_pixel_at_3_cm() {
     let (pose, mount) = vehicle();
     let cam = Equirectangular::new(2048, 1024).unwrap();
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let pano = render(&exposure);
     let centre = mount.camera_pose(&pose).translation;
     for up_heading in [0.0, 0.52, -2.0] {
@@ -101,7 +101,7 @@ fn panorama_ortho_image_puts_the_ground_pattern_within_a_fifth_of_a_pixel_at_3_c
 fn a_part_of_the_panorama_ortho_projects_like_the_whole_and_leaves_the_rest_invalid() {
     let (pose, mount) = vehicle();
     let cam = Equirectangular::new(4096, 2048).unwrap();
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let pano = render(&exposure);
     let c = mount.camera_pose(&pose).translation;
     let grid = GroundGrid::new([c.x(), c.y()], 0.03, 300, 250, 0.3).unwrap();
@@ -126,7 +126,7 @@ fn a_part_of_the_panorama_ortho_projects_like_the_whole_and_leaves_the_rest_inva
 fn the_vehicle_mask_removes_the_ground_under_the_car() {
     let (pose, mount) = vehicle();
     let cam = Equirectangular::new(1024, 512).unwrap();
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let pano = render(&exposure);
     // The car fills the panorama below −72° elevation: ground within 2.55 m · tan 18° ≈ 0.83 m of the nadir.
     let mask = Mask::from_fn(1024, 512, |_, r| r as f64 + 0.5 > 0.9 * 512.0);
@@ -161,7 +161,7 @@ fn road_setup() -> (MapFromBody, CameraMount, GroundGrid) {
 fn plane_homography_agrees_with_the_camera_model_without_distortion() {
     let (pose, mount, grid) = road_setup();
     let cam = road_camera(0.0);
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let h = plane_homography(&exposure, &grid, 0.0);
     for (u, v) in [(0.5, 0.5), (199.5, 0.5), (100.0, 150.0), (0.5, 299.5), (150.3, 220.9)] {
         let [e, n] = grid.to_map(u, v);
@@ -181,7 +181,7 @@ fn plane_homography_agrees_with_the_camera_model_without_distortion() {
 fn a_distorted_pinhole_image_rectified_to_the_road_plane_shows_the_pattern_in_place() {
     let (pose, mount, grid) = road_setup();
     let cam = road_camera(-0.12);
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let img = render(&exposure);
     let ortho = ortho_project(&img, None, &exposure, &grid, |_, _| 0.0).unwrap();
     assert!(ortho.valid.count() > 200 * 300 * 9 / 10, "the strip lies in the image");
@@ -193,7 +193,7 @@ fn a_distorted_pinhole_image_rectified_to_the_road_plane_shows_the_pattern_in_pl
 fn a_sloped_terrain_is_followed_through_the_height_function() {
     let (pose, mount) = vehicle();
     let cam = Equirectangular::new(2048, 1024).unwrap();
-    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None };
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: None };
     let c = mount.camera_pose(&pose).translation;
     // The ground rises 6 % to the east and falls 3 % to the north.
     let terrain = move |e: f64, n: f64| 0.06 * (e - c.x()) - 0.03 * (n - c.y());
@@ -259,4 +259,29 @@ fn a_ring_of_cameras_projects_each_point_from_the_centre_of_the_camera_that_sees
     let (one, ring_px) =
         (cam.project(&Vec3::<Camera>::from_vector(far)).unwrap(), ring.project(&cam, &centres, &far).unwrap());
     assert!((one.u - ring_px.u).abs() < 1e-3 && (one.v - ring_px.v).abs() < 1e-3, "{one:?} vs {ring_px:?}");
+}
+
+#[test]
+fn a_rolling_shutter_panorama_is_projected_from_the_centre_at_each_rows_time() {
+    let (pose, mount) = vehicle();
+    let cam = Equirectangular::new(2048, 1024).unwrap();
+    // 12 m/s north-east and a 33 ms readout: the ground rows are read 0–16 ms after the pose's time.
+    let shutter = RollingShutter { readout_s: 0.033, velocity: [8.5, 8.5, 0.1] };
+    let pano = GrayImage::from_fn(2048, 1024, |col, row| {
+        let px = Pixel::new(col as f64 + 0.5, row as f64 + 0.5);
+        let moved = Vector3::from(shutter.velocity) * shutter.row_time(px.v, 1024);
+        mount
+            .ray(&cam, &pose, px)
+            .and_then(|(o, d)| intersect_height(&Point3::from_vector(o.p + moved), &d, 0.0))
+            .map_or(SKY, |g| pattern(g.x(), g.y()))
+    });
+    let c = mount.camera_pose(&pose).translation;
+    let grid = GroundGrid::new([c.x(), c.y()], 0.03, 300, 300, 0.3).unwrap();
+    let exposure = Exposure { camera: &cam, mount: &mount, pose: &pose, sub_cameras: None, rolling: Some(shutter) };
+    let ortho = ortho_project(&pano, None, &exposure, &grid, |_, _| 0.0).unwrap();
+    assert!(check_dots(&ortho, &grid, 0.2) >= 50);
+    // The same image projected as if all rows were read at once puts the dots centimetres off.
+    let global = Exposure { rolling: None, ..exposure };
+    let (_, worst) = dot_errors(&ortho_project(&pano, None, &global, &grid, |_, _| 0.0).unwrap(), &grid);
+    assert!(worst > 2.0, "a global-shutter projection should misplace dots, worst {worst:.3} px");
 }

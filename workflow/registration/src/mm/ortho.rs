@@ -10,7 +10,7 @@
 use std::sync::Arc;
 
 use plumbline_geo::{Map, MapFromBody, Point3};
-use plumbline_imaging::ortho::{Exposure, GroundGrid, ortho_project_part};
+use plumbline_imaging::ortho::{Exposure, GroundGrid, RollingShutter, ortho_project_part};
 use plumbline_imaging::seams::{SeamConfig, find_seams, level_seams};
 use plumbline_imaging::{GrayImage, ImagePart, Mask};
 
@@ -64,8 +64,17 @@ pub fn ortho_patch(pano: &Panorama, rig: &PanoramaRig, gsd: f64, half_extent: f6
     let (grid, plane_height) = patch_grid(&pano.id, &pano.pose, rig, gsd, half_extent)?;
     let relief = relief_under(rig, &grid);
     let imaging = |source| MmError::Imaging { image: pano.id.clone(), step: "ortho-projection", source };
-    let exposure =
-        Exposure { camera: &rig.camera, mount: &rig.mount, pose: &pano.pose, sub_cameras: rig.sub_cameras.as_ref() };
+    let rolling = pano
+        .velocity
+        .filter(|_| rig.readout_s > 0.0)
+        .map(|velocity| RollingShutter { readout_s: rig.readout_s, velocity });
+    let exposure = Exposure {
+        camera: &rig.camera,
+        mount: &rig.mount,
+        pose: &pano.pose,
+        sub_cameras: rig.sub_cameras.as_ref(),
+        rolling,
+    };
     let mask = rig.vehicle_mask.as_ref();
     let levelled = rig.sub_cameras.is_some().then(|| levelled(pano, mask)).flatten();
     let image = levelled.as_ref().unwrap_or(&pano.image);

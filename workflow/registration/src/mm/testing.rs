@@ -95,7 +95,7 @@ pub(crate) fn rig(with_mask: bool) -> PanoramaRig {
     let camera = Equirectangular { width: 1024, height: 512 };
     let mount = CameraMount::new([0.4, 0.02, -1.85], &Boresight::from_degrees(0.12, -0.35, 0.8));
     let vehicle_mask = with_mask.then(|| vehicle_mask(&camera, &mount));
-    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85, sub_cameras: None, terrain: None }
+    PanoramaRig { camera, mount, vehicle_mask, camera_height: 2.85, sub_cameras: None, terrain: None, readout_s: 0.0 }
 }
 
 /// Pixels whose ray from the camera hits the van (body box −1.2…3.4 × −0.95…0.95 × −0.5…0.8 m).
@@ -151,5 +151,5 @@ pub(crate) fn scene_panorama(
     let pose =
         MapFromBody::new(truth.rotation, Point3::new(t.x() + dg_offset[0], t.y() + dg_offset[1], t.z() + dg_offset[2]));
     let part = ImagePart::whole(cam.width, cam.height);
-    Panorama { id: id.to_owned(), time: 0.0, image, part, pose, position_sigma: 0.1 }
+    Panorama { id: id.to_owned(), time: 0.0, image, part, pose, position_sigma: 0.1, velocity: None }
 }

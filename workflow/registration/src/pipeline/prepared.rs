@@ -26,6 +26,8 @@ pub struct PanoramaInfo {
     pub pose: MapFromBody,
     /// 1σ horizontal uncertainty of the DG position, metres.
     pub position_sigma: f64,
+    /// The vehicle's velocity at `time` from the trajectory, m/s ([`Panorama::velocity`]).
+    pub velocity: Option<[f64; 3]>,
     /// True when the tile registers this panorama; false for a context panorama, which serves only as the
     /// neighbour of an owned one (it is registered by its own tile).
     pub owned: bool,
@@ -34,7 +36,14 @@ pub struct PanoramaInfo {
 impl PanoramaInfo {
     /// The description of a decoded panorama.
     pub fn of(pano: &Panorama, owned: bool) -> Self {
-        Self { id: pano.id.clone(), time: pano.time, pose: pano.pose, position_sigma: pano.position_sigma, owned }
+        Self {
+            id: pano.id.clone(),
+            time: pano.time,
+            pose: pano.pose,
+            position_sigma: pano.position_sigma,
+            velocity: pano.velocity,
+            owned,
+        }
     }
 }
 
@@ -63,6 +72,7 @@ impl PreparedPanorama {
             part: ImagePart::whole(0, 0),
             pose: info.pose,
             position_sigma: info.position_sigma,
+            velocity: info.velocity,
         };
         Self { pano, owned: info.owned, patch: None, strokes: Vec::new(), timings: StageTimings::default() }
     }

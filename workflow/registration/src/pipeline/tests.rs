@@ -161,6 +161,7 @@ fn outcomes(street: &Street<'_>) -> (Vec<PreparedPanorama>, Vec<pair::PairOutcom
                 time: 10.0 + i as f64,
                 pose,
                 position_sigma: 0.5,
+                velocity: None,
                 owned: true,
             })
         })

@@ -37,7 +37,8 @@ fn shot(rig: &PanoramaRig, at: [f64; 2], heading: f64, err: [f64; 4], time: f64)
     let patch =
         OrthoPatch { grid, image: empty.clone(), valid, plane_height: cam.z() - rig.camera_height, relief: None };
     let part = ImagePart::whole(1, 1);
-    let pano = Panorama { id: format!("t{time}"), time, image: empty, part, pose: dg, position_sigma: 0.1 };
+    let pano =
+        Panorama { id: format!("t{time}"), time, image: empty, part, pose: dg, position_sigma: 0.1, velocity: None };
     Shot { truth, pano, patch }
 }
 
