@@ -18,7 +18,7 @@
 //! terrain model). For experiments, these override the `PipelineConfig` defaults (unset: the default):
 //! the aerial matching (§3.8) `--min-ncc`, `--template-half`, `--search-radius`, `--dg-search true|false`,
 //! `--min-roundness` (0: output edge points too); the initial transformation (§3.7) `--initial-candidates`,
-//! `--min-initial-inliers`, `--pool-windows true|false`; `--min-mm-points`; `--crosscheck false` turns the
+//! `--min-initial-inliers`, `--pool-windows true|false`; `--min-mm-points`, `--max-height-offset`; `--crosscheck false` turns the
 //! cross-panorama check off. The timing alone: `cargo bench -p plumbline-registration --bench registration`.
 //! The panoramas are rendered once per realism variant: the images depend on the true drive alone, so each
 //! further profile re-uses them with its own DG poses.
@@ -128,6 +128,9 @@ pub struct Args {
     /// Fewest triangulated MM points for an aerial registration.
     #[arg(long)]
     pub min_mm_points: Option<usize>,
+    /// Largest height of an MM point above or below the ortho-projection's ground, metres
+    #[arg(long)]
+    pub max_height_offset: Option<f64>,
 }
 
 /// The default pipeline with the experiment overrides of `args`.
@@ -144,6 +147,7 @@ fn config(args: &Args) -> PipelineConfig {
     a.pool_windows = args.pool_windows.unwrap_or(a.pool_windows);
     c.cross_check.enabled = args.crosscheck.unwrap_or(c.cross_check.enabled);
     c.min_mm_points = args.min_mm_points.unwrap_or(c.min_mm_points);
+    c.mm.max_height_offset = args.max_height_offset.unwrap_or(c.mm.max_height_offset);
     c
 }
 
