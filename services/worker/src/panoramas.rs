@@ -62,14 +62,10 @@ pub(crate) fn dg_at(campaign: &Campaign, time: f64) -> Result<TrajectoryRecord, 
 /// Half the span the DG velocity at an image's time is differenced over, seconds.
 const VELOCITY_HALF_SPAN_S: f64 = 0.05;
 
-/// The vehicle's velocity at `time` from the DG trajectory (central difference over ±50 ms, one-sided at
-/// the trajectory's ends), m/s; `None` where the trajectory does not cover it.
+/// The vehicle's velocity at `time` from the DG trajectory ([`plumbline_geo::Trajectory::velocity`] over
+/// ±50 ms), m/s; `None` where the trajectory does not give one.
 pub(crate) fn velocity(campaign: &Campaign, time: f64) -> Option<[f64; 3]> {
-    let at = |t: f64| dg_at(campaign, t).ok().map(|r| (t, r.position));
-    let h = VELOCITY_HALF_SPAN_S;
-    let ((t0, a), (t1, b)) = (at(time - h).or_else(|| at(time))?, at(time + h).or_else(|| at(time))?);
-    let dt = t1 - t0;
-    (dt > 0.0).then(|| [(b.x() - a.x()) / dt, (b.y() - a.y()) / dt, (b.z() - a.z()) / dt])
+    campaign.trajectory.trajectory.velocity(time, VELOCITY_HALF_SPAN_S).map(|v| [v.x(), v.y(), v.z()])
 }
 
 /// 1σ horizontal DG position error of a record, metres.
@@ -93,6 +89,7 @@ pub(crate) fn place(
     skipped_items: &mut Vec<SkippedInput>,
 ) -> Vec<Placed> {
     let mut placed = Vec::with_capacity(images.len());
+    let rolling = spec.readout_s.is_some_and(|r| r > 0.0);
     for (k, image) in images.iter().enumerate() {
         let url = match campaign.file_url(&spec.images, &image.file) {
             Ok(url) => url,
@@ -103,17 +100,27 @@ pub(crate) fn place(
             }
         };
         match dg_at(campaign, image.time) {
-            Ok(record) => placed.push(Placed {
-                info: PanoramaInfo {
-                    id: image.image_id.clone(),
-                    time: image.time,
-                    pose: record.pose(),
-                    position_sigma: position_sigma(&record),
-                    velocity: velocity(campaign, image.time),
-                    owned: k < owned,
-                },
-                url,
-            }),
+            Ok(record) => {
+                // Only a rolling shutter needs the velocity (the rows' times); without one it is not taken.
+                let velocity = rolling.then(|| velocity(campaign, image.time)).flatten();
+                if rolling && velocity.is_none() {
+                    tracing::warn!(
+                        panorama = %image.image_id,
+                        "no DG velocity at the panorama's time: its rolling shutter is not corrected"
+                    );
+                }
+                placed.push(Placed {
+                    info: PanoramaInfo {
+                        id: image.image_id.clone(),
+                        time: image.time,
+                        pose: record.pose(),
+                        position_sigma: position_sigma(&record),
+                        velocity,
+                        owned: k < owned,
+                    },
+                    url,
+                })
+            }
             Err(e) => skipped_items.push(skipped(STAGE, &url, SkipReason::Time, format!("{url}: {e}"))),
         }
     }

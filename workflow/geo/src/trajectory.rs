@@ -215,6 +215,22 @@ impl Trajectory {
         (b.position - a.position) * (1.0 / (b.time - a.time))
     }
 
+    /// Velocity (m/s, mapping frame) at time `t`: the linearly interpolated positions `half_span` seconds
+    /// either side differenced, one-sided where that passes an end of the trajectory. `None` when `t` lies
+    /// outside the trajectory, `half_span` is not positive, or no time separates the two positions (a
+    /// trajectory of one record).
+    pub fn velocity(&self, t: f64, half_span: f64) -> Option<Vec3<Map>> {
+        if half_span.is_nan() || half_span <= 0.0 {
+            return None;
+        }
+        self.segment(t).ok()?;
+        let (start, end) = self.span();
+        let (t0, t1) = ((t - half_span).max(start), (t + half_span).min(end));
+        let at = |time: f64| self.interpolate(time, PositionInterpolation::Linear).ok().map(|r| r.position);
+        let (a, b) = (at(t0)?, at(t1)?);
+        (t1 > t0).then(|| (b - a) * (1.0 / (t1 - t0)))
+    }
+
     /// Index `i` with `records[i].time <= t < records[i+1].time` (or the last index when `t` is the end).
     fn segment(&self, t: f64) -> Result<usize, QueryError> {
         if !t.is_finite() {
@@ -362,6 +378,24 @@ mod tests {
         let linear = t.interpolate(2.5, PositionInterpolation::Linear).unwrap().position;
         assert!((cubic.x() - 6.25).abs() < 1e-12, "{cubic:?}");
         assert!((linear.x() - 6.5).abs() < 1e-12);
+    }
+
+    #[test]
+    fn velocity_is_the_central_difference_and_one_sided_at_the_ends() {
+        // 10 Hz records of x = t² (m): velocity 2t inside, the one-sided slope within 50 ms of an end.
+        let recs: Vec<_> = (0..=20).map(|i| f64::from(i) * 0.1).map(|t| rec(t, t * t, 0.5 * t, 0.0, 0.0)).collect();
+        let t = Trajectory::new(recs, &limits()).unwrap();
+        let v = t.velocity(1.0, 0.05).unwrap();
+        assert!((v.x() - 2.0).abs() < 1e-9 && (v.y() - 0.5).abs() < 1e-9, "{v:?}");
+        // At the start: (x(0.05) − x(0)) / 0.05 on the first segment's chord, slope 0.1.
+        let v0 = t.velocity(0.0, 0.05).unwrap();
+        assert!((v0.x() - 0.1).abs() < 1e-9, "{v0:?}");
+        let v_end = t.velocity(2.0, 0.05).unwrap();
+        assert!((v_end.x() - 3.9).abs() < 1e-9, "{v_end:?}");
+        assert_eq!(t.velocity(2.5, 0.05), None);
+        assert_eq!(t.velocity(1.0, 0.0), None);
+        let one = Trajectory::new(vec![rec(0.0, 0.0, 0.0, 0.0, 0.0)], &limits()).unwrap();
+        assert_eq!(one.velocity(0.0, 0.05), None);
     }
 
     #[test]

@@ -58,14 +58,10 @@ pub enum SensorError {
     },
 }
 
-/// The vehicle's velocity (map frame, m/s) at `time` on `truth`, from the positions 50 ms either side; zero
-/// where the trajectory does not reach that far.
+/// The vehicle's velocity (map frame, m/s) at `time` on `truth`: [`Trajectory::velocity`] over ±50 ms, the
+/// difference the worker takes of the DG trajectory; zero where the trajectory does not cover `time`.
 pub fn velocity(truth: &Trajectory, time: f64) -> nalgebra::Vector3<f64> {
-    let at = |t: f64| truth.interpolate(t, PositionInterpolation::Linear).ok().map(|r| r.position.p);
-    match (at(time - 0.05), at(time + 0.05)) {
-        (Some(a), Some(b)) => (b - a) / 0.1,
-        _ => nalgebra::Vector3::zeros(),
-    }
+    truth.velocity(time, 0.05).map_or_else(nalgebra::Vector3::zeros, |v| v.v)
 }
 
 /// Times at which the vehicle has driven another `spacing` metres (the first one at the start).
