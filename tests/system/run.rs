@@ -196,6 +196,15 @@ fn check_road_lines(campaign: &Path, results: &Path, gpkg: &Dataset) {
         kinds.iter().any(|k| k["kind"] == "solid") && kinds.iter().all(|k| k["truth_length_m"].as_f64() > Some(0.0))
     );
 
+    // Every registered panorama is counted: with strokes, or skipped without (no paint kept in its patch).
+    let report: Value = serde_json::from_slice(&std::fs::read(results.join("report.json")).unwrap()).unwrap();
+    let (panoramas, summary) = (&report["road_line_panoramas"], &report["summary"]);
+    let count = |key: &str| panoramas[key].as_u64().unwrap_or_else(|| panic!("{key} in {panoramas}"));
+    let registered = count("with_strokes") + count("without_strokes") + count("unplaced");
+    let planned = |key: &str| summary[key].as_u64().unwrap();
+    assert!(count("with_strokes") > 5 && count("without_strokes") > 0, "{panoramas}");
+    assert!((planned("images_matched")..=planned("images")).contains(&registered), "{panoramas} of {summary}");
+
     let geojson = results.join("road_lines.geojson");
     let export = ["lines", "export", "--format", "geojson", observations.to_str().unwrap(), "--out"];
     plumbline(&[&export[..], &[geojson.to_str().unwrap()]].concat()).run().success();

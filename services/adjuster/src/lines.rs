@@ -4,10 +4,12 @@
 //! ([`plumbline_lines::assemble`]). The same strokes placed with the DG trajectory alone give the lines a
 //! mapping without the correction would have produced, for comparison.
 
+use std::collections::HashSet;
+
 use nalgebra::{Matrix6, Vector3, Vector6};
 use plumbline_geo::{PositionInterpolation, Trajectory, TrajectoryRecord};
 use plumbline_lines::{AssembleConfig, Assembly, Observed, RoadLine};
-use plumbline_report::{MapLine, Report, RoadLineKind};
+use plumbline_report::{MapLine, Report, RoadLineKind, RoadLinePanoramas};
 use plumbline_runtime::gdal_write::{FieldType, FieldValue, LineFeature, LineLayer};
 
 use crate::merge::Merged;
@@ -29,6 +31,8 @@ pub struct RoadLines {
     pub strokes: usize,
     /// Panoramas with strokes that could not be placed (their time outside the trajectory).
     pub unplaced: usize,
+    /// Registered panoramas whose ortho patch gave no stroke (skipped: no paint in view or kept).
+    pub without_strokes: usize,
 }
 
 /// Place every panorama's strokes with the corrected and with the DG trajectory and assemble both.
@@ -62,7 +66,15 @@ pub fn road_lines(dg: &Trajectory, merged: &Merged, solved: &Solved, ground_belo
         panoramas,
         strokes,
         unplaced,
+        without_strokes: without_strokes(merged),
     }
+}
+
+/// How many registered panoramas (each once, whichever tiles registered it) gave no stroke.
+fn without_strokes(merged: &Merged) -> usize {
+    let stroked: HashSet<&str> = merged.strokes.iter().map(|p| p.image.as_str()).collect();
+    let registered: HashSet<&str> = merged.images.iter().map(|o| o.image.as_str()).collect();
+    registered.difference(&stroked).count()
 }
 
 /// A stroke moved by the correction `delta` = [δp; δθ] (map frame) about the body origin of `record`: a
@@ -198,6 +210,11 @@ pub fn fill_report(report: &mut Report, lines: &RoadLines) {
         kind.median_sigma_m = plumbline_geo::metrics::quantile_sorted(&s, 0.5).unwrap_or(f64::NAN);
     }
     report.road_lines = kinds;
+    report.road_line_panoramas = (lines.panoramas + lines.unplaced > 0).then_some(RoadLinePanoramas {
+        with_strokes: lines.panoramas,
+        without_strokes: lines.without_strokes,
+        unplaced: lines.unplaced,
+    });
 }
 
 /// How far the ground lies below the body origin: the panorama camera's height above the road minus its
@@ -248,6 +265,26 @@ mod tests {
         // σ² = extraction 1e-4 + position 1e-6 + heading 1e-6 × 25 m² at the far vertex.
         assert!((o.sigma_m - (1e-4 + 1e-6 + 25e-6_f64).sqrt()).abs() < 1e-12, "{}", o.sigma_m);
         assert_eq!((o.panorama, o.open, o.heading), (3, [false, true], 0.5));
+    }
+
+    #[test]
+    fn panoramas_without_strokes_are_counted_once() {
+        use crate::merge::{ImageOutcome, PanoramaStrokes};
+        let outcome = |image: &str, col| ImageOutcome {
+            image: image.to_owned(),
+            time: 0.0,
+            tile: plumbline_geo::tiling::TileId { col, row: 0 },
+            discarded: None,
+        };
+        // p1 registered by two tiles, p2 with strokes, p3 without.
+        let mut merged = Merged {
+            images: vec![outcome("p1", 0), outcome("p1", 1), outcome("p2", 0), outcome("p3", 1)],
+            strokes: vec![PanoramaStrokes { image: "p2".into(), time: 0.0, strokes: vec![stroke()] }],
+            ..Merged::default()
+        };
+        assert_eq!(without_strokes(&merged), 2);
+        merged.strokes.push(PanoramaStrokes { image: "p1".into(), time: 0.0, strokes: vec![stroke()] });
+        assert_eq!(without_strokes(&merged), 1);
     }
 
     #[test]

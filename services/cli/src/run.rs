@@ -244,6 +244,12 @@ pub fn print_summary(outcome: &Outcome) {
         let kinds: Vec<String> =
             report.road_lines.iter().map(|k| format!("{} {} ({:.0} m)", k.lines, k.kind, k.length_m)).collect();
         println!("road lines: {} (layer road_lines of observations.gpkg)", kinds.join(", "));
+        if let Some(p) = &report.road_line_panoramas {
+            println!(
+                "  from {} panorama(s); skipped: {} without strokes (no paint in view or kept), {} unplaced",
+                p.with_strokes, p.without_strokes, p.unplaced
+            );
+        }
     }
     match &report.accuracy {
         Some(acc) => print!("\n{}", acc.table()),

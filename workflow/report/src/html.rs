@@ -244,9 +244,17 @@ fn road_lines(s: &mut String, r: &Report) {
     s.push_str(
         "<h2>Road lines</h2><p class=\"muted\">Road markings extracted from the panoramas' ortho-images and placed \
          with the corrected trajectory (layer <code>road_lines</code> of observations.gpkg; the DG placement is \
-         <code>road_lines_dg</code>), drawn in grey on the map.</p><table><tr><th>kind</th><th>lines</th>\
-         <th>length [m]</th><th>median vertex σ [m]</th></tr>",
+         <code>road_lines_dg</code>), drawn in grey on the map.</p>",
     );
+    if let Some(p) = &r.road_line_panoramas {
+        let _ = write!(
+            s,
+            "<p>Strokes from {} panorama(s); skipped: {} registered panorama(s) whose ortho patch showed no paint \
+             the extraction kept (none in view, hidden, or no patch), {} whose strokes could not be placed.</p>",
+            p.with_strokes, p.without_strokes, p.unplaced
+        );
+    }
+    s.push_str("<table><tr><th>kind</th><th>lines</th><th>length [m]</th><th>median vertex σ [m]</th></tr>");
     for k in &r.road_lines {
         let _ = write!(
             s,

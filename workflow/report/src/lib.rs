@@ -15,8 +15,8 @@ pub mod svg;
 
 pub use model::{
     Accuracy, CampaignInfo, CorrectionSeries, CrossTrackSeries, Figures, FlaggedEpoch, HeightBiasLine, InputWarning,
-    MapData, MapLine, MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, StageLine,
-    Summary, TileLine, TrackPoint,
+    MapData, MapLine, MapMark, MarkState, RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind,
+    RoadLinePanoramas, StageLine, Summary, TileLine, TrackPoint,
 };
 
 /// File name of the report schema under `schemas/`.

@@ -50,6 +50,10 @@ pub struct Report {
     /// The road lines extracted from the panoramas' ortho-images, by kind (absent when none was found).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub road_lines: Vec<RoadLineKind>,
+    /// How many registered panoramas gave the road lines strokes, and how many were skipped (absent when
+    /// no panorama gave any).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub road_line_panoramas: Option<RoadLinePanoramas>,
     /// Inputs the manifest names that gave the adjustment no control at all (absent when every named input
     /// contributed).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
@@ -283,6 +287,19 @@ pub struct RoadLineKind {
     pub length_m: f64,
     /// The median over their vertices of the vertex σ, metres.
     pub median_sigma_m: f64,
+}
+
+/// Which panoramas the road lines came from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct RoadLinePanoramas {
+    /// Panoramas whose strokes were placed.
+    pub with_strokes: usize,
+    /// Registered panoramas whose ortho patch gave no stroke (no paint in view, paint hidden by traffic,
+    /// shadows or the vehicle, or no ortho patch): skipped.
+    pub without_strokes: usize,
+    /// Panoramas with strokes that could not be placed (their time outside the trajectory): skipped.
+    pub unplaced: usize,
 }
 
 /// Normalised residuals of one observation kind.

@@ -4,7 +4,7 @@ use plumbline_campaign::{SkipReason, SkippedInput, Stage};
 use plumbline_geo::metrics::Stats;
 use plumbline_report::{
     Accuracy, CampaignInfo, CorrectionSeries, Figures, HeightBiasLine, MapData, MapLine, MapMark, MarkState,
-    RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, Summary, TrackPoint, html,
+    RejectedObservation, Report, ReportDoc, Residuals, RoadLineKind, RoadLinePanoramas, Summary, TrackPoint, html,
 };
 
 fn stats(median: f64) -> Stats {
@@ -119,6 +119,7 @@ fn road_lines_are_drawn_on_the_map_and_tabled_by_kind() {
             ..sample().map
         },
         road_lines: vec![RoadLineKind { kind: "dashed".into(), lines: 1, length_m: 7.02, median_sigma_m: 0.0123 }],
+        road_line_panoramas: Some(RoadLinePanoramas { with_strokes: 40, without_strokes: 12, unplaced: 1 }),
         ..sample()
     };
     let ReportDoc::V1(back) = serde_json::from_slice::<ReportDoc>(&report.to_json()).unwrap();
@@ -129,6 +130,8 @@ fn road_lines_are_drawn_on_the_map_and_tabled_by_kind() {
     assert_eq!(page.matches("stroke-dasharray").count(), 1, "the dashed line is drawn dashed");
     assert!(page.contains("&lt;solid&gt;"), "kinds are escaped");
     assert!(page.contains("<tr><td>dashed</td><td>1</td><td>7.0</td><td>0.012</td></tr>"), "{page}");
+    assert!(page.contains("Strokes from 40 panorama(s); skipped: 12 registered panorama(s)"), "{page}");
+    assert!(page.contains(", 1 whose strokes could not be placed"), "{page}");
     let plain = html::render(&sample());
     assert!(!plain.contains(drawn) && !plain.contains("Road lines"), "nothing without lines");
 }

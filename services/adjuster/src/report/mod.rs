@@ -61,6 +61,7 @@ pub fn build_report(
         flags: flags(solved),
         height_biases: height_biases(result),
         road_lines: Vec::new(),
+        road_line_panoramas: None,
         warnings: input_warnings(&campaign.manifest, merged),
     }
 }
