@@ -3,7 +3,7 @@
 //! (per-pixel truth, true pose), projected into the aerial frames that see it with the written orientations,
 //! lands on the same texture — the zero-mean NCC peaks at no shift, for panoramas of every leg; and the VRT
 //! mosaics read back through GDAL with each tile's pixels at each tile's georeference, across the borders
-//! between tiles made for different legs.
+//! between tiles made for different legs; the road-marking truth written leg by leg is the city's own.
 
 #![allow(clippy::unwrap_used)] // test helpers outside #[test] functions
 
@@ -337,4 +337,33 @@ fn city_aerial_block_and_mosaics_agree_with_the_panoramas_and_their_tiles() {
     };
     assert!(blue("map.png") > 1000, "{} footprint pixels on map.png", blue("map.png"));
     assert_eq!(blue("overview.png"), 0);
+    road_markings_truth_matches_the_city(&out);
+}
+
+/// `truth/road_markings.csv`, written leg by leg: every row once and as the city's own markings give it,
+/// and every marking within 10 m of a panorama (what `lines compare` scores) present.
+fn road_markings_truth_matches_the_city(out: &str) {
+    let text = std::fs::read_to_string(format!("{out}/truth/road_markings.csv")).unwrap();
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    let unique: std::collections::HashSet<&str> = rows.iter().copied().collect();
+    assert!(rows.len() > 20 && unique.len() == rows.len(), "{} rows, {} distinct", rows.len(), unique.len());
+    assert!(text.starts_with("id,kind,width_m,wkt\n") && text.matches("id,kind").count() == 1);
+    let images = csv_rows(&format!("{out}/truth/images.csv"));
+    let expected = plumbline_synth::texture::road_markings(&city_around(&images));
+    let expected_csv = String::from_utf8(plumbline_synth::texture::markings_csv(&expected)).unwrap();
+    let expected_rows: std::collections::HashSet<&str> = expected_csv.lines().skip(1).collect();
+    let strange: Vec<&&str> = rows.iter().filter(|r| !expected_rows.contains(**r)).take(3).collect();
+    assert!(strange.is_empty(), "rows the city does not have: {strange:?}");
+    let panoramas: Vec<[f64; 2]> = images.iter().map(|r| [f(r, "easting"), f(r, "northing")]).collect();
+    let near = |m: &plumbline_synth::texture::MarkingTruth| {
+        m.points.iter().any(|p| panoramas.iter().any(|c| (p[0] - c[0]).hypot(p[1] - c[1]) <= 10.0))
+    };
+    let within_reach: Vec<_> = expected.iter().filter(|m| near(m)).collect();
+    let missing: Vec<_> =
+        within_reach.iter().filter(|m| !rows.iter().any(|r| r.starts_with(&format!("{},", m.id)))).take(3).collect();
+    assert!(
+        within_reach.len() > 10 && missing.is_empty(),
+        "{} near panoramas; missing {missing:?}",
+        within_reach.len()
+    );
 }

@@ -24,8 +24,10 @@ use plumbline_synth::motion::{Drive, DriveConfig, files};
 use plumbline_synth::render::{DepthNoise, Scene, VehicleBody, encode_jpeg, encode_png_gray16, render_depth};
 use plumbline_synth::route::Route;
 use plumbline_synth::sensors::{self, Mount, Shot};
+use plumbline_synth::texture;
 use plumbline_synth::world::city::{City, PoleOwner};
 use plumbline_synth::world::city_route::{self, CityWalk, Leg};
+use plumbline_synth::world::polyline;
 use plumbline_synth::world::{Epoch, Preset, WorldConfig};
 
 use super::city_aerial::CityAerial;
@@ -52,6 +54,8 @@ struct Progress {
     panoramas: usize,
     written_poles: HashSet<PoleOwner>,
     poles: Vec<cadastre::CadastreObject>,
+    /// Keys of the streets whose painted markings are written.
+    written_streets: HashSet<u32>,
 }
 
 /// Simulate a city campaign of `length` metres and hand its files to `sink`; returns a summary.
@@ -94,6 +98,7 @@ pub(crate) fn generate(args: &Args, length: f64, sink: &Sink) -> anyhow::Result<
         maps.leg(&leg, &drive, &solution);
         if !args.navigation_only {
             progress.panoramas += write_imagery(&leg, &drive, &solution, &sizes, seed, sink)?;
+            write_markings(&leg, &drive, &mut progress, sink)?;
             list_poles(&leg, &mut progress, seed);
             if let Some(aerial) = aerial.as_mut() {
                 maps.footprints(&aerial.leg(&drive, sink)?);
@@ -268,6 +273,50 @@ fn write_imagery(
     sink.append("depth/right/index.csv", csv(sensors::index_csv(&shots, "png")))?;
     sink.append("truth/depth_images.csv", csv(sensors::truth_csv(&shots)))?;
     Ok(panoramas)
+}
+
+/// How near the leg's drive a street must come for its markings to be written with the leg, metres: the
+/// panoramas' reach (`lines compare` counts paint within 10 m of them) plus the widest street's half
+/// corridor, with room to spare. Such a street lies well inside the leg's window, whole.
+const MARKINGS_NEAR_M: f64 = 40.0;
+
+/// Append to `truth/road_markings.csv` the painted markings of the streets the leg's drive comes within
+/// [`MARKINGS_NEAR_M`] of and no earlier leg wrote (a street is the same lattice edge in every window).
+fn write_markings(leg: &Leg, drive: &Drive, progress: &mut Progress, sink: &Sink) -> anyhow::Result<()> {
+    let first = leg.index == 0;
+    let track: Vec<[f64; 2]> = drive
+        .trajectory
+        .records()
+        .iter()
+        .map(|r| [r.position.x(), r.position.y()])
+        .scan(None::<[f64; 2]>, |last, p| {
+            // One position every 2 m of the drive is enough against a 40 m radius.
+            let keep = last.is_none_or(|l| (p[0] - l[0]).hypot(p[1] - l[1]) >= 2.0);
+            if keep {
+                *last = Some(p);
+            }
+            Some(keep.then_some(p))
+        })
+        .flatten()
+        .collect();
+    let world = &leg.window.world;
+    let near: HashSet<u32> = world
+        .streets
+        .iter()
+        .filter(|st| !progress.written_streets.contains(&st.key))
+        .filter(|st| {
+            track.iter().any(|&p| {
+                (0..st.points.len().saturating_sub(1)).any(|i| {
+                    polyline::station_on_segment(&st.points, &st.cum, i, p).1 <= MARKINGS_NEAR_M * MARKINGS_NEAR_M
+                })
+            })
+        })
+        .map(|st| st.key)
+        .collect();
+    let markings = texture::road_markings_where(world, |st| near.contains(&st.key));
+    progress.written_streets.extend(near);
+    let bytes = texture::markings_csv(&markings);
+    sink.append("truth/road_markings.csv", if first { bytes } else { without_header(bytes) })
 }
 
 /// The cadastre entries of the poles of the leg's window not listed yet (errors and defects drawn per leg).

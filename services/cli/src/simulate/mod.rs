@@ -9,7 +9,8 @@
 //! - `truth/dg_errors.csv`: DG − truth per epoch with the environment and fault;
 //! - `truth/road_markings.csv`: the road paint the panoramas see, one row per dash, solid line, stop line, zebra
 //!   stripe and arrow shaft: `id,kind,width_m,wkt`, the centre line as a quoted WKT `LINESTRING` in the campaign
-//!   CRS (`plumbline_synth::texture::road_markings`; not written for `--preset city`);
+//!   CRS (`plumbline_synth::texture::road_markings`; for `--preset city` leg by leg, each street once, the
+//!   streets the drive comes within 40 m of);
 //! - `overview.png`: a map of the drive coloured by the horizontal DG error, standstills in black;
 //! - `panoramas/`: equirectangular JPEGs every `--panorama-spacing` metres rendered with the TRUE pose,
 //!   `index.csv` and `vehicle_mask.png` (non-zero = vehicle); `truth/images.csv`: true and DG poses then;

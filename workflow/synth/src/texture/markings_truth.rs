@@ -82,8 +82,13 @@ impl MarkingTruth {
 /// Every painted element of the world's streets at the mobile epoch, street by street (none on streets
 /// without markings).
 pub fn road_markings(world: &World) -> Vec<MarkingTruth> {
+    road_markings_where(world, |_| true)
+}
+
+/// [`road_markings`] of the streets `keep` accepts.
+pub fn road_markings_where(world: &World, keep: impl Fn(&Street) -> bool) -> Vec<MarkingTruth> {
     let mut out = Vec::new();
-    for st in world.streets.iter().filter(|s| s.markings) {
+    for st in world.streets.iter().filter(|s| s.markings && keep(s)) {
         let own = |p: P2| world.place(p).is_some_and(|pl| pl.street.id == st.id && !pl.in_junction);
         for e in street_elements(world, st) {
             let pieces = clip(&e.points, own);

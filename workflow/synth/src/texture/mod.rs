@@ -9,7 +9,7 @@ pub mod markings_truth;
 mod materials;
 
 pub use filter::{fbm, hash, pulses, stripe, unit};
-pub use markings_truth::{MarkingKind, MarkingTruth, markings_csv, road_markings};
+pub use markings_truth::{MarkingKind, MarkingTruth, markings_csv, road_markings, road_markings_where};
 
 use crate::world::{Epoch, Place, World};
 use filter::mix;
