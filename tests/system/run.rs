@@ -196,6 +196,20 @@ fn check_road_lines(campaign: &Path, results: &Path, gpkg: &Dataset) {
         kinds.iter().any(|k| k["kind"] == "solid") && kinds.iter().all(|k| k["truth_length_m"].as_f64() > Some(0.0))
     );
 
+    // Per marking: each once, their lengths adding up to the whole, most of the found ones within 5 cm.
+    let markings = scores["road_lines"]["markings"].as_array().unwrap();
+    let ids: std::collections::HashSet<&str> = markings.iter().map(|m| m["id"].as_str().unwrap()).collect();
+    assert!(markings.len() > 10 && ids.len() == markings.len(), "{} markings, {} ids", markings.len(), ids.len());
+    let length: f64 = markings.iter().map(|m| m["length_m"].as_f64().unwrap()).sum();
+    assert!((length - whole).abs() < 1e-6 * whole, "{length} m of markings against {whole} m");
+    let found: Vec<f64> = markings
+        .iter()
+        .filter(|m| m["recovered_length_m"].as_f64().unwrap() >= 0.5 * m["length_m"].as_f64().unwrap())
+        .map(|m| m["deviation_median_m"].as_f64().unwrap())
+        .collect();
+    let close = found.iter().filter(|&&d| d <= 0.05).count();
+    assert!(found.len() > 5 && 2 * close > found.len(), "{close} of {} found markings within 5 cm", found.len());
+
     // Every registered panorama is counted: with strokes, or skipped without (no paint kept in its patch).
     let report: Value = serde_json::from_slice(&std::fs::read(results.join("report.json")).unwrap()).unwrap();
     let (panoramas, summary) = (&report["road_line_panoramas"], &report["summary"]);

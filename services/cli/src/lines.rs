@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand, ValueEnum};
-use plumbline_lines::{EvaluateConfig, LineKind, LineScore, Piece, TruthElement, within_reach};
+use plumbline_lines::{ElementScore, EvaluateConfig, LineKind, LineScore, Piece, TruthElement, within_reach};
 use plumbline_runtime::gdal_write::{FieldValue, LineLayer, geopackage_with_lines};
 use plumbline_runtime::line_io::{LineReadError, geojson_lines, read_line_layer, read_points};
 
@@ -141,19 +141,23 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
     }
     let mut scores = Vec::new();
     let mut kinds = Vec::new();
+    let mut elements = Vec::new();
     for name in plumbline_adjuster::LINE_LAYERS {
         let read = read_layer(ctx, &args.observations, name).await?;
         let pieces = pieces_of(&read.layer);
         scores.push((name, plumbline_lines::evaluate(&pieces, &truth, &config)));
         kinds.push(by_kind(&pieces, &truth, &config));
+        elements.push(plumbline_lines::per_element(&pieces, &truth, &config));
     }
     if args.json {
         let json: serde_json::Map<String, serde_json::Value> = scores
             .iter()
             .zip(&kinds)
-            .map(|((n, s), k)| {
+            .zip(&elements)
+            .map(|(((n, s), k), e)| {
                 let mut v = serde_json::to_value(s).unwrap_or_default();
                 v["by_kind"] = serde_json::to_value(k).unwrap_or_default();
+                v["markings"] = serde_json::to_value(e).unwrap_or_default();
                 ((*n).to_owned(), v)
             })
             .collect();
@@ -161,8 +165,49 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
     } else {
         print!("{}", table(&args.reference, &scores[1].1, &scores[0].1, &config));
         print!("{}", kind_table(&kinds[1], &kinds[0]));
+        print!("{}", markings_table(&elements[1], &elements[0], true));
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// A marking counts as found when this share of its length within reach is recovered.
+const FOUND_SHARE: f64 = 0.5;
+/// Markings not found listed by name on the terminal (`--json` lists every marking).
+const LISTED: usize = 12;
+
+/// Per marking of the reference: how many were found, the deviation of the found ones from their lines
+/// (each marking's median; DG beside corrected), and (`list_missed`) the markings the corrected lines missed.
+fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: bool) -> String {
+    let found = |e: &[ElementScore]| e.iter().filter(|m| m.recovered_share() >= FOUND_SHARE).count();
+    let deviation = |e: &[ElementScore], q: f64| {
+        let mut medians: Vec<f64> =
+            e.iter().filter(|m| m.recovered_share() >= FOUND_SHARE).filter_map(|m| m.deviation_median_m).collect();
+        plumbline_geo::metrics::quantile(&mut medians, q).map_or_else(|| "–".to_owned(), |d| format!("{d:.3} m"))
+    };
+    let mut s = format!(
+        "{:<34} {:>10} {:>10}
+",
+        format!("  markings found (of {})", corrected.len()),
+        found(dg),
+        found(corrected)
+    );
+    for (label, q) in [("  deviation of found, median", 0.5), ("  deviation of found, 95 %", 0.95)] {
+        s += &format!(
+            "{label:<34} {:>10} {:>10}
+",
+            deviation(dg, q),
+            deviation(corrected, q)
+        );
+    }
+    let missed: Vec<&ElementScore> = corrected.iter().filter(|m| m.recovered_share() < FOUND_SHARE).collect();
+    if list_missed && !missed.is_empty() {
+        let names: Vec<String> =
+            missed.iter().take(LISTED).map(|m| format!("{} ({}, {:.1} m)", m.id, m.kind, m.length_m)).collect();
+        let more = missed.len().saturating_sub(LISTED);
+        let tail = if more > 0 { format!(" and {more} more (--json lists every marking)") } else { String::new() };
+        s += &format!("not found by the corrected lines: {}{tail}\n", names.join(", "));
+    }
+    s
 }
 
 /// Per kind of the reference's markings: their length and the share of it recovered.
@@ -284,5 +329,10 @@ pub fn demo_table(reference: &str, text: &str, lines: &plumbline_adjuster::RoadL
     let dg = plumbline_lines::evaluate(&lines.dg.pieces, &truth, &config);
     let kinds =
         kind_table(&by_kind(&lines.dg.pieces, &truth, &config), &by_kind(&lines.corrected.pieces, &truth, &config));
-    Ok(table(reference, &dg, &corrected, &config) + &kinds)
+    let markings = markings_table(
+        &plumbline_lines::per_element(&lines.dg.pieces, &truth, &config),
+        &plumbline_lines::per_element(&lines.corrected.pieces, &truth, &config),
+        false,
+    );
+    Ok(table(reference, &dg, &corrected, &config) + &kinds + &markings)
 }

@@ -19,6 +19,8 @@ const ANGLE_DEG: f64 = 10.0;
 /// A true painted element (from a simulator's geometry or an agency's marking layer).
 #[derive(Clone, Debug, PartialEq)]
 pub struct TruthElement {
+    /// The marking's identity in its layer (its parts within reach of the drive share it).
+    pub id: String,
     /// What it is; `Other` (arrows, symbols) makes extracted paint correct but is not expected to be found.
     pub kind: LineKind,
     /// Centre-line vertices, easting/northing, metres.
@@ -150,6 +152,70 @@ pub fn evaluate(pieces: &[Piece], truth: &[TruthElement], config: &EvaluateConfi
     score
 }
 
+/// How one marking of the reference fared against the pieces.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct ElementScore {
+    /// The marking's id.
+    pub id: String,
+    /// Its kind.
+    pub kind: &'static str,
+    /// Its centre-line length within reach, metres.
+    pub length_m: f64,
+    /// The part of it some piece matches, metres.
+    pub recovered_length_m: f64,
+    /// Median over its matched samples (every 0.1 m) of the distance to the piece that matches them, metres;
+    /// `None` when nothing matched.
+    pub deviation_median_m: Option<f64>,
+    /// The largest of those distances, metres.
+    pub deviation_max_m: Option<f64>,
+}
+
+impl ElementScore {
+    /// recovered / length (0 for a marking of no length).
+    pub fn recovered_share(&self) -> f64 {
+        share(self.recovered_length_m, self.length_m)
+    }
+}
+
+/// Score every marking of `truth` that is not `Other` (parts with one id taken together, in order of first
+/// appearance): how much of it the pieces recovered and how far the matching pieces lie from it.
+pub fn per_element(pieces: &[Piece], truth: &[TruthElement], config: &EvaluateConfig) -> Vec<ElementScore> {
+    let reach = config.match_m.max(0.0);
+    let piece_index = SegmentIndex::new(pieces.iter().map(|p| p.vertices.as_slice()), reach);
+    let mut order: Vec<String> = Vec::new();
+    let mut by_id: HashMap<String, (ElementScore, Vec<f64>)> = HashMap::new();
+    for t in truth.iter().filter(|t| t.kind != LineKind::Other) {
+        let (score, deviations) = by_id.entry(t.id.clone()).or_insert_with(|| {
+            order.push(t.id.clone());
+            let score = ElementScore {
+                id: t.id.clone(),
+                kind: t.kind.as_str(),
+                length_m: 0.0,
+                recovered_length_m: 0.0,
+                deviation_median_m: None,
+                deviation_max_m: None,
+            };
+            (score, Vec::new())
+        });
+        for s in midpoints(&t.points, SAMPLE_M) {
+            score.length_m += s.weight;
+            if let Some(d) = piece_index.nearest_matching(s.p, s.t, reach) {
+                score.recovered_length_m += s.weight;
+                deviations.push(d);
+            }
+        }
+    }
+    order
+        .into_iter()
+        .filter_map(|id| by_id.remove(&id))
+        .map(|(mut score, mut deviations)| {
+            score.deviation_median_m = plumbline_geo::metrics::quantile(&mut deviations, 0.5);
+            score.deviation_max_m = deviations.iter().copied().max_by(f64::total_cmp);
+            score
+        })
+        .collect()
+}
+
 /// Polyline segments (cut to at most 1 m) in a grid of cells, each listed in every cell within `reach`.
 struct SegmentIndex {
     segments: Vec<([f64; 2], [f64; 2])>,
@@ -198,10 +264,17 @@ impl SegmentIndex {
 
     /// Whether a segment within `reach` of `p` runs within 10° of direction `t`.
     fn matches(&self, p: [f64; 2], t: [f64; 2], reach: f64) -> bool {
-        self.candidates(p).any(|&(a, b)| {
-            let (d, dir) = segment_distance(p, a, b);
-            d <= reach && dir.is_some_and(|u| line_angle(u, t) <= ANGLE_DEG.to_radians())
-        })
+        self.nearest_matching(p, t, reach).is_some()
+    }
+
+    /// Distance to the nearest segment within `reach` that runs within 10° of direction `t`.
+    fn nearest_matching(&self, p: [f64; 2], t: [f64; 2], reach: f64) -> Option<f64> {
+        self.candidates(p)
+            .filter_map(|&(a, b)| {
+                let (d, dir) = segment_distance(p, a, b);
+                (d <= reach && dir.is_some_and(|u| line_angle(u, t) <= ANGLE_DEG.to_radians())).then_some(d)
+            })
+            .min_by(f64::total_cmp)
     }
 
     /// Distance to the nearest segment, when within `reach`.
@@ -227,7 +300,7 @@ mod tests {
     }
 
     fn truth(kind: LineKind, x: f64, y0: f64, y1: f64) -> TruthElement {
-        TruthElement { kind, points: vec![[x, y0], [x, y1]], width_m: 0.12 }
+        TruthElement { id: format!("x{x}y{y0}"), kind, points: vec![[x, y0], [x, y1]], width_m: 0.12 }
     }
 
     fn close(a: f64, b: f64) -> bool {
@@ -279,5 +352,35 @@ mod tests {
         let s = evaluate(&[across], &truths[..1], &EvaluateConfig::default());
         assert!(close(s.correct_length_m, 0.0) && close(s.recovered_length_m, 0.0) && s.vertices == 1, "{s:?}");
         assert_eq!(evaluate(&[], &[], &EvaluateConfig::default()), LineScore::default());
+    }
+
+    #[test]
+    fn each_marking_is_scored_with_its_parts_together_and_its_deviation() {
+        // Marking a in two parts (y 0–3 and 6–9) found 2 cm off along 0–3 only; b found along half its
+        // length 10 cm off; c not found; the arrow left out.
+        let mut truths = vec![
+            truth(LineKind::Solid, 0.0, 0.0, 3.0),
+            truth(LineKind::Solid, 0.0, 6.0, 9.0),
+            truth(LineKind::Dashed, 5.0, 0.0, 4.0),
+            truth(LineKind::StopLine, 9.0, 0.0, 2.0),
+            truth(LineKind::Other, 12.0, 0.0, 2.0),
+        ];
+        truths[1].id = truths[0].id.clone();
+        let pieces = [piece(0.02, 0.0, 3.0), piece(5.1, 0.0, 2.0)];
+        let scores = per_element(&pieces, &truths, &EvaluateConfig::default());
+        let ids: Vec<&str> = scores.iter().map(|s| s.id.as_str()).collect();
+        assert_eq!(ids, ["x0y0", "x5y0", "x9y0"]);
+        let (a, b, c) = (&scores[0], &scores[1], &scores[2]);
+        assert!(close(a.length_m, 6.0) && close(a.recovered_share(), 0.5), "{a:?}");
+        assert!(
+            (a.deviation_median_m.unwrap() - 0.02).abs() < 1e-9 && (a.deviation_max_m.unwrap() - 0.02).abs() < 1e-9
+        );
+        // b: y 0–2 and the 0.2 m past the piece's end still within 0.25 m of it.
+        assert!(
+            (b.recovered_length_m - 2.2).abs() < 1e-9 && (b.deviation_median_m.unwrap() - 0.1).abs() < 1e-9,
+            "{b:?}"
+        );
+        assert!(b.deviation_max_m.is_some_and(|d| d > 0.1 && d <= 0.25), "{b:?}");
+        assert!(close(c.recovered_length_m, 0.0) && c.deviation_median_m.is_none() && c.kind == "stop_line", "{c:?}");
     }
 }

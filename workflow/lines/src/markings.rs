@@ -31,6 +31,7 @@ pub fn parse_markings_csv(text: &str) -> Result<Vec<TruthElement>, MarkingsCsvEr
         names.iter().position(|n| n.trim() == name).ok_or_else(|| err(1, "header", format!("no column `{name}`")))
     };
     let (kind_at, width_at, wkt_at) = (column("kind")?, column("width_m")?, column("wkt")?);
+    let id_at = names.iter().position(|n| n.trim() == "id");
     let mut out = Vec::new();
     for (index, row) in lines {
         let line = index + 1;
@@ -52,7 +53,10 @@ pub fn parse_markings_csv(text: &str) -> Result<Vec<TruthElement>, MarkingsCsvEr
             .filter(|w| w.is_finite() && *w >= 0.0)
             .ok_or_else(|| err(line, "width_m", format!("`{width}` is not a width in metres")))?;
         let points = linestring(field(wkt_at, "wkt")?).map_err(|problem| err(line, "wkt", problem))?;
-        out.push(TruthElement { kind, points, width_m });
+        // Without an `id` column (or with an empty id) a marking is named by its line.
+        let id = id_at.and_then(|at| fields.get(at)).map(|f| f.trim()).filter(|f| !f.is_empty());
+        let id = id.map_or_else(|| format!("line {line}"), str::to_owned);
+        out.push(TruthElement { id, kind, points, width_m });
     }
     Ok(out)
 }
@@ -114,11 +118,17 @@ mod tests {
         assert_eq!(got.len(), 2);
         assert_eq!(
             got[0],
-            TruthElement { kind: LineKind::Dashed, points: vec![[10.0, 20.0], [10.0, 23.0]], width_m: 0.12 }
+            TruthElement {
+                id: "s1.l0.d3".into(),
+                kind: LineKind::Dashed,
+                points: vec![[10.0, 20.0], [10.0, 23.0]],
+                width_m: 0.12
+            }
         );
         assert_eq!((got[1].kind, got[1].points.len()), (LineKind::Other, 3));
         let moved = "wkt,width_m,kind\n\"LINESTRING(0 0,1 1)\",0.5,stop_line\n";
         assert_eq!(parse_markings_csv(moved).unwrap()[0].kind, LineKind::StopLine);
+        assert_eq!(parse_markings_csv(moved).unwrap()[0].id, "line 2", "no id column: named by its line");
         let bad = parse_markings_csv("kind,width_m,wkt\nsolid,0.1,\"LINESTRING (0 0, 1 x)\"\n").unwrap_err();
         assert_eq!((bad.line, bad.field), (2, "wkt"));
         assert!(bad.to_string().starts_with("line 2, wkt: vertex `1 x`"));
