@@ -175,29 +175,26 @@ const FOUND_SHARE: f64 = 0.5;
 /// Markings not found listed by name on the terminal (`--json` lists every marking).
 const LISTED: usize = 12;
 
-/// Per marking of the reference: how many were found, the deviation of the found ones from their lines
-/// (each marking's median; DG beside corrected), and (`list_missed`) the markings the corrected lines missed.
+/// Per marking of the reference: how many were found, the deviation from their lines of those both the DG
+/// and the corrected lines found (each marking's median), and (`list_missed`) the markings the corrected
+/// lines missed.
 fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: bool) -> String {
-    let found = |e: &[ElementScore]| e.iter().filter(|m| m.recovered_share() >= FOUND_SHARE).count();
+    let is_found = |m: &ElementScore| m.recovered_share() >= FOUND_SHARE;
+    let found = |e: &[ElementScore]| e.iter().filter(|m| is_found(m)).count();
+    // Over the markings both found (the two lists follow the reference's order): like with like.
+    let both: Vec<bool> = dg.iter().zip(corrected).map(|(d, c)| d.id == c.id && is_found(d) && is_found(c)).collect();
     let deviation = |e: &[ElementScore], q: f64| {
         let mut medians: Vec<f64> =
-            e.iter().filter(|m| m.recovered_share() >= FOUND_SHARE).filter_map(|m| m.deviation_median_m).collect();
+            e.iter().zip(&both).filter(|(_, b)| **b).filter_map(|(m, _)| m.deviation_median_m).collect();
         plumbline_geo::metrics::quantile(&mut medians, q).map_or_else(|| "–".to_owned(), |d| format!("{d:.3} m"))
     };
-    let mut s = format!(
-        "{:<34} {:>10} {:>10}
-",
-        format!("  markings found (of {})", corrected.len()),
-        found(dg),
-        found(corrected)
-    );
-    for (label, q) in [("  deviation of found, median", 0.5), ("  deviation of found, 95 %", 0.95)] {
-        s += &format!(
-            "{label:<34} {:>10} {:>10}
-",
-            deviation(dg, q),
-            deviation(corrected, q)
-        );
+    let label = format!("  markings found (of {})", corrected.len());
+    let mut s = format!("{label:<34} {:>10} {:>10}\n", found(dg), found(corrected));
+    let n = both.iter().filter(|b| **b).count();
+    let rows =
+        [(format!("  deviation, both found ({n}), median"), 0.5), ("  deviation, both found, 95 %".to_owned(), 0.95)];
+    for (label, q) in rows {
+        s += &format!("{label:<34} {:>10} {:>10}\n", deviation(dg, q), deviation(corrected, q));
     }
     let missed: Vec<&ElementScore> = corrected.iter().filter(|m| m.recovered_share() < FOUND_SHARE).collect();
     if list_missed && !missed.is_empty() {
