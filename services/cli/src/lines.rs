@@ -192,7 +192,7 @@ fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: 
     let mut s = format!("{label:<34} {:>10} {:>10}\n", found(dg), found(corrected));
     let n = both.iter().filter(|b| **b).count();
     let rows =
-        [(format!("  deviation, both found ({n}), median"), 0.5), ("  deviation, both found, 95 %".to_owned(), 0.95)];
+        [(format!("  deviation median, {n} both found"), 0.5), ("  deviation 95 %, both found".to_owned(), 0.95)];
     for (label, q) in rows {
         s += &format!("{label:<34} {:>10} {:>10}\n", deviation(dg, q), deviation(corrected, q));
     }
