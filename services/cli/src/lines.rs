@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use anyhow::Context as _;
 use clap::{Args as ClapArgs, Subcommand, ValueEnum};
-use plumbline_lines::{ElementScore, EvaluateConfig, LineKind, LineScore, Piece, TruthElement, within_reach};
+use plumbline_lines::{ElementScore, EvaluateConfig, LineKind, LineScore, Piece, within_reach};
 use plumbline_runtime::gdal_write::{FieldValue, LineLayer, geopackage_with_lines};
 use plumbline_runtime::line_io::{LineReadError, geojson_lines, read_line_layer, read_points};
 
@@ -146,8 +146,9 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
         let read = read_layer(ctx, &args.observations, name).await?;
         let pieces = pieces_of(&read.layer);
         scores.push((name, plumbline_lines::evaluate(&pieces, &truth, &config)));
-        kinds.push(by_kind(&pieces, &truth, &config));
-        elements.push(plumbline_lines::per_element(&pieces, &truth, &config));
+        let markings = plumbline_lines::per_element(&pieces, &truth, &config);
+        kinds.push(by_kind(&markings));
+        elements.push(markings);
     }
     if args.json {
         let json: serde_json::Map<String, serde_json::Value> = scores
@@ -196,7 +197,7 @@ fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: 
     for (label, q) in rows {
         s += &format!("{label:<34} {:>10} {:>10}\n", deviation(dg, q), deviation(corrected, q));
     }
-    let missed: Vec<&ElementScore> = corrected.iter().filter(|m| m.recovered_share() < FOUND_SHARE).collect();
+    let missed: Vec<&ElementScore> = corrected.iter().filter(|m| !is_found(m)).collect();
     if list_missed && !missed.is_empty() {
         let names: Vec<String> =
             missed.iter().take(LISTED).map(|m| format!("{} ({}, {:.1} m)", m.id, m.kind, m.length_m)).collect();
@@ -215,22 +216,17 @@ pub struct KindRecall {
     pub recovered_length_m: f64,
 }
 
-/// The recall of `pieces` per kind of the reference's markings (kinds with no marking length left out). A piece
-/// near a marking of another kind counts for that marking too: this is recall, not classification.
-fn by_kind(pieces: &[Piece], truth: &[TruthElement], config: &EvaluateConfig) -> Vec<KindRecall> {
+/// The recall per kind of the reference's markings, summed from their per-marking scores (kinds with no
+/// marking length left out). A piece near a marking of another kind counts for that marking too: this is
+/// recall, not classification.
+fn by_kind(markings: &[ElementScore]) -> Vec<KindRecall> {
     LineKind::ALL
         .iter()
         .filter_map(|kind| {
-            let of_kind: Vec<TruthElement> = truth.iter().filter(|t| t.kind == *kind).cloned().collect();
-            if of_kind.is_empty() {
-                return None;
-            }
-            let score = plumbline_lines::evaluate(pieces, &of_kind, config);
-            (score.truth_length_m > 0.0).then_some(KindRecall {
-                kind: kind.as_str(),
-                truth_length_m: score.truth_length_m,
-                recovered_length_m: score.recovered_length_m,
-            })
+            let of_kind = markings.iter().filter(|m| m.kind == kind.as_str());
+            let (truth_length_m, recovered_length_m) =
+                of_kind.fold((0.0, 0.0), |(t, r), m| (t + m.length_m, r + m.recovered_length_m));
+            (truth_length_m > 0.0).then_some(KindRecall { kind: kind.as_str(), truth_length_m, recovered_length_m })
         })
         .collect()
 }
@@ -324,12 +320,9 @@ pub fn demo_table(reference: &str, text: &str, lines: &plumbline_adjuster::RoadL
     let config = EvaluateConfig::default();
     let corrected = plumbline_lines::evaluate(&lines.corrected.pieces, &truth, &config);
     let dg = plumbline_lines::evaluate(&lines.dg.pieces, &truth, &config);
-    let kinds =
-        kind_table(&by_kind(&lines.dg.pieces, &truth, &config), &by_kind(&lines.corrected.pieces, &truth, &config));
-    let markings = markings_table(
-        &plumbline_lines::per_element(&lines.dg.pieces, &truth, &config),
-        &plumbline_lines::per_element(&lines.corrected.pieces, &truth, &config),
-        false,
-    );
+    let dg_markings = plumbline_lines::per_element(&lines.dg.pieces, &truth, &config);
+    let corrected_markings = plumbline_lines::per_element(&lines.corrected.pieces, &truth, &config);
+    let kinds = kind_table(&by_kind(&dg_markings), &by_kind(&corrected_markings));
+    let markings = markings_table(&dg_markings, &corrected_markings, false);
     Ok(table(reference, &dg, &corrected, &config) + &kinds + &markings)
 }
