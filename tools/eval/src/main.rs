@@ -12,6 +12,9 @@
 //!   observations simulated from the truth, in the table form of Meyer et al. (2023) (module
 //!   [`navigation`]).
 //!
+//! - `lines [--preset district] [--missed] [--dump DIR]`: road-marking extraction and assembly with the
+//!   true poses against the simulator's markings, the trajectory taken out (module [`lines`]).
+//!
 //! - `poles [--cloud-only] [--missed] …`: pole recall, matching precision and the coordinate updates' χ² on
 //!   a `district` drive, depth camera and roof laser scanner (module [`poles`]).
 //!
@@ -19,6 +22,7 @@
 
 #![allow(clippy::unwrap_used, clippy::expect_used, clippy::print_stdout)]
 
+mod lines;
 mod navigation;
 mod poles;
 mod registration;
@@ -40,6 +44,8 @@ enum Command {
     Registration(registration::Args),
     /// What the adjustment rejects on a finished simulated campaign, scored against its truth.
     Rejections(rejections::Args),
+    /// Road-marking extraction with the true poses against the simulator's markings.
+    Lines(lines::Args),
     /// The global adjustment's accuracy on district drives with observations simulated from the truth.
     Navigation(navigation::Args),
     /// Pole detection and matching on a district drive (depth camera and roof laser scanner) against the truth.
@@ -50,6 +56,7 @@ fn main() {
     match Cli::parse().command {
         Command::Registration(args) => registration::main(&args),
         Command::Rejections(args) => rejections::main(&args),
+        Command::Lines(args) => lines::main(&args),
         Command::Navigation(args) => navigation::main(&args),
         Command::Poles(args) => poles::main(&args),
     }

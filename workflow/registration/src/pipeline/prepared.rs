@@ -112,6 +112,21 @@ impl PreparedPanorama {
         self.timings
     }
 
+    /// The road-marking strokes of its ortho patch (owned panoramas with the extraction on), in map
+    /// coordinates of the pose it was prepared with, cut to the camera's disc of `lines_max_distance`.
+    pub fn strokes(&self) -> &[Stroke] {
+        &self.strokes
+    }
+
+    /// Its ortho patch, while prepared (none before step 1, after [`PreparedPanorama::release`] or when
+    /// step 1 failed).
+    pub fn patch(&self) -> Option<&OrthoPatch> {
+        match &self.patch {
+            Some(Ok((patch, _))) => Some(patch),
+            _ => None,
+        }
+    }
+
     /// Drop the ortho patch and features once no pair still to be registered needs them (a failed
     /// preparation keeps its error); the panorama keeps its place, pose and timings, and
     /// [`PreparedPanorama::is_prepared`] becomes false.
