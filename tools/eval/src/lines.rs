@@ -58,6 +58,10 @@ pub struct Args {
     /// Write PNGs of ortho patches with their strokes and the truth into this directory.
     #[arg(long, value_name = "DIR")]
     dump: Option<String>,
+    /// Override the extraction's widest freed stroke, metres (0: components rejected whole are not freed of
+    /// wider bright areas; see `ExtractConfig::max_freed_width_m`).
+    #[arg(long)]
+    max_freed_width: Option<f64>,
     /// Panorama ids to dump, comma-separated (default: those nearest to the six longest missed markings).
     #[arg(long, value_delimiter = ',')]
     panoramas: Vec<String>,
@@ -87,7 +91,10 @@ pub fn main(args: &Args) {
     let started = Instant::now();
     let campaign = Campaign::build(&spec);
     let built = started.elapsed().as_secs_f64();
-    let config = MmConfig::default();
+    let mut config = MmConfig::default();
+    if let (Some(width), Some(lines)) = (args.max_freed_width, config.lines.as_mut()) {
+        lines.max_freed_width_m = width;
+    }
     let extracted = Instant::now();
     // The worker's step 1 and extraction, with the true pose in place of the DG pose.
     let prepared: Vec<_> = campaign
@@ -129,8 +136,12 @@ pub fn main(args: &Args) {
 
     println!(
         "road-marking extraction with the true poses: preset {preset:?}, seed {}, route {} m, panoramas every {} m \
-         at {} px, realism {level:?}",
-        spec.seed, spec.length, spec.spacing, spec.width
+         at {} px, realism {level:?}; freed strokes up to {} m wide",
+        spec.seed,
+        spec.length,
+        spec.spacing,
+        spec.width,
+        config.lines.map_or(0.0, |l| l.max_freed_width_m)
     );
     println!(
         "{} panoramas ({without} without strokes), {} strokes, {} pieces; rendered in {built:.0} s, step 1 and \

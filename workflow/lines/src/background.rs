@@ -32,6 +32,109 @@ pub(crate) fn background_difference(
     (diff, noise)
 }
 
+/// Image minus its grey-level opening (the white top-hat), and the robust σ of that difference over valid
+/// pixels, the difference's median over valid pixels taken off. The opening by a square of `2·half + 1`
+/// pixels (erosion then dilation, each a sliding minimum / maximum along the rows, then down the columns)
+/// keeps every bright area the square fits in — a car's body, a pavement, the lit side of a shadow's edge —
+/// and removes what is narrower: paint stands out of it while the edges of wider areas do not, unlike a box
+/// mean, which lifts the road beside a bright car or a shadow's edge as much as the paint. The noise's minima
+/// sink the opening by about two σ everywhere alike, which the median taken off removes. (It is not taken
+/// on a smoothed image: smoothing fills a dark gap of a pixel or two between paint and a car, and the
+/// opening would then take the paint for part of the car.) Invalid pixels take part in neither step; a pixel
+/// whose square holds none keeps a difference of zero.
+pub(crate) fn opening_difference(
+    image: &[f32],
+    valid: &[bool],
+    width: usize,
+    height: usize,
+    half: usize,
+) -> (Vec<f32>, f64) {
+    let mut level: Vec<f32> = image.iter().zip(valid).map(|(&v, &ok)| if ok { v } else { f32::INFINITY }).collect();
+    slide_2d(&mut level, width, height, half, f32::min);
+    level.iter_mut().for_each(|v| {
+        if !v.is_finite() {
+            *v = f32::NEG_INFINITY;
+        }
+    });
+    slide_2d(&mut level, width, height, half, f32::max);
+    let mut diff: Vec<f32> = image
+        .iter()
+        .zip(&level)
+        .zip(valid)
+        .map(|((&x, &o), &ok)| if ok && o.is_finite() { x - o } else { 0.0 })
+        .collect();
+    let median = median_of(&diff, valid);
+    diff.iter_mut().zip(valid).for_each(|(d, &ok)| *d = if ok { *d - median } else { 0.0 });
+    let noise = robust_sigma(&diff, valid);
+    (diff, noise)
+}
+
+/// `pick` (min or max) over the square of ±`half` pixels around every pixel, in place: along the rows,
+/// then down the columns (a square's extreme is separable).
+fn slide_2d(values: &mut [f32], width: usize, height: usize, half: usize, pick: fn(f32, f32) -> f32) {
+    let mut line = Vec::with_capacity(width.max(height));
+    let mut out = Vec::with_capacity(width.max(height));
+    for r in 0..height {
+        line.clear();
+        line.extend_from_slice(&values[r * width..(r + 1) * width]);
+        slide_1d(&line, half, pick, &mut out);
+        values[r * width..(r + 1) * width].copy_from_slice(&out);
+    }
+    for c in 0..width {
+        line.clear();
+        line.extend((0..height).map(|r| values[r * width + c]));
+        slide_1d(&line, half, pick, &mut out);
+        for (r, &v) in out.iter().enumerate() {
+            values[r * width + c] = v;
+        }
+    }
+}
+
+/// `pick` over the window of ±`half` around every element of `line` (clipped at the ends), by van Herk and
+/// Gil-Werman's blocks of `2·half + 1`: the running extreme from each block's start and from its end.
+fn slide_1d(line: &[f32], half: usize, pick: fn(f32, f32) -> f32, out: &mut Vec<f32>) {
+    let n = line.len();
+    out.clear();
+    if n == 0 {
+        return;
+    }
+    let k = 2 * half + 1;
+    let mut forward = line.to_vec();
+    let mut backward = line.to_vec();
+    for i in 1..n {
+        if i % k != 0 {
+            forward[i] = pick(forward[i - 1], line[i]);
+        }
+    }
+    for i in (0..n - 1).rev() {
+        if (i + 1) % k != 0 {
+            backward[i] = pick(backward[i + 1], line[i]);
+        }
+    }
+    // The window [a, b] = [i − half, i + half] clipped to the line spans at most two blocks: the backward run
+    // from a and the forward run to b cover it exactly. Within one block, a is the block's start (the forward
+    // run to b) or b the line's end (the backward run from a).
+    out.extend((0..n).map(|i| {
+        let (a, b) = (i.saturating_sub(half), (i + half).min(n - 1));
+        match (a / k == b / k, a % k == 0) {
+            (false, _) => pick(backward[a], forward[b]),
+            (true, true) => forward[b],
+            (true, false) => backward[a],
+        }
+    }));
+}
+
+/// Median of the valid values (at most ~60 000 of them, evenly strided), 0 when none is valid.
+fn median_of(values: &[f32], valid: &[bool]) -> f32 {
+    let stride = (values.len() / 60_000).max(1);
+    let mut v: Vec<f32> = values.iter().zip(valid).step_by(stride).filter(|p| *p.1).map(|p| *p.0).collect();
+    if v.is_empty() {
+        return 0.0;
+    }
+    let mid = v.len() / 2;
+    *v.select_nth_unstable_by(mid, f32::total_cmp).1
+}
+
 /// The image cut into square blocks of `size` pixels (the last row and column of blocks may be partial).
 #[derive(Clone, Copy, Debug)]
 struct Blocks {
@@ -161,6 +264,39 @@ fn robust_sigma(values: &[f32], valid: &[bool]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_sliding_extremes_equal_the_brute_force_ones_and_the_opening_keeps_wide_areas() {
+        let line: Vec<f32> = (0..23).map(|i| ((i * 37) % 11) as f32).collect();
+        let mut out = Vec::new();
+        for half in 0..13 {
+            for pick in [f32::min as fn(f32, f32) -> f32, f32::max] {
+                slide_1d(&line, half, pick, &mut out);
+                for (i, &v) in out.iter().enumerate() {
+                    let window = &line[i.saturating_sub(half)..(i + half + 1).min(line.len())];
+                    assert_eq!(v, window.iter().copied().reduce(pick).unwrap(), "half {half}, i {i}");
+                }
+            }
+        }
+        // A 4-pixel stripe beside a 30-pixel bright area, one dark pixel between them: the stripe keeps its
+        // contrast, the area and the road beside its edge get none.
+        let (w, h) = (60, 20);
+        let image: Vec<f32> = (0..w * h)
+            .map(|i| {
+                let c = i % w;
+                if (10..14).contains(&c) {
+                    0.9
+                } else if (15..45).contains(&c) {
+                    0.8
+                } else {
+                    0.1
+                }
+            })
+            .collect();
+        let (diff, _) = opening_difference(&image, &vec![true; w * h], w, h, 6);
+        let at = |c: usize| diff[10 * w + c];
+        assert!((at(11) - 0.8).abs() < 1e-5 && at(30).abs() < 1e-5 && at(50).abs() < 1e-5 && at(14).abs() < 1e-5);
+    }
 
     #[test]
     fn the_window_mean_equals_the_brute_force_mean_and_a_flat_image_has_no_contrast() {

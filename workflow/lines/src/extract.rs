@@ -3,14 +3,16 @@
 //! pixels brighter than k robust σ are linked into 8-connected components, and each component is binned
 //! along its principal axis and vectorised from the sub-pixel centroids of its across profiles. Blobs that
 //! are too wide, too short, too stubby, wider in places than their stripe, or not darker on both flanks
-//! (sidewalk and car-roof edges) are rejected.
+//! (sidewalk and car-roof edges) are rejected. A component rejected whole is first freed of its pixels that
+//! belong to a bright area wider than paint (a grey-level opening: a parked car's body, the lit road beside a
+//! shadow's edge) and its line-wide parts judged again; failing that, it is judged in chunks.
 
 use plumbline_imaging::ortho::GroundGrid;
 use plumbline_imaging::{GrayImage, Mask};
 use schemars::JsonSchema;
 use serde::{Deserialize, Serialize};
 
-use crate::background::background_difference;
+use crate::background::{background_difference, opening_difference};
 use crate::geometry::{add_scaled, dot, length, median_or_zero, normal, principal_axis, sub, unit};
 
 /// Settings of the extraction.
@@ -42,6 +44,15 @@ pub struct ExtractConfig {
     pub open_margin_px: usize,
     /// Floor of a stroke's across σ, metres.
     pub sigma_floor_m: f64,
+    /// Side of the square of the grey-level opening that frees paint from a wider bright area it touches
+    /// (a car's body, the lit road beyond a shadow's edge), metres: wider than the widest paint.
+    pub opening_m: f64,
+    /// Widest stroke kept from the parts a component rejected whole comes apart into once its wider bright
+    /// areas are taken off, metres: lane, centre and edge lines (0: nothing is freed). Wider parts freed so
+    /// are mostly kerbstones and bands of parked cars' sides rather than stop lines or zebra stripes: on the
+    /// simulated `tiny` campaign with the true poses, keeping them lowers the extracted length that is
+    /// correct from 96.4 to 90.7 % for 16 points more of recall (`plumbline-eval lines`).
+    pub max_freed_width_m: f64,
     /// Split components that are rejected whole by the local direction of their pixels, so that markings
     /// touching each other (a stop line meeting a lane line, a lane line running into a zebra stripe) come
     /// apart into their lines. Off by default: on the simulated `tiny` campaign it raises the length
@@ -65,6 +76,8 @@ impl Default for ExtractConfig {
             flank_ratio: 0.5,
             open_margin_px: 2,
             sigma_floor_m: 0.005,
+            opening_m: 0.9,
+            max_freed_width_m: 0.25,
             split_junctions: false,
         }
     }
@@ -114,9 +127,19 @@ pub fn extract(image: &GrayImage, valid: &Mask, grid: &GroundGrid, config: &Extr
     let part_ctx = Component { balanced: true, ..ctx };
     let mut raws = Vec::new();
     let radius = (DIRECTION_RADIUS_M / grid.gsd).round().max(2.0) as usize;
+    // The white top-hat, taken when a component is first rejected whole.
+    let mut opened: Option<Vec<f32>> = None;
+    let opening_half = ((config.opening_m / grid.gsd / 2.0).round().max(1.0)) as usize;
     for pixels in components(&bright, width, height).into_iter().filter(|pixels| pixels.len() >= min_pixels) {
         if let Some(raw) = ctx.stroke(&pixels) {
             raws.push(raw);
+            continue;
+        }
+        let opened =
+            opened.get_or_insert_with(|| opening_difference(image.data(), valid.data(), width, height, opening_half).0);
+        let freed = Component { diff: opened, ..part_ctx }.freed(&pixels, min_pixels, CHUNK_M / grid.gsd);
+        if !freed.is_empty() {
+            raws.extend(freed);
             continue;
         }
         let parts = if config.split_junctions { ctx.by_direction(&pixels, radius, min_pixels) } else { Vec::new() };
@@ -438,6 +461,45 @@ impl Component<'_> {
             parts.clear();
         }
         parts
+    }
+
+    /// The line strokes of a component rejected whole once its pixels that belong to a bright area wider than
+    /// paint are taken off (`self.diff` is the white top-hat: those pixels are not above the threshold in it):
+    /// a lane line touching a parked car's body, or a dash lying half in a shadow (the box-mean background
+    /// lifts the lit road beside the shadow's edge above the threshold with the dash), comes apart from it.
+    /// Each part is judged like a part split off by direction (flanks alike), whole or in chunks; strokes wider
+    /// than `max_freed_width_m` are dropped. None when the component does not come apart or nothing passes.
+    fn freed(&self, pixels: &[usize], min_pixels: usize, chunk: f64) -> Vec<RawStroke> {
+        let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+        for &i in pixels {
+            let (c, r) = (i % self.width, i / self.width);
+            (c0, c1, r0, r1) = (c0.min(c), c1.max(c), r0.min(r), r1.max(r));
+        }
+        if pixels.is_empty() {
+            return Vec::new();
+        }
+        let (w, h) = (c1 - c0 + 1, r1 - r0 + 1);
+        let mut kept = vec![false; w * h];
+        let mut count = 0;
+        for &i in pixels {
+            if f64::from(self.diff[i]) > self.threshold {
+                kept[(i / self.width - r0) * w + (i % self.width - c0)] = true;
+                count += 1;
+            }
+        }
+        if count == pixels.len() {
+            return Vec::new();
+        }
+        let narrow = |raw: &RawStroke| raw.1 <= self.config.max_freed_width_m;
+        let mut out = Vec::new();
+        for part in components(&kept, w, h).into_iter().filter(|part| part.len() >= min_pixels) {
+            let part: Vec<usize> = part.into_iter().map(|j| (j / w + r0) * self.width + j % w + c0).collect();
+            match self.stroke(&part) {
+                Some(raw) => out.extend(narrow(&raw).then_some(raw)),
+                None => out.extend(self.in_chunks(&part, chunk, min_pixels).into_iter().filter(narrow)),
+            }
+        }
+        out
     }
 
     /// The strokes of a component rejected whole: its chunks judged one by one, each run of at least
@@ -828,6 +890,44 @@ mod tests {
                 .sum();
             assert_eq!(on_rim > 3.0, found, "pavement beside: {}, {on_rim:.2} m found: {strokes:?}", !found);
         }
+    }
+
+    /// A dash lying half in a building's shadow: the dash and the sunlit road beside the shadow's edge (which
+    /// the box-mean background lifts above the threshold) are one component, rejected whole and too short for
+    /// chunks. Freed of the sunlit area, the dash is found; without the freeing (no freed part kept) it is not.
+    #[test]
+    fn a_dash_across_a_shadows_edge_is_freed_of_the_sunlit_road() {
+        let g = grid(600);
+        let road = Road { origin: g.centre, heading: -0.3 };
+        // Shadow south of y = −2.5, sunlit road north of it; the dash runs across the shadow's edge, its paint
+        // as much darker in the shadow as the road.
+        let mut shapes = vec![Shape::Polygon { corners: road.rect(-9.0, 1.0, -9.0, -2.5), value: 0.2 }];
+        shapes.push(Shape::Polygon { corners: road.rect(-9.0, 1.0, -2.5, 9.0), value: 0.45 });
+        shapes.push(Shape::Stripe { line: road.line(-2.0, -4.0, -2.0, -2.5), width: 0.12, value: 0.4 });
+        shapes.push(Shape::Stripe { line: road.line(-2.0, -2.5, -2.0, -1.0), width: 0.12, value: 0.9 });
+        let truths = [Truth { a: road.map(-2.0, -4.0), b: road.map(-2.0, -1.0), width: 0.12 }];
+        let (image, valid) = render(&g, &shapes, 0.01, 9, None);
+        // Length found per element; every stroke must lie on one within 2 cm across (its ends within 0.2 m:
+        // the dash's end in the sunlit half is placed long, as its contrast there is twice the median's).
+        let found = |config: &ExtractConfig| {
+            let mut per = vec![0.0; truths.len()];
+            for s in extract(&image, &valid, &g, config) {
+                let on = |t: &Truth| {
+                    let (dir, len) = t.frame();
+                    s.points.iter().all(|p| {
+                        let (u, x) = (dot(sub(*p, t.a), dir), cross(dir, sub(*p, t.a)));
+                        x.abs() < 0.02 && u > -0.2 && u < len + 0.2
+                    })
+                };
+                let Some(k) = truths.iter().position(on) else { panic!("stroke on no painted element: {s:?}") };
+                per[k] += length(&s.points);
+            }
+            per
+        };
+        let freed = found(&ExtractConfig::default());
+        let without = found(&ExtractConfig { max_freed_width_m: 0.0, ..ExtractConfig::default() });
+        assert!(freed[0] > 2.7, "freed: {freed:?}");
+        assert!(without[0] < 1.0, "without the freeing: {without:?}");
     }
 
     #[test]
