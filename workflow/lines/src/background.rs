@@ -126,8 +126,17 @@ fn slide_1d(line: &[f32], half: usize, pick: fn(f32, f32) -> f32, out: &mut Vec<
 
 /// Median of the valid values (at most ~60 000 of them, evenly strided), 0 when none is valid.
 fn median_of(values: &[f32], valid: &[bool]) -> f32 {
+    median_in(&mut valid_sample(values, valid))
+}
+
+/// At most ~60 000 of the valid values, evenly strided.
+fn valid_sample(values: &[f32], valid: &[bool]) -> Vec<f32> {
     let stride = (values.len() / 60_000).max(1);
-    let mut v: Vec<f32> = values.iter().zip(valid).step_by(stride).filter(|p| *p.1).map(|p| *p.0).collect();
+    values.iter().zip(valid).step_by(stride).filter(|p| *p.1).map(|p| *p.0).collect()
+}
+
+/// Median of `v` (reordered), 0 when empty.
+fn median_in(v: &mut [f32]) -> f32 {
     if v.is_empty() {
         return 0.0;
     }
@@ -250,15 +259,10 @@ fn slide_rows(values: &[f32], width: usize, half: usize) -> Vec<f32> {
 
 /// 1.4826 · median absolute deviation of the valid values (at most ~60 000 of them, evenly strided).
 fn robust_sigma(values: &[f32], valid: &[bool]) -> f64 {
-    let stride = (values.len() / 60_000).max(1);
-    let mut v: Vec<f32> = values.iter().zip(valid).step_by(stride).filter(|p| *p.1).map(|p| *p.0).collect();
-    if v.is_empty() {
-        return 0.0;
-    }
-    let mid = v.len() / 2;
-    let med = *v.select_nth_unstable_by(mid, f32::total_cmp).1;
+    let mut v = valid_sample(values, valid);
+    let med = median_in(&mut v);
     v.iter_mut().for_each(|x| *x = (*x - med).abs());
-    f64::from(*v.select_nth_unstable_by(mid, f32::total_cmp).1) * 1.4826
+    f64::from(median_in(&mut v)) * 1.4826
 }
 
 #[cfg(test)]

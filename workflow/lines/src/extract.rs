@@ -346,6 +346,16 @@ impl Component<'_> {
         pixels.iter().zip(along).filter(|(_, s)| near(**s)).any(|(&i, _)| self.at_edge(i))
     }
 
+    /// The bounding box of `pixels`: first column and row, width and height; `None` for no pixel.
+    fn bounds(&self, pixels: &[usize]) -> Option<(usize, usize, usize, usize)> {
+        let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
+        for &i in pixels {
+            let (c, r) = (i % self.width, i / self.width);
+            (c0, c1, r0, r1) = (c0.min(c), c1.max(c), r0.min(r), r1.max(r));
+        }
+        (!pixels.is_empty()).then(|| (c0, r0, c1 - c0 + 1, r1 - r0 + 1))
+    }
+
     /// A component as chunks of at most about `chunk` pixels along its principal axis, equal in length.
     fn chunked(&self, pixels: &[usize], chunk: f64) -> Vec<(Vec<usize>, Cut)> {
         let pts: Vec<[f64; 2]> = pixels.iter().map(|&i| self.pixel(i)).collect();
@@ -372,15 +382,7 @@ impl Component<'_> {
     /// line running into a zebra crossing, comes apart into its arms; the pixels of a junction's corner or of
     /// a wide area have no direction and belong to none.
     fn by_direction(&self, pixels: &[usize], radius: usize, min_pixels: usize) -> Vec<Vec<usize>> {
-        let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-        for &i in pixels {
-            let (c, r) = (i % self.width, i / self.width);
-            (c0, c1, r0, r1) = (c0.min(c), c1.max(c), r0.min(r), r1.max(r));
-        }
-        if pixels.is_empty() {
-            return Vec::new();
-        }
-        let (w, h) = (c1 - c0 + 1, r1 - r0 + 1);
+        let Some((c0, r0, w, h)) = self.bounds(pixels) else { return Vec::new() };
         // Integral images of 1, x, y, x², y², xy over the component's pixels (local coordinates).
         let stride = w + 1;
         let mut sums = vec![[0.0f64; 6]; stride * (h + 1)];
@@ -470,15 +472,7 @@ impl Component<'_> {
     /// Each part is judged like a part split off by direction (flanks alike), whole or in chunks; strokes wider
     /// than `max_freed_width_m` are dropped. None when the component does not come apart or nothing passes.
     fn freed(&self, pixels: &[usize], min_pixels: usize, chunk: f64) -> Vec<RawStroke> {
-        let (mut c0, mut c1, mut r0, mut r1) = (usize::MAX, 0, usize::MAX, 0);
-        for &i in pixels {
-            let (c, r) = (i % self.width, i / self.width);
-            (c0, c1, r0, r1) = (c0.min(c), c1.max(c), r0.min(r), r1.max(r));
-        }
-        if pixels.is_empty() {
-            return Vec::new();
-        }
-        let (w, h) = (c1 - c0 + 1, r1 - r0 + 1);
+        let Some((c0, r0, w, h)) = self.bounds(pixels) else { return Vec::new() };
         let mut kept = vec![false; w * h];
         let mut count = 0;
         for &i in pixels {
