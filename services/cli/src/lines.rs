@@ -171,8 +171,6 @@ async fn compare(ctx: &Context, args: CompareArgs) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// A marking counts as found when this share of its length within reach is recovered.
-const FOUND_SHARE: f64 = 0.5;
 /// Markings not found listed by name on the terminal (`--json` lists every marking).
 const LISTED: usize = 12;
 
@@ -180,10 +178,9 @@ const LISTED: usize = 12;
 /// and the corrected lines found (each marking's median), and (`list_missed`) the markings the corrected
 /// lines missed.
 fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: bool) -> String {
-    let is_found = |m: &ElementScore| m.recovered_share() >= FOUND_SHARE;
-    let found = |e: &[ElementScore]| e.iter().filter(|m| is_found(m)).count();
+    let found = |e: &[ElementScore]| e.iter().filter(|m| m.is_found()).count();
     // Over the markings both found (the two lists follow the reference's order): like with like.
-    let both: Vec<bool> = dg.iter().zip(corrected).map(|(d, c)| d.id == c.id && is_found(d) && is_found(c)).collect();
+    let both: Vec<bool> = dg.iter().zip(corrected).map(|(d, c)| d.id == c.id && d.is_found() && c.is_found()).collect();
     let deviation = |e: &[ElementScore], q: f64| {
         let mut medians: Vec<f64> =
             e.iter().zip(&both).filter(|(_, b)| **b).filter_map(|(m, _)| m.deviation_median_m).collect();
@@ -197,7 +194,7 @@ fn markings_table(dg: &[ElementScore], corrected: &[ElementScore], list_missed: 
     for (label, q) in rows {
         s += &format!("{label:<34} {:>10} {:>10}\n", deviation(dg, q), deviation(corrected, q));
     }
-    let missed: Vec<&ElementScore> = corrected.iter().filter(|m| !is_found(m)).collect();
+    let missed: Vec<&ElementScore> = corrected.iter().filter(|m| !m.is_found()).collect();
     if list_missed && !missed.is_empty() {
         let names: Vec<String> =
             missed.iter().take(LISTED).map(|m| format!("{} ({}, {:.1} m)", m.id, m.kind, m.length_m)).collect();

@@ -18,7 +18,7 @@ use std::time::Instant;
 
 use plumbline_fixtures::registration::{Campaign, Profile, Spec};
 use plumbline_geo::Attitude;
-use plumbline_lines::{AssembleConfig, ElementScore, EvaluateConfig, Observed, TruthElement, within_reach};
+use plumbline_lines::{AssembleConfig, ElementScore, EvaluateConfig, Observed, Piece, TruthElement, within_reach};
 use plumbline_registration::mm::{MmConfig, Panorama};
 use plumbline_registration::pipeline::prepare_panorama;
 use plumbline_synth::render::{Realism, RealismLevel};
@@ -159,7 +159,7 @@ pub fn main(args: &Args) {
         entry.0 += m.length_m;
         entry.1 += m.recovered_length_m;
         entry.2 += 1;
-        entry.3 += usize::from(m.recovered_share() >= 0.5);
+        entry.3 += usize::from(m.is_found());
     }
     for (name, (length, recovered, count, found)) in &classes {
         println!("| {name} | {length:.0} | {} | {found} of {count} |", percent(*recovered, *length));
@@ -168,7 +168,7 @@ pub fn main(args: &Args) {
         "| all | {:.0} | {} | {} of {} |",
         score.truth_length_m,
         percent(score.recovered_length_m, score.truth_length_m),
-        markings.iter().filter(|m| m.recovered_share() >= 0.5).count(),
+        markings.iter().filter(|m| m.is_found()).count(),
         markings.len()
     );
     println!();
@@ -181,19 +181,31 @@ pub fn main(args: &Args) {
         score.vertices,
         evaluate.accuracy_m
     );
-    // Strokes off every marking, per panorama (a stroke is off where its middle vertex lies farther than the
-    // evaluation's match distance from every truth centre line).
+    // Strokes off every marking, per panorama: each stroke's length the evaluation finds not correct.
     let mut off: Vec<(f64, usize, String)> = prepared
         .iter()
         .map(|p| {
-            let (length, count) = p
+            let pieces: Vec<Piece> = p
                 .strokes()
                 .iter()
-                .filter(|s| distance_to_truth(&truth, s.points[s.points.len() / 2]) > evaluate.match_m)
-                .fold((0.0, 0), |(l, n), s| (l + polyline_length(&s.points), n + 1));
+                .map(|s| Piece {
+                    vertices: s.points.clone(),
+                    sigma_m: vec![s.sigma_m; s.points.len()],
+                    width_m: s.width_m,
+                    observations: 1,
+                    panoramas: 1,
+                    closed: s.open.map(|open| !open),
+                })
+                .collect();
+            let (length, count) = pieces
+                .iter()
+                .map(|piece| plumbline_lines::evaluate(std::slice::from_ref(piece), &truth, &evaluate))
+                .map(|one| one.extracted_length_m - one.correct_length_m)
+                .filter(|wrong| *wrong > 0.0)
+                .fold((0.0, 0), |(l, n), wrong| (l + wrong, n + 1));
             (length, count, p.id().to_string())
         })
-        .filter(|(_, n, _)| *n > 0)
+        .filter(|(length, _, _)| *length > 0.0)
         .collect();
     off.sort_by(|a, b| b.0.total_cmp(&a.0));
     println!(
@@ -202,15 +214,15 @@ pub fn main(args: &Args) {
         off.len(),
         off.iter().take(6).map(|o| format!("{} ({:.1} m, {})", o.2, o.0, o.1)).collect::<Vec<_>>().join(", ")
     );
-    let mut missed: Vec<&ElementScore> = markings.iter().filter(|m| m.recovered_share() < 0.5).collect();
+    let ids: Vec<String> = prepared.iter().map(|p| p.id().to_string()).collect();
+    let mut missed: Vec<&ElementScore> = markings.iter().filter(|m| !m.is_found()).collect();
     missed.sort_by(|a, b| b.length_m.total_cmp(&a.length_m));
     if args.missed {
         println!();
         println!("missed (found on less than half their length), longest first:");
         for m in &missed {
-            let nearest = truth.iter().find(|t| t.id == m.id).map_or(String::new(), |t| {
-                nearest_panorama(&prepared.iter().map(|p| p.id().to_string()).collect::<Vec<_>>(), &centres, t)
-            });
+            let nearest =
+                truth.iter().find(|t| t.id == m.id).map_or(String::new(), |t| nearest_panorama(&ids, &centres, t));
             println!(
                 "- {} ({}, {}): {:.1} of {:.1} m, nearest {nearest}",
                 m.id,
@@ -222,7 +234,6 @@ pub fn main(args: &Args) {
         }
     }
     if let Some(dir) = &args.dump {
-        let ids: Vec<String> = prepared.iter().map(|p| p.id().to_string()).collect();
         let wanted: Vec<String> = if args.panoramas.is_empty() {
             let mut v: Vec<String> = missed
                 .iter()
@@ -323,20 +334,4 @@ fn dump(
         draw(&s.points, [230, 0, 0]);
     }
     rgb.save(path).expect("PNG written");
-}
-
-/// Length of a polyline, metres.
-fn polyline_length(points: &[[f64; 2]]) -> f64 {
-    points.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum()
-}
-
-/// Distance from `p` to the nearest truth centre line, metres.
-fn distance_to_truth(truth: &[TruthElement], p: [f64; 2]) -> f64 {
-    let segment = |a: [f64; 2], b: [f64; 2]| {
-        let (dx, dy) = (b[0] - a[0], b[1] - a[1]);
-        let len2 = dx * dx + dy * dy;
-        let t = if len2 > 0.0 { (((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2).clamp(0.0, 1.0) } else { 0.0 };
-        (p[0] - a[0] - t * dx).hypot(p[1] - a[1] - t * dy)
-    };
-    truth.iter().flat_map(|t| t.points.windows(2).map(|w| segment(w[0], w[1]))).fold(f64::INFINITY, f64::min)
 }

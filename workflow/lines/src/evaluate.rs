@@ -170,10 +170,18 @@ pub struct ElementScore {
     pub deviation_max_m: Option<f64>,
 }
 
+/// A marking is found when at least this share of its length is recovered.
+pub const FOUND_SHARE: f64 = 0.5;
+
 impl ElementScore {
     /// recovered / length (0 for a marking of no length).
     pub fn recovered_share(&self) -> f64 {
         share(self.recovered_length_m, self.length_m)
+    }
+
+    /// Whether [`FOUND_SHARE`] of its length or more is recovered.
+    pub fn is_found(&self) -> bool {
+        self.recovered_share() >= FOUND_SHARE
     }
 }
 

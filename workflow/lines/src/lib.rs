@@ -19,7 +19,9 @@ mod piece;
 mod scene;
 
 pub use assemble::{Assembly, Observed, assemble};
-pub use evaluate::{ElementScore, EvaluateConfig, LineScore, TruthElement, evaluate, per_element, within_reach};
+pub use evaluate::{
+    ElementScore, EvaluateConfig, FOUND_SHARE, LineScore, TruthElement, evaluate, per_element, within_reach,
+};
 pub use extract::{ExtractConfig, Stroke, extract};
 pub use lines::{DashPattern, LineKind, RoadLine};
 pub use markings::{MarkingsCsvError, parse_markings_csv};
